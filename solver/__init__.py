@@ -1,0 +1,9 @@
+"""rimroll's numerical core: physics of the ball on the rim and its integration.
+
+numpy arrays in, numpy arrays out; no xarray, no dask, no I/O.
+"""
+
+from solver.params import Params
+from solver import kinematics, rolling, slipping, steady
+
+__all__ = ["Params", "kinematics", "rolling", "slipping", "steady"]

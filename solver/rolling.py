@@ -1,0 +1,114 @@
+"""Rolling dynamics of the ball on the rim: (33)-(36) with the dissipation of (83).
+
+State x = (beta, omega1, omega2, omega3): beta [rad], angular velocities [1/s] in the
+contact basis (n1, n2, n3). The contact moment of DESIGN §3,
+
+    M_C = -((1+j) m r^2 k_r omega1,  j m r^2 k_d omega2,  (1+j) m r^2 k_r omega3),
+
+gives exactly the extra terms -k_r omega1, -k_d omega2, -k_r omega3 of (83) under the rolling
+constraint, and the extra friction terms +m r k_r omega3 in F1 and -m r k_r omega1 in F3
+(from Newton's law (24) with the rolling accelerations).
+
+Every function takes scalars (compiled, for the integrator) or, through
+``solver._jit.vectorised``, broadcasting numpy arrays, plus the flat vector ``p``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from solver._jit import kernel
+from solver.params import P_G, P_J, P_K_D, P_K_R, P_M, P_MU, P_R_BALL, P_R_RIM, P_RHO
+
+
+@kernel
+def rolling_rhs(beta, omega1, omega2, omega3, p):
+    """Right-hand side of the rolling equations (33)-(36) with dissipation (83).
+
+    Returns (beta_dot [rad/s], omega1_dot, omega2_dot, omega3_dot [1/s^2]).
+    """
+    r = p[P_R_BALL]
+    R = p[P_R_RIM]
+    rho = p[P_RHO]
+    j = p[P_J]
+    g = p[P_G]
+    s = np.sin(beta)
+    c = np.cos(beta)
+    D = R - rho * c
+    beta_dot = r / rho * omega1
+    omega1_dot = (
+        ((1.0 + j) * r * omega3 * omega3 * s - j * r * omega2 * omega3 * c) / ((1.0 + j) * D)
+        - g * c / (r * (1.0 + j))
+        - p[P_K_R] * omega1
+    )
+    omega2_dot = r * R * omega1 * omega3 / (rho * D) - p[P_K_D] * omega2
+    omega3_dot = -r * omega1 * omega3 * s / D - j * r * omega1 * omega2 / (rho * (1.0 + j)) - p[P_K_R] * omega3
+    return beta_dot, omega1_dot, omega2_dot, omega3_dot
+
+
+@kernel
+def normal_force(beta, omega1, omega3, p):
+    """Normal contact force F2 of a rolling ball (31) [N]; the ball separates where F2 < 0."""
+    r = p[P_R_BALL]
+    rho = p[P_RHO]
+    c = np.cos(beta)
+    m = p[P_M]
+    return m * r * r * omega3 * omega3 * c / (p[P_R_RIM] - rho * c) - m * r * r * omega1 * omega1 / rho + m * p[P_G] * np.sin(beta)
+
+
+@kernel
+def contact_forces(beta, omega1, omega2, omega3, p):
+    """Contact force (F1, F2, F3) [N] of a rolling ball in the n-basis: (30)-(32) plus dissipation.
+
+    F1, F3 are the friction components, F2 the normal force.
+    """
+    r = p[P_R_BALL]
+    rho = p[P_RHO]
+    j = p[P_J]
+    m = p[P_M]
+    c = np.cos(beta)
+    D = p[P_R_RIM] - rho * c
+    F1 = j * m * r * r * omega1 * omega2 / (rho * (1.0 + j)) + m * r * p[P_K_R] * omega3
+    F2 = normal_force(beta, omega1, omega3, p)
+    F3 = (
+        j * m * p[P_G] * c / (1.0 + j)
+        - j * m * r * r * omega2 * omega3 * c / ((1.0 + j) * D)
+        - m * r * p[P_K_R] * omega1
+    )
+    return F1, F2, F3
+
+
+@kernel
+def friction_margin(beta, omega1, omega2, omega3, p):
+    """Margin of the friction cone (39), mu F2 - sqrt(F1^2 + F3^2) [N]; rolling is valid where >= 0.
+
+    Meaningful for finite mu only (with mu = inf the cone is never left).
+    """
+    F1, F2, F3 = contact_forces(beta, omega1, omega2, omega3, p)
+    return p[P_MU] * F2 - np.sqrt(F1 * F1 + F3 * F3)
+
+
+@kernel
+def energy(beta, omega1, omega2, omega3, p):
+    """Total mechanical energy of the rolling ball (60) [J], with potential m g rho sin(beta).
+
+    (60) as printed has m g r sin(beta); the centre's height is rho sin(beta) (12), and that is
+    the potential the rolling equations conserve (see DESIGN §8).
+    """
+    r = p[P_R_BALL]
+    m = p[P_M]
+    j = p[P_J]
+    return (
+        0.5 * m * j * r * r * omega2 * omega2
+        + 0.5 * m * (1.0 + j) * r * r * (omega1 * omega1 + omega3 * omega3)
+        + m * p[P_G] * p[P_RHO] * np.sin(beta)
+    )
+
+
+@kernel
+def dissipated_power(omega1, omega2, omega3, p):
+    """Power of the contact moment, M_C . omega [W] (<= 0): the rate dE/dt while rolling."""
+    r = p[P_R_BALL]
+    m = p[P_M]
+    j = p[P_J]
+    return -m * r * r * ((1.0 + j) * p[P_K_R] * (omega1 * omega1 + omega3 * omega3) + j * p[P_K_D] * omega2 * omega2)

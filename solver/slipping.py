@@ -1,0 +1,138 @@
+"""Slipping dynamics (41)-(42) and the nonsmooth limits at the rolling set (75)-(81).
+
+State y = (beta, omega1, omega2, omega3, u1, u3): beta [rad], angular velocities [1/s],
+slip velocities of the contact point u1, u3 [m/s].
+
+Everything derives from one Newton-Euler model, (24)-(25) in the rotating n-basis with the
+contact moment M_C of DESIGN §3 (see ``solver.rolling``):
+
+    omega_dot = a(y) + (-F3, 0, F1) / (j m r)
+    u_dot     = b(y) + (1 + j) / (j m) * (F1, F3)
+
+where (F1, F3) is the friction force. Coulomb friction (29) gives the slipping equations; the
+friction that keeps u_dot = 0 at u = 0 gives the rolling equations (33)-(35)/(83) and the
+rolling forces (30), (32); and b(x) at u = 0 is the directional-limit vector (B1, B3) of (76).
+So the two phases agree at every switch by construction.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from solver._jit import kernel
+from solver.params import P_G, P_J, P_K_D, P_K_R, P_M, P_MU, P_R_BALL, P_R_RIM, P_RHO
+
+
+@kernel
+def free_rates(beta, omega1, omega2, omega3, u1, u3, p):
+    """Rates of the state without friction force, and the normal force.
+
+    Returns (beta_dot, a1, a2, a3, b1, b3, F2): beta_dot [rad/s]; a = omega_dot without
+    friction [1/s^2] (contact moment M_C included); b = u_dot without friction [m/s^2]; F2 the
+    normal force (41) [N].
+    """
+    r = p[P_R_BALL]
+    rho = p[P_RHO]
+    j = p[P_J]
+    s = np.sin(beta)
+    c = np.cos(beta)
+    D = p[P_R_RIM] - rho * c
+    V1 = u1 - r * omega3  # tangential velocity of the centre, n1 [m/s]
+    V3 = u3 + r * omega1  # velocity of the centre along n3 [m/s]
+    alpha_dot = V1 / D
+    beta_dot = V3 / rho
+    Om2 = alpha_dot * s  # n2, n3 components of the basis' angular velocity (11)
+    Om3 = alpha_dot * c
+    a1 = -(Om2 * omega3 - Om3 * omega2) - (1.0 + j) / j * p[P_K_R] * omega1
+    a2 = -(Om3 * omega1 - beta_dot * omega3) - p[P_K_D] * omega2
+    a3 = -(beta_dot * omega2 - Om2 * omega1) - (1.0 + j) / j * p[P_K_R] * omega3
+    b1 = r * a3 - Om2 * V3
+    b3 = -r * a1 - p[P_G] * c + Om2 * V1
+    F2 = p[P_M] * (Om3 * V1 - beta_dot * V3 + p[P_G] * s)
+    return beta_dot, a1, a2, a3, b1, b3, F2
+
+
+@kernel
+def newton_euler_rates(beta, omega1, omega2, omega3, u1, u3, F1, F3, p):
+    """Rates of y under a given friction force (F1, F3) [N] at the contact point.
+
+    Returns (beta_dot, omega1_dot, omega2_dot, omega3_dot, u1_dot, u3_dot).
+    """
+    beta_dot, a1, a2, a3, b1, b3, _ = free_rates(beta, omega1, omega2, omega3, u1, u3, p)
+    jm = p[P_J] * p[P_M]
+    jmr = jm * p[P_R_BALL]
+    k = (1.0 + p[P_J]) / jm
+    return beta_dot, a1 - F3 / jmr, a2, a3 + F1 / jmr, b1 + k * F1, b3 + k * F3
+
+
+@kernel
+def slipping_rhs(beta, omega1, omega2, omega3, u1, u3, p):
+    """Right-hand side of the slipping equations (42) with dissipation, for u != 0.
+
+    Coulomb friction (29): (F1, F3) = -mu F2 (u1, u3) / |u|. Returns the six rates
+    (beta_dot, omega1_dot, omega2_dot, omega3_dot, u1_dot, u3_dot).
+    """
+    beta_dot, a1, a2, a3, b1, b3, F2 = free_rates(beta, omega1, omega2, omega3, u1, u3, p)
+    speed = np.sqrt(u1 * u1 + u3 * u3)
+    F1 = -p[P_MU] * F2 * u1 / speed
+    F3 = -p[P_MU] * F2 * u3 / speed
+    jm = p[P_J] * p[P_M]
+    jmr = jm * p[P_R_BALL]
+    k = (1.0 + p[P_J]) / jm
+    return beta_dot, a1 - F3 / jmr, a2, a3 + F1 / jmr, b1 + k * F1, b3 + k * F3
+
+
+@kernel
+def slipping_normal_force(beta, omega1, omega3, u1, u3, p):
+    """Normal contact force of a slipping ball (41) [N]."""
+    r = p[P_R_BALL]
+    rho = p[P_RHO]
+    c = np.cos(beta)
+    V1 = u1 - r * omega3
+    V3 = u3 + r * omega1
+    m = p[P_M]
+    return m * V1 * V1 * c / (p[P_R_RIM] - rho * c) - m * V3 * V3 / rho + m * p[P_G] * np.sin(beta)
+
+
+@kernel
+def directional_limits(beta, omega1, omega2, omega3, p):
+    """B1, B3 [m/s^2] and C [m/s^2] of (76) at a rolling state (dissipation included).
+
+    The directional limit of u_dot from the direction phi is (B1 - C cos phi, B3 - C sin phi) (75).
+    """
+    _, _, _, _, b1, b3, F2 = free_rates(beta, omega1, omega2, omega3, 0.0, 0.0, p)
+    return b1, b3, p[P_MU] * (1.0 + p[P_J]) / (p[P_J] * p[P_M]) * F2
+
+
+@kernel
+def limit_direction(beta, omega1, omega2, omega3, p):
+    """The limit direction phi1 = atan2(B3, B1) of (81) [rad]; phi2 = phi1 + pi."""
+    b1, b3, _ = directional_limits(beta, omega1, omega2, omega3, p)
+    return np.arctan2(b3, b1)
+
+
+@kernel
+def radial_slip_rate(beta, omega1, omega2, omega3, phi, p):
+    """Directional limit of the slip speed's rate, u_dot*(x, phi) of (79) [m/s^2].
+
+    Positive: the direction phi is repelling (slip grows); negative: attracting.
+    """
+    b1, b3, C = directional_limits(beta, omega1, omega2, omega3, p)
+    return b1 * np.cos(phi) + b3 * np.sin(phi) - C
+
+
+@kernel
+def energy(beta, omega1, omega2, omega3, u1, u3, p):
+    """Total mechanical energy of a slipping ball [J]: (1/2) m |v_G|^2 + (1/2) j m r^2 |omega|^2 + m g rho sin(beta).
+
+    Equals the rolling energy (60) (with rho) at u = 0.
+    """
+    r = p[P_R_BALL]
+    m = p[P_M]
+    V1 = u1 - r * omega3
+    V3 = u3 + r * omega1
+    return (
+        0.5 * m * (V1 * V1 + V3 * V3)
+        + 0.5 * p[P_J] * m * r * r * (omega1 * omega1 + omega2 * omega2 + omega3 * omega3)
+        + m * p[P_G] * p[P_RHO] * np.sin(beta)
+    )
