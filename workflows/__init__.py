@@ -1,0 +1,3 @@
+"""rimroll's named studies, one module per family; importing this package registers them all."""
+
+from workflows import steady_maps  # noqa: F401

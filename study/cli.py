@@ -1,0 +1,141 @@
+"""The ``study`` command line: list, run, plot and describe named studies.
+
+Only argument parsing and orchestration live here; the work is done by ``study.runner``,
+``study.dataset`` and ``study.io``. Every user error is one line ``study: error: ...`` on
+stderr and exit status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import pathlib
+import shlex
+import sys
+
+from study import io, registry, runner
+from study.dataset import build_dataset
+from study.registry import UserError
+
+EXIT_USAGE = 2
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse that reports usage errors as one line (no usage dump) and exit 2."""
+
+    def error(self, message):
+        raise UserError(message)
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = _Parser(prog="study", description="Run and inspect rimroll's named studies.")
+    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    sub.add_parser("list", help="list the named studies")
+    run = sub.add_parser("run", help="run a named study, write <out>/<name>.nc and .png")
+    run.add_argument("name")
+    run.add_argument("--quick", action="store_true", help="coarse settings for a fast look")
+    run.add_argument("--out", default="results", help="output directory (default: results)")
+    run.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
+                     help="override a setting or a physical parameter (repeatable)")
+    run.add_argument("--workers", type=int, default=None, help="threads (default: one per core)")
+    run.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                     help="show chunks done/total on stderr (default: when stderr is a terminal)")
+    run.add_argument("--force", action="store_true", help="recompute even if the file exists")
+    plot = sub.add_parser("plot", help="re-draw the PNG of an existing results file")
+    plot.add_argument("target", help="a study name (meaning <out>/NAME.nc) or a .nc file")
+    plot.add_argument("--out", default="results", help="directory holding NAME.nc (default: results)")
+    info = sub.add_parser("info", help="dimensions, variables and provenance of a results file")
+    info.add_argument("file")
+    return p
+
+
+def _cmd_list(args) -> int:
+    for name in registry.names():
+        print(f"{name:<10} {registry.get(name).title}")
+    return 0
+
+
+def _draw(study, nc: pathlib.Path) -> pathlib.Path | None:
+    """Re-open ``nc`` and save the study's plot next to it as PNG."""
+    if study.plot is None:
+        return None
+    fig = study.plot(io.open_result(nc))
+    return io.write_figure(fig, nc.with_suffix(".png"))
+
+
+def _cmd_run(args, command: str) -> int:
+    study = registry.get(args.name)
+    if args.workers is not None and args.workers < 1:
+        raise UserError(f"--workers must be >= 1; got {args.workers}")
+    settings = runner.resolve_settings(study, args.quick, args.sets)
+    params = runner.build_params(settings)
+    axes = runner.build_axes(study, settings)
+    nc = pathlib.Path(args.out) / f"{study.name}.nc"
+    if nc.exists() and not args.force:
+        png = nc.with_suffix(".png")
+        redrawn = _draw(study, nc) if not png.exists() else None
+        print(f"study: {nc} exists, not recomputing (use --force to recompute)"
+              + (f"; re-drew {redrawn}" if redrawn else ""))
+        return 0
+    progress = sys.stderr.isatty() if args.progress is None else args.progress
+    arrays = runner.evaluate(study, axes, params, settings, workers=args.workers, progress=progress)
+    ds = build_dataset(study, axes, arrays, params, settings, command)
+    io.write_dataset(ds, nc, runner.chunk_shape(study, axes))
+    png = _draw(study, nc)
+    print(f"wrote {nc}" + (f" and {png}" if png else ""))
+    return 0
+
+
+def _cmd_plot(args) -> int:
+    target = pathlib.Path(args.target)
+    if target.suffix == ".nc" or target.is_file():
+        nc = target
+    else:
+        nc = pathlib.Path(args.out) / f"{registry.get(args.target).name}.nc"
+    ds = io.open_result(nc)
+    png = _draw(registry.get(ds.attrs["study"]), nc)
+    print(f"wrote {png}" if png else f"study {ds.attrs['study']!r} has no plot")
+    return 0
+
+
+def _cmd_info(args) -> int:
+    ds = io.open_result(pathlib.Path(args.file))
+    print(f"{args.file}: {ds.attrs.get('title', '')} [study {ds.attrs['study']}]")
+    print("dimensions: " + ", ".join(f"{k}={v}" for k, v in ds.sizes.items()))
+    print("coordinates:")
+    for name, c in ds.coords.items():
+        print(f"  {name} [{c.attrs.get('units', '?')}] {c.attrs.get('long_name', '')}: "
+              f"{float(c.min()):.4g} .. {float(c.max()):.4g} ({c.size} points)")
+    print("variables:")
+    for name, v in ds.data_vars.items():
+        line = f"  {name}({', '.join(v.dims)}) {v.dtype} [{v.attrs.get('units', '?')}] {v.attrs.get('long_name', '')}"
+        if "flag_values" in v.attrs:
+            pairs = zip(list(v.attrs["flag_values"]), v.attrs["flag_meanings"].split())
+            line += "; flags: " + ", ".join(f"{int(k)} {m}" for k, m in pairs)
+        print(line)
+    params = [f"{k[6:]}={v}" for k, v in ds.attrs.items() if k.startswith("param_")]
+    settings = [f"{k[8:]}={v}" for k, v in ds.attrs.items() if k.startswith("setting_")]
+    print("parameters: " + " ".join(params))
+    print("settings: " + " ".join(settings))
+    for key in ("rimroll_version", "git_revision", "created", "history"):
+        if key in ds.attrs:
+            print(f"{key}: {ds.attrs[key]}")
+    return 0
+
+
+def main(argv=None) -> int:
+    """Entry point of ``study`` / ``python -m study``; returns the exit status."""
+    words = sys.argv[1:] if argv is None else list(argv)
+    command = shlex.join(["study", *words])
+    try:
+        args = _parser().parse_args(words)
+        if args.command == "list":
+            return _cmd_list(args)
+        if args.command == "run":
+            return _cmd_run(args, command)
+        if args.command == "plot":
+            return _cmd_plot(args)
+        return _cmd_info(args)
+    except UserError as exc:
+        message = " ".join(str(exc).split())
+        print(f"study: error: {message}", file=sys.stderr)
+        return EXIT_USAGE

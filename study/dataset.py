@@ -1,0 +1,93 @@
+"""Assemble a study's numpy results into a CF-1.10 ``xarray.Dataset`` with provenance.
+
+Global attributes: ``Conventions``, ``title``, ``study``, every Params value as
+``param_<name>`` plus ``param_rho``, every study setting as ``setting_<name>``,
+``rimroll_version``, ``git_revision`` (when git can tell), ``created`` (UTC, ISO 8601) and
+``history`` (the command line).
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import functools
+import importlib.metadata
+import pathlib
+import subprocess
+
+import numpy as np
+import xarray as xr
+
+import solver
+from study.registry import PHYSICAL_KEYS, Axis, Study
+
+
+def rimroll_version() -> str:
+    """Installed version of the ``rimroll`` distribution ('unknown' if not installed)."""
+    try:
+        return importlib.metadata.version("rimroll")
+    except importlib.metadata.PackageNotFoundError:
+        return "unknown"
+
+
+@functools.lru_cache(maxsize=1)
+def git_revision() -> str | None:
+    """Commit hash of the source tree this package runs from (+'-dirty'), or None; never raises."""
+    here = pathlib.Path(__file__).resolve().parent
+    try:
+        rev = subprocess.run(["git", "rev-parse", "HEAD"], cwd=here, capture_output=True, text=True,
+                             timeout=5, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=here,
+                               capture_output=True, text=True, timeout=10).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return f"{rev}-dirty" if dirty else (rev or None)
+
+
+def _attr_value(value):
+    """A netCDF-storable attribute value (bools become 0/1 ints, None an empty string)."""
+    if isinstance(value, bool):
+        return int(value)
+    if value is None:
+        return ""
+    return value
+
+
+def build_dataset(study: Study, axes: list[Axis], arrays: dict, params: solver.Params,
+                  settings: dict, command: str) -> xr.Dataset:
+    """The Dataset of one run: coordinates from ``axes``, variables from ``arrays``."""
+    dims = [a.name for a in axes]
+    coords = {a.name: (a.name, a.values, {"units": a.units, "long_name": a.long_name}) for a in axes}
+    data = {v.name: (dims, arrays[v.name], v.attrs) for v in study.variables}
+    now = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat()
+    attrs = {"Conventions": "CF-1.10", "title": study.title, "study": study.name}
+    for name, value in params.as_dict().items():
+        attrs[f"param_{name}"] = float(value)
+    attrs["param_rho"] = float(params.rho)
+    for name, value in settings.items():
+        if name not in PHYSICAL_KEYS or name in study.settings:
+            attrs[f"setting_{name}"] = _attr_value(value)
+    version = rimroll_version()
+    attrs["rimroll_version"] = version
+    rev = git_revision()
+    if rev:
+        attrs["git_revision"] = rev
+    attrs["created"] = now
+    attrs["history"] = f"{now} {command} - rimroll {version}" + (f" (git {rev})" if rev else "")
+    return xr.Dataset(data, coords=coords, attrs=attrs)
+
+
+def params_of(ds: xr.Dataset) -> solver.Params:
+    """The :class:`solver.Params` recorded in a results file's ``param_*`` attributes."""
+    return solver.Params(**{k: float(ds.attrs[f"param_{k}"]) for k in PHYSICAL_KEYS})
+
+
+def setting_of(ds: xr.Dataset, name: str):
+    """A recorded setting (``setting_<name>``, else ``param_<name>``) of a results file."""
+    if f"setting_{name}" in ds.attrs:
+        return ds.attrs[f"setting_{name}"]
+    return ds.attrs[f"param_{name}"]
+
+
+def as_numpy_scalar(value):
+    """Plain Python scalar of a (possibly numpy) attribute value."""
+    return value.item() if isinstance(value, np.generic) else value

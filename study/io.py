@@ -1,0 +1,76 @@
+"""File I/O of results: atomic netCDF4 and PNG writes, and opening rimroll files.
+
+Every write goes to a temporary file in the destination directory and is moved into place
+with ``os.replace``, so a reader never sees a half-written file and an interrupted run
+leaves nothing behind but the files that were finished.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import pathlib
+import tempfile
+
+import xarray as xr
+
+from study.registry import UserError
+
+COMPRESSION = {"zlib": True, "complevel": 4}
+
+
+@contextlib.contextmanager
+def atomic_path(path: pathlib.Path):
+    """Yield a temporary path next to ``path``; on success move it onto ``path``, else delete it."""
+    path = pathlib.Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    try:
+        yield pathlib.Path(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
+def encoding_for(ds: xr.Dataset, chunks: tuple[int, ...]) -> dict:
+    """netCDF4 encoding: zlib everywhere, data chunked like the computation's chunks."""
+    enc = {}
+    for name, var in ds.data_vars.items():
+        enc[name] = dict(COMPRESSION, chunksizes=tuple(min(c, n) for c, n in zip(chunks, var.shape)))
+    for name in ds.coords:
+        enc[name] = dict(COMPRESSION, _FillValue=None)
+    return enc
+
+
+def write_dataset(ds: xr.Dataset, path, chunks: tuple[int, ...]) -> pathlib.Path:
+    """Write ``ds`` to ``path`` as compressed, chunked netCDF4, atomically."""
+    path = pathlib.Path(path)
+    with atomic_path(path) as tmp:
+        ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=encoding_for(ds, chunks))
+    return path
+
+
+def write_figure(fig, path, dpi: int = 120) -> pathlib.Path:
+    """Save a matplotlib Figure as PNG at ``dpi``, atomically."""
+    path = pathlib.Path(path)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png", dpi=dpi)
+    return path
+
+
+def open_result(path) -> xr.Dataset:
+    """Open a rimroll results file (loaded into memory, file closed); UserError if it is not one."""
+    path = pathlib.Path(path)
+    if not path.is_file():
+        raise UserError(f"no such results file: {path}")
+    try:
+        with xr.open_dataset(path, engine="netcdf4") as ds:
+            ds = ds.load()
+    except (OSError, ValueError) as exc:
+        raise UserError(f"cannot read {path} as netCDF: {exc}") from None
+    if "study" not in ds.attrs or "rimroll_version" not in ds.attrs:
+        raise UserError(f"{path} is not a rimroll results file (no 'study'/'rimroll_version' attributes)")
+    return ds

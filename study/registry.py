@@ -1,0 +1,139 @@
+"""The registry of named studies: what a study declares, and the table of studies by name.
+
+A study (see ``study/CONTRACT.md``) is pure computation on numpy arrays plus metadata. This
+module only holds the declarations; ``study.runner`` evaluates them and ``study.io`` writes them.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+from typing import Any, Callable
+
+import numpy as np
+
+PHYSICAL_KEYS = ("r", "R", "a", "m", "j", "mu", "g", "k_r", "k_d")
+"""Settings that build the :class:`solver.Params` of a run; every study accepts them."""
+
+_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+
+
+class UserError(Exception):
+    """An error the user can fix (bad name, bad setting, missing file): one line, exit 2."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Axis:
+    """One swept coordinate: a 1-D, finite, strictly monotonic array with its metadata.
+
+    ``units`` is a CF/UDUNITS string ("rad", "s-1", "m s-1", "1").
+    """
+
+    name: str
+    values: np.ndarray
+    units: str
+    long_name: str
+
+    def __post_init__(self):
+        values = np.asarray(self.values, dtype=float)
+        object.__setattr__(self, "values", values)
+        if not _NAME.match(self.name):
+            raise ValueError(f"axis name {self.name!r} is not a valid identifier")
+        if values.ndim != 1 or values.size < 2:
+            raise ValueError(f"axis {self.name!r} needs at least 2 points in a 1-D array; got shape {values.shape}")
+        if not np.all(np.isfinite(values)):
+            raise ValueError(f"axis {self.name!r} has non-finite values")
+        steps = np.diff(values)
+        if not (np.all(steps > 0) or np.all(steps < 0)):
+            raise ValueError(f"axis {self.name!r} must be strictly monotonic")
+
+
+@dataclasses.dataclass(frozen=True)
+class Var:
+    """One computed variable: name, CF units, long_name, dtype and (categorical) flags."""
+
+    name: str
+    units: str
+    long_name: str
+    dtype: str = "float64"
+    flag_values: tuple | None = None
+    flag_meanings: str | None = None
+
+    def __post_init__(self):
+        if not _NAME.match(self.name):
+            raise ValueError(f"variable name {self.name!r} is not a valid identifier")
+        np.dtype(self.dtype)  # raises TypeError on nonsense
+        if (self.flag_values is None) != (self.flag_meanings is None):
+            raise ValueError(f"variable {self.name!r}: give both flag_values and flag_meanings, or neither")
+        if self.flag_values is not None and len(self.flag_values) != len(self.flag_meanings.split()):
+            raise ValueError(f"variable {self.name!r}: {len(self.flag_values)} flag_values but "
+                             f"{len(self.flag_meanings.split())} flag_meanings")
+
+    @property
+    def attrs(self) -> dict[str, Any]:
+        """CF attributes of the variable."""
+        out = {"units": self.units, "long_name": self.long_name}
+        if self.flag_values is not None:
+            out["flag_values"] = np.array(self.flag_values, dtype=self.dtype)
+            out["flag_meanings"] = self.flag_meanings
+        return out
+
+
+@dataclasses.dataclass(frozen=True)
+class Study:
+    """A named study: settings, axes, variables, a pure ``compute`` and a ``plot``.
+
+    ``axes(settings) -> [Axis]``; ``compute(coords, params, settings) -> {var: array}`` with
+    coords the chunk's coordinates broadcast to the chunk's shape (axis order as declared);
+    ``plot(dataset) -> matplotlib Figure``; ``chunks``: chunk length per axis name.
+    """
+
+    name: str
+    title: str
+    settings: dict
+    axes: Callable[[dict], list]
+    variables: list
+    compute: Callable
+    plot: Callable | None = None
+    quick: dict = dataclasses.field(default_factory=dict)
+    chunks: dict = dataclasses.field(default_factory=dict)
+
+    def __post_init__(self):
+        if not _NAME.match(self.name):
+            raise ValueError(f"study name {self.name!r} is not a valid identifier")
+        unknown = set(self.quick) - set(self.settings) - set(PHYSICAL_KEYS)
+        if unknown:
+            raise ValueError(f"study {self.name!r}: quick settings {sorted(unknown)} are not settings")
+        names = [v.name for v in self.variables]
+        if not names or len(set(names)) != len(names):
+            raise ValueError(f"study {self.name!r}: variable names must be non-empty and unique; got {names}")
+
+
+_REGISTRY: dict[str, Study] = {}
+
+
+def register(study: Study) -> Study:
+    """Add a study to the registry (a second study with the same name is an error)."""
+    if study.name in _REGISTRY and _REGISTRY[study.name] is not study:
+        raise ValueError(f"a study named {study.name!r} is already registered")
+    _REGISTRY[study.name] = study
+    return study
+
+
+def _load_workflows() -> None:
+    import workflows  # noqa: F401  (registers every named study on import)
+
+
+def names() -> list[str]:
+    """Names of all registered studies, sorted."""
+    _load_workflows()
+    return sorted(_REGISTRY)
+
+
+def get(name: str) -> Study:
+    """The registered study called ``name``; :class:`UserError` listing known names otherwise."""
+    _load_workflows()
+    try:
+        return _REGISTRY[name]
+    except KeyError:
+        raise UserError(f"unknown study {name!r}; known studies: {', '.join(sorted(_REGISTRY)) or 'none'}") from None

@@ -1,0 +1,238 @@
+"""Maps of the steady motions over (beta0, omega30): paper Figs. 3, 5, 6, 7 and 8 (Sect. 3).
+
+Each study sweeps the height angle beta0 in [-pi, pi) [rad] and the circular angular velocity
+omega30 in [-omega30_max, omega30_max] [1/s] and calls ``solver.steady``. The default grids
+(721 x 560) avoid the singular lines beta0 = +-pi/2 and omega30 = 0 of (48): 721 is not a
+multiple of 4 and an even number of omega30 points straddles 0.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from solver import steady
+from study import plotting as P
+from study.dataset import params_of, setting_of
+from study.registry import Axis, Study, Var, register
+
+GRID = {"n_beta0": 721, "n_omega30": 560, "omega30_max": 70.0}
+QUICK = {"n_beta0": 121, "n_omega30": 80}
+CHUNKS = {"beta0": 61}
+MU_LEVELS = (0.25, 0.5, 1.0, 2.0)
+V_LEVELS = (1.0, 3.0, 5.0, 7.0, 10.0)
+ZONES = {"I": np.pi / 4, "II": 3 * np.pi / 4, "III": -3 * np.pi / 4, "IV": -np.pi / 4}  # Fig. 4
+
+
+def _axes(s: dict) -> list[Axis]:
+    if s["n_beta0"] < 2 or s["n_omega30"] < 2 or not s["omega30_max"] > 0:
+        raise ValueError("n_beta0 and n_omega30 must be >= 2 and omega30_max > 0; got "
+                         f"{s['n_beta0']}, {s['n_omega30']}, {s['omega30_max']}")
+    w = s["omega30_max"]
+    return [
+        Axis("beta0", np.linspace(-np.pi, np.pi, s["n_beta0"], endpoint=False), "rad",
+             "height angle of the steady motion on the rim's minor circle"),
+        Axis("omega30", np.linspace(-w, w, s["n_omega30"]), "s-1",
+             "circular angular velocity of the steady motion"),
+    ]
+
+
+def _study(name, title, variables, compute, plot, **settings) -> Study:
+    return register(Study(name=name, title=title, settings={**GRID, **settings}, quick=QUICK,
+                          axes=_axes, variables=variables, compute=compute, plot=plot, chunks=CHUNKS))
+
+
+def _flag(name, long_name, meanings):
+    return Var(name, "1", long_name, dtype="int8", flag_values=tuple(range(len(meanings.split()))),
+               flag_meanings=meanings)
+
+
+OMEGA20 = Var("omega20", "s-1", "orthogonal angular velocity of the steady motion (48)")
+
+
+# ---------------------------------------------------------------- Fig. 3: omega20 (48)
+def _fig3_compute(coords, p, s):
+    return {"omega20": steady.omega20(*coords, p)}
+
+
+def _fig3_plot(ds):
+    from matplotlib.colors import SymLogNorm
+
+    fig, ax = P.new_figure()
+    b, w, v = P.plane(ds, "omega20")
+    mesh = ax.pcolormesh(b, w, v, shading="nearest", cmap="RdBu_r", rasterized=True,
+                         norm=SymLogNorm(linthresh=1.0, vmin=-1e3, vmax=1e3))
+    fig.colorbar(mesh, ax=ax, label=r"$\omega_{20}$ [1/s] (symmetric log scale)")
+    ax.contour(b, w, v, levels=[0.0], colors="k", linestyles=":", linewidths=1.2)
+    P.singular_lines(ax)
+    top = w.max() * 0.88
+    for text, x in ZONES.items():
+        ax.text(x, top, text, ha="center", va="center", fontsize=14, fontweight="bold",
+                bbox=dict(fc="white", ec="none", alpha=0.8))
+    P.beta_omega_axes(ax, ds, r"Steady motions (48): $\omega_{20}(\beta_0, \omega_{30})$; "
+                              r"dotted: $\omega_{20}=0$")
+    return fig
+
+
+_study("fig3", "Steady motions: omega20 of (48) over (beta0, omega30) (paper Fig. 3)",
+       [OMEGA20], _fig3_compute, _fig3_plot)
+
+
+# ---------------------------------------------------------------- Fig. 5: stability h (54)
+def _fig5_compute(coords, p, s):
+    h = steady.stability(*coords, p)
+    with np.errstate(invalid="ignore"):
+        return {"h": h, "stable": (h < 0).astype(np.int8)}
+
+
+def _beta_hat_points(p, w_max):
+    """(beta_hat, omega30) points where the stable region reaches min |beta0|: h's maximum
+    over omega30 at beta_hat touches 0 from below there (computed, not typed)."""
+    bh = steady.beta_hat(p)
+    w = np.linspace(0.05, w_max, 20001)
+    w_tip = w[np.argmin(np.abs(steady.stability(bh, w, p)))]
+    return bh, np.array([-w_tip, w_tip])
+
+
+def _fig5_plot(ds):
+    p = params_of(ds)
+    fig, ax = P.new_figure()
+    b, w, stable = P.plane(ds, "stable")
+    _, _, h = P.plane(ds, "h")
+    ax.contourf(b, w, stable, levels=[0.5, 1.5], colors=["0.72"])
+    ax.contour(b, w, h, levels=[0.0], colors="k", linewidths=1.0)
+    P.label_parts(ax, b, w, stable == 1, "S")
+    P.label_parts(ax, b, w, stable == 0, "U", min_fraction=0.05)
+    bs = steady.beta_star(p)
+    for x in (-bs, bs):
+        ax.axvline(x, color="tab:red", ls="--", lw=1.2)
+    ax.text(bs, w.max() * 0.93, r" $\beta^*$", color="tab:red", fontsize=12, ha="left")
+    ax.text(-bs, w.max() * 0.93, r"$-\beta^*$ ", color="tab:red", fontsize=12, ha="right")
+    bh, w_tip = _beta_hat_points(p, float(np.abs(w).max()))
+    ax.plot([bh, bh], w_tip, "o", color="k", ms=6, zorder=8)
+    ax.annotate(r"$\hat\beta$", (bh, w_tip[1]), xytext=(8, 6), textcoords="offset points", fontsize=12)
+    P.singular_lines(ax, circles=False)
+    P.beta_omega_axes(ax, ds, rf"Stability (54): shaded S = neutrally stable ($h<0$), U = unstable; "
+                              rf"$\beta^*$={bs:.3f}, $\hat\beta$={bh:.3f} rad")
+    return fig
+
+
+_study("fig5", "Stability of the steady motions: h of (54) (paper Fig. 5)",
+       [Var("h", "s-2", "squared non-zero eigenvalue of the linearised rolling equations (54)"),
+        _flag("stable", "neutrally stable steady motion (h < 0)", "unstable neutrally_stable")],
+       _fig5_compute, _fig5_plot)
+
+
+# ---------------------------------------------------------------- Fig. 6: slipping and falling
+def _fig6_compute(coords, p, s):
+    _, F2, _ = steady.contact_forces(*coords, p)
+    return {"required_friction": steady.required_friction(*coords, p), "F2": F2,
+            "rolls": steady.rolls_without_slipping(*coords, p).astype(np.int8)}
+
+
+def _fig6_plot(ds):
+    p = params_of(ds)
+    fig, ax = P.new_figure()
+    b, w, mu_req = P.plane(ds, "required_friction")
+    _, _, F2 = P.plane(ds, "F2")
+    _, _, rolls = P.plane(ds, "rolls")
+    ax.contourf(b, w, rolls, levels=[0.5, 1.5], colors=["0.78"])
+    finite = np.where(np.isfinite(mu_req), mu_req, 1e6)
+    cs = ax.contour(b, w, finite, levels=list(MU_LEVELS), cmap="viridis", linewidths=1.3)
+    ax.clabel(cs, fmt=lambda m: rf"$\mu$={m:g}", fontsize=8)
+    cf = ax.contour(b, w, F2, levels=[0.0], colors="k", linewidths=2.0, linestyles="-.")
+    ax.clabel(cf, fmt=lambda _: r"$\mu=\infty$ ($F_2=0$)", fontsize=8)
+    bt = float(np.arctan(p.mu))
+    for x in (np.pi / 2 - bt, np.pi / 2 + bt, -bt, bt):
+        ax.axvline(x, color="tab:red", ls="--", lw=0.9)
+    P.singular_lines(ax, circles=False)
+    P.beta_omega_axes(ax, ds, rf"Slipping and falling (56), (57): shaded = rolls at $\mu$={p.mu:g}; "
+                              rf"dashed: $\tilde\beta=\arctan\mu$={bt:.3f} rad")
+    return fig
+
+
+_study("fig6", "Slipping and falling limits of the steady motions (paper Fig. 6)",
+       [Var("required_friction", "1", "smallest friction coefficient keeping the steady motion rolling "
+            "(56); inf where the ball falls (57)"),
+        Var("F2", "N", "normal contact force of the steady motion (31)"),
+        _flag("rolls", "steady motion rolls without slipping at friction mu (56)", "slips_or_falls rolls")],
+       _fig6_compute, _fig6_plot, mu=1.0)
+
+
+# ---------------------------------------------------------------- Fig. 7: kinetic energy (59)
+def _fig7_compute(coords, p, s):
+    v = steady.throw_speed(*coords, p)
+    return {"throw_speed": v, "within": (v <= s["v_throw"]).astype(np.int8)}
+
+
+def _fig7_plot(ds):
+    v_throw = float(setting_of(ds, "v_throw"))
+    fig, ax = P.new_figure()
+    b, w, v = P.plane(ds, "throw_speed")
+    _, _, within = P.plane(ds, "within")
+    ax.contourf(b, w, within, levels=[0.5, 1.5], colors=["0.78"])
+    cs = ax.contour(b, w, v, levels=list(V_LEVELS), cmap="plasma", linewidths=1.3)
+    ax.clabel(cs, fmt=lambda x: f"{x:g} m/s", fontsize=8)
+    P.singular_lines(ax)
+    P.beta_omega_axes(ax, ds, rf"Kinetic energy limit (59): contours of $v_{{throw}}$; "
+                              rf"shaded: $v_{{throw}} \leq$ {v_throw:g} m/s")
+    return fig
+
+
+_study("fig7", "Kinetic-energy limit of the steady motions: throw speed (59) (paper Fig. 7)",
+       [Var("throw_speed", "m s-1", "throw speed with the kinetic energy of the steady motion (59)"),
+        _flag("within", "steady motion needs no more energy than a throw at v_throw (59)",
+              "too_energetic within_reach")],
+       _fig7_compute, _fig7_plot, v_throw=10.0)
+
+
+# ---------------------------------------------------------------- Fig. 8: realisable motions
+def _fig8_compute(coords, p, s):
+    return {"region": steady.realisable_region(*coords, p, s["v_throw"]),
+            "omega20": steady.omega20(*coords, p)}
+
+
+REGION_COLOURS = {steady.REGION_A: "#9ecae1", steady.REGION_B: "#fdd0a2", steady.REGION_C: "#c7e9c0"}
+
+
+def _fig8_plot(ds):
+    p = params_of(ds)
+    v_throw = float(setting_of(ds, "v_throw"))
+    fig, ax = P.new_figure()
+    b, w, region = P.plane(ds, "region")
+    _, _, w20 = P.plane(ds, "omega20")
+    letters = dict(zip(steady.REGION_FLAG_VALUES, ds["region"].attrs["flag_meanings"].split()))
+    letter_points = []
+    for code, colour in REGION_COLOURS.items():
+        ax.contourf(b, w, (region == code).astype(float), levels=[0.5, 1.5], colors=[colour])
+        ax.contour(b, w, (region == code).astype(float), levels=[0.5], colors="0.35", linewidths=0.8)
+        letter_points += P.label_parts(ax, b, w, region == code, letters[code][0], min_fraction=1e-4,
+                                       fontsize=16)
+    inside = region != steady.REGION_NONE
+    scale = np.array([np.ptp(b), np.ptp(w)])
+    for sign, text in ((1, "+"), (-1, "\u2212")):
+        for x, y in _sign_points(b, w, inside & (np.sign(w20) == sign), region):
+            near = any(np.hypot(*((np.array([x, y]) - q) / scale)) < 0.04 for q in letter_points)
+            ax.annotate(text, (x, y), xytext=(15, 0) if near else (0, 0), textcoords="offset points",
+                        ha="center", va="center", fontsize=15, fontweight="bold", zorder=7)
+    ax.contour(b, w, np.where(inside, w20, np.nan), levels=[0.0], colors="k", linestyles=":", linewidths=1.8)
+    P.singular_lines(ax, circles=False)
+    P.beta_omega_axes(ax, ds, rf"Realisable steady motions: $\mu$={p.mu:g}, $v_{{throw}}$={v_throw:g} m/s; "
+                              r"$\pm$: sign of $\omega_{20}$, dotted: $\omega_{20}=0$")
+    return fig
+
+
+def _sign_points(b, w, part, region):
+    """Inner points of the parts of ``part``, one per connected piece (pieces of each region apart)."""
+    points = []
+    for code in (steady.REGION_A, steady.REGION_B, steady.REGION_C):
+        for piece in P.components(part & (region == code), min_fraction=1e-4):
+            points.append(P.inner_point(b, w, piece))
+    return points
+
+
+_study("fig8", "Physically realisable steady motions (paper Fig. 8)",
+       [Var("region", "1", "region of the realisable steady motion (Fig. 8): stable (54), rolling (56), "
+            "within the throw energy (59)", dtype="int8", flag_values=steady.REGION_FLAG_VALUES,
+            flag_meanings=steady.REGION_FLAG_MEANINGS),
+        OMEGA20],
+       _fig8_compute, _fig8_plot, v_throw=10.0, mu=1.0)
