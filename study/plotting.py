@@ -44,13 +44,16 @@ def singular_lines(ax, circles: bool = True) -> None:
         ax.plot([-np.pi / 2, np.pi / 2], [0, 0], "o", ms=9, mfc="white", mec="k", mew=1.8, zorder=6)
 
 
-def components(mask: np.ndarray, min_fraction: float = 0.002):
+def components(mask: np.ndarray, min_fraction: float = 0.002, cells=None):
     """Connected parts of a boolean (omega30, beta0) mask, largest first, as boolean masks.
 
-    Parts smaller than ``min_fraction`` of the grid are dropped.
+    Parts smaller than ``min_fraction`` of the grid are dropped. ``cells``: optional list of
+    boolean masks; parts are then found within each cell separately.
     """
-    labels, n = ndimage.label(mask)
-    parts = [labels == k for k in range(1, n + 1)]
+    parts = []
+    for cell in cells if cells is not None else [np.ones_like(mask, dtype=bool)]:
+        labels, n = ndimage.label(mask & cell)
+        parts += [labels == k for k in range(1, n + 1)]
     parts = [m for m in parts if m.sum() >= min_fraction * mask.size]
     return sorted(parts, key=lambda m: -m.sum())
 
@@ -62,12 +65,23 @@ def inner_point(beta0, omega30, mask: np.ndarray) -> tuple[float, float]:
     return float(beta0[j]), float(omega30[i])
 
 
-def label_parts(ax, beta0, omega30, mask, text: str, min_fraction: float = 0.002, **kw) -> list:
-    """Write ``text`` inside every connected part of ``mask``; returns the points used."""
+def branch_cells(beta0, omega30) -> list[np.ndarray]:
+    """The plane cut by the singular lines beta0 = +-pi/2 and omega30 = 0: six (omega30, beta0) masks."""
+    B, W = np.meshgrid(beta0, omega30)
+    bands = [B < -np.pi / 2, (B > -np.pi / 2) & (B < np.pi / 2), B > np.pi / 2]
+    return [band & side for band in bands for side in (W > 0, W < 0)]
+
+
+def label_parts(ax, beta0, omega30, mask, text: str, min_fraction: float = 0.002, split=False, **kw) -> list:
+    """Write ``text`` inside every connected part of ``mask``; returns the points used.
+
+    ``split``: treat the singular lines as boundaries (one label per branch piece).
+    """
     style = dict(ha="center", va="center", fontsize=15, fontweight="bold", zorder=7)
     style.update(kw)
     points = []
-    for part in components(mask, min_fraction):
+    cells = branch_cells(beta0, omega30) if split else None
+    for part in components(mask, min_fraction, cells):
         x, y = inner_point(beta0, omega30, part)
         ax.text(x, y, text, **style)
         points.append((x, y))

@@ -9,6 +9,8 @@ multiple of 4 and an even number of omega30 points straddles 0.
 from __future__ import annotations
 
 import numpy as np
+from matplotlib.lines import Line2D
+from matplotlib.patches import Patch
 
 from solver import steady
 from study import plotting as P
@@ -19,7 +21,9 @@ GRID = {"n_beta0": 721, "n_omega30": 560, "omega30_max": 70.0}
 QUICK = {"n_beta0": 121, "n_omega30": 80}
 CHUNKS = {"beta0": 61}
 MU_LEVELS = (0.25, 0.5, 1.0, 2.0)
+MU_COLOURS = ("tab:purple", "tab:blue", "tab:green", "tab:orange")
 V_LEVELS = (1.0, 3.0, 5.0, 7.0, 10.0)
+V_COLOURS = ("tab:purple", "tab:blue", "tab:green", "tab:orange", "k")
 ZONES = {"I": np.pi / 4, "II": 3 * np.pi / 4, "III": -3 * np.pi / 4, "IV": -np.pi / 4}  # Fig. 4
 
 
@@ -100,8 +104,8 @@ def _fig5_plot(ds):
     _, _, h = P.plane(ds, "h")
     ax.contourf(b, w, stable, levels=[0.5, 1.5], colors=["0.72"])
     ax.contour(b, w, h, levels=[0.0], colors="k", linewidths=1.0)
-    P.label_parts(ax, b, w, stable == 1, "S")
-    P.label_parts(ax, b, w, stable == 0, "U", min_fraction=0.05)
+    P.label_parts(ax, b, w, stable == 1, "S", min_fraction=0.01, split=True)
+    P.label_parts(ax, b, w, stable == 0, "U", min_fraction=0.01, split=True)
     bs = steady.beta_star(p)
     for x in (-bs, bs):
         ax.axvline(x, color="tab:red", ls="--", lw=1.2)
@@ -137,16 +141,20 @@ def _fig6_plot(ds):
     _, _, rolls = P.plane(ds, "rolls")
     ax.contourf(b, w, rolls, levels=[0.5, 1.5], colors=["0.78"])
     finite = np.where(np.isfinite(mu_req), mu_req, 1e6)
-    cs = ax.contour(b, w, finite, levels=list(MU_LEVELS), cmap="viridis", linewidths=1.3)
-    ax.clabel(cs, fmt=lambda m: rf"$\mu$={m:g}", fontsize=8)
-    cf = ax.contour(b, w, F2, levels=[0.0], colors="k", linewidths=2.0, linestyles="-.")
-    ax.clabel(cf, fmt=lambda _: r"$\mu=\infty$ ($F_2=0$)", fontsize=8)
+    handles = [Patch(fc="0.78", label=rf"rolls at $\mu$={p.mu:g}")]
+    for level, colour in zip(MU_LEVELS, MU_COLOURS):
+        ax.contour(b, w, finite, levels=[level], colors=[colour], linewidths=1.4)
+        handles.append(Line2D([], [], color=colour, lw=1.4, label=rf"$\mu$={level:g}"))
+    ax.contour(b, w, F2, levels=[0.0], colors="k", linewidths=2.0, linestyles="-.")
+    handles.append(Line2D([], [], color="k", lw=2.0, ls="-.", label=r"$\mu=\infty$: $F_2=0$ (57)"))
     bt = float(np.arctan(p.mu))
     for x in (np.pi / 2 - bt, np.pi / 2 + bt, -bt, bt):
         ax.axvline(x, color="tab:red", ls="--", lw=0.9)
+    handles.append(Line2D([], [], color="tab:red", lw=0.9, ls="--",
+                          label=r"$\pm\tilde\beta$, $\pi/2\pm\tilde\beta$"))
+    fig.legend(handles=handles, loc="outside right upper", fontsize=9, title="boundaries (56)")
     P.singular_lines(ax, circles=False)
-    P.beta_omega_axes(ax, ds, rf"Slipping and falling (56), (57): shaded = rolls at $\mu$={p.mu:g}; "
-                              rf"dashed: $\tilde\beta=\arctan\mu$={bt:.3f} rad")
+    P.beta_omega_axes(ax, ds, rf"Slipping (56) and falling (57); $\tilde\beta=\arctan\mu$={bt:.3f} rad")
     return fig
 
 
@@ -170,7 +178,7 @@ def _fig7_plot(ds):
     b, w, v = P.plane(ds, "throw_speed")
     _, _, within = P.plane(ds, "within")
     ax.contourf(b, w, within, levels=[0.5, 1.5], colors=["0.78"])
-    cs = ax.contour(b, w, v, levels=list(V_LEVELS), cmap="plasma", linewidths=1.3)
+    cs = ax.contour(b, w, v, levels=list(V_LEVELS), colors=V_COLOURS, linewidths=1.4)
     ax.clabel(cs, fmt=lambda x: f"{x:g} m/s", fontsize=8)
     P.singular_lines(ax)
     P.beta_omega_axes(ax, ds, rf"Kinetic energy limit (59): contours of $v_{{throw}}$; "
