@@ -5,5 +5,8 @@ numpy arrays in, numpy arrays out; no xarray, no dask, no I/O.
 
 from solver.params import Params
 from solver import kinematics, rolling, slipping, steady
+from solver import floquet
+from solver.invariants import invariants
 
 __all__ = ["Params", "kinematics", "rolling", "slipping", "steady"]
+__all__ += ["floquet", "invariants"]
