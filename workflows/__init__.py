@@ -1,3 +1,4 @@
 """rimroll's named studies, one module per family; importing this package registers them all."""
 
 from workflows import steady_maps  # noqa: F401
+from workflows import global_dynamics  # noqa: F401
