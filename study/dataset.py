@@ -14,7 +14,6 @@ import importlib.metadata
 import pathlib
 import subprocess
 
-import numpy as np
 import xarray as xr
 
 import solver
@@ -87,7 +86,3 @@ def setting_of(ds: xr.Dataset, name: str):
         return ds.attrs[f"setting_{name}"]
     return ds.attrs[f"param_{name}"]
 
-
-def as_numpy_scalar(value):
-    """Plain Python scalar of a (possibly numpy) attribute value."""
-    return value.item() if isinstance(value, np.generic) else value

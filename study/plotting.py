@@ -19,9 +19,17 @@ def new_figure(width: float = 7.5, height: float = 5.5):
 
 
 def plane(ds, name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(beta0 [rad], omega30 [1/s], values) with values shaped (omega30, beta0) for pcolormesh/contour."""
-    da = ds[name].transpose("omega30", "beta0")
-    return ds["beta0"].values, ds["omega30"].values, da.values
+    """(beta0 [rad], omega30 [1/s], values) with values shaped (omega30, beta0) for pcolormesh/contour.
+
+    beta0 is an angle: when the grid is [-pi, pi) its first column is repeated at +pi so that
+    pictures reach the right edge without a gap.
+    """
+    b = ds["beta0"].values
+    v = ds[name].transpose("omega30", "beta0").values
+    if np.isclose(b[0], -np.pi) and b[-1] < np.pi:
+        b = np.append(b, np.pi)
+        v = np.concatenate([v, v[:, :1]], axis=1)
+    return b, ds["omega30"].values, v
 
 
 def beta_omega_axes(ax, ds, title: str) -> None:

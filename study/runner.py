@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import contextlib
 import itertools
-import math
 import os
 
 import dask
@@ -145,7 +144,3 @@ def evaluate(study: Study, axes: list[Axis], params, settings: dict, workers: in
             arrays[name][index] = values
     return arrays
 
-
-def grid_size(axes: list[Axis]) -> int:
-    """Number of grid points of the outer product."""
-    return math.prod(a.values.size for a in axes)

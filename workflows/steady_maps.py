@@ -66,7 +66,9 @@ def _fig3_plot(ds):
     mesh = ax.pcolormesh(b, w, v, shading="nearest", cmap="RdBu_r", rasterized=True,
                          norm=SymLogNorm(linthresh=1.0, vmin=-1e3, vmax=1e3))
     fig.colorbar(mesh, ax=ax, label=r"$\omega_{20}$ [1/s] (symmetric log scale)")
-    ax.contour(b, w, v, levels=[0.0], colors="k", linestyles=":", linewidths=1.2)
+    # omega20 = 0; huge values masked so the sign jumps across the singular lines draw nothing
+    ax.contour(b, w, np.where(np.abs(v) < 100.0, v, np.nan), levels=[0.0], colors="k", linestyles=":",
+               linewidths=1.2)
     P.singular_lines(ax)
     top = w.max() * 0.88
     for text, x in ZONES.items():
@@ -101,8 +103,8 @@ def _fig5_plot(ds):
     p = params_of(ds)
     fig, ax = P.new_figure()
     b, w, stable = P.plane(ds, "stable")
-    _, _, h = P.plane(ds, "h")
-    ax.contourf(b, w, stable, levels=[0.5, 1.5], colors=["0.72"])
+    _, _, h = P.plane(ds, "h")  # shade from h itself, not the 0/1 mask, for smooth boundaries
+    ax.contourf(b, w, h, levels=[np.nanmin(h) - 1.0, 0.0], colors=["0.72"])  # smooth edge: h < 0
     ax.contour(b, w, h, levels=[0.0], colors="k", linewidths=1.0)
     P.label_parts(ax, b, w, stable == 1, "S", min_fraction=0.01, split=True)
     P.label_parts(ax, b, w, stable == 0, "U", min_fraction=0.01, split=True)
@@ -138,9 +140,8 @@ def _fig6_plot(ds):
     fig, ax = P.new_figure()
     b, w, mu_req = P.plane(ds, "required_friction")
     _, _, F2 = P.plane(ds, "F2")
-    _, _, rolls = P.plane(ds, "rolls")
-    ax.contourf(b, w, rolls, levels=[0.5, 1.5], colors=["0.78"])
     finite = np.where(np.isfinite(mu_req), mu_req, 1e6)
+    ax.contourf(b, w, finite, levels=[-1.0, min(p.mu, 1e5)], colors=["0.78"])  # rolls: required mu <= mu
     handles = [Patch(fc="0.78", label=rf"rolls at $\mu$={p.mu:g}")]
     for level, colour in zip(MU_LEVELS, MU_COLOURS):
         ax.contour(b, w, finite, levels=[level], colors=[colour], linewidths=1.4)
@@ -176,8 +177,7 @@ def _fig7_plot(ds):
     v_throw = float(setting_of(ds, "v_throw"))
     fig, ax = P.new_figure()
     b, w, v = P.plane(ds, "throw_speed")
-    _, _, within = P.plane(ds, "within")
-    ax.contourf(b, w, within, levels=[0.5, 1.5], colors=["0.78"])
+    ax.contourf(b, w, np.nan_to_num(v, nan=1e6, posinf=1e6), levels=[-1.0, v_throw], colors=["0.78"])
     cs = ax.contour(b, w, v, levels=list(V_LEVELS), colors=V_COLOURS, linewidths=1.4)
     ax.clabel(cs, fmt=lambda x: f"{x:g} m/s", fontsize=8)
     P.singular_lines(ax)
