@@ -49,8 +49,10 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _cmd_list(args) -> int:
-    for name in registry.names():
-        print(f"{name:<10} {registry.get(name).title}")
+    names = registry.names()
+    width = max(map(len, names), default=0)
+    for name in names:
+        print(f"{name:<{width}}  {registry.get(name).title}")
     return 0
 
 
