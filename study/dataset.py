@@ -14,6 +14,7 @@ import importlib.metadata
 import pathlib
 import subprocess
 
+import numpy as np
 import xarray as xr
 
 import solver
@@ -56,6 +57,9 @@ def build_dataset(study: Study, axes: list[Axis], arrays: dict, params: solver.P
     """The Dataset of one run: coordinates from ``axes``, variables from ``arrays``."""
     dims = [a.name for a in axes]
     coords = {a.name: (a.name, a.values, {"units": a.units, "long_name": a.long_name}) for a in axes}
+    for a in axes:
+        for aux_name, (values, units, long_name) in a.aux.items():
+            coords[aux_name] = (a.name, np.asarray(values), {"units": units, "long_name": long_name})
     data = {v.name: (dims, arrays[v.name], v.attrs) for v in study.variables}
     now = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat()
     attrs = {"Conventions": "CF-1.10", "title": study.title, "study": study.name}

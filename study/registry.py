@@ -26,13 +26,16 @@ class UserError(Exception):
 class Axis:
     """One swept coordinate: a 1-D, finite, strictly monotonic array with its metadata.
 
-    ``units`` is a CF/UDUNITS string ("rad", "s-1", "m s-1", "1").
+    ``units`` is a CF/UDUNITS string ("rad", "s-1", "m s-1", "1"). ``aux`` holds auxiliary
+    coordinates along this axis, ``{name: (values, units, long_name)}``: e.g. a ``scene`` axis
+    carries the ``mu``, ``k_r`` and ``k_d`` of each scene.
     """
 
     name: str
     values: np.ndarray
     units: str
     long_name: str
+    aux: dict = dataclasses.field(default_factory=dict)
 
     def __post_init__(self):
         values = np.asarray(self.values, dtype=float)
@@ -46,6 +49,10 @@ class Axis:
         steps = np.diff(values)
         if not (np.all(steps > 0) or np.all(steps < 0)):
             raise ValueError(f"axis {self.name!r} must be strictly monotonic")
+        for aux_name, (aux_values, _units, _long_name) in self.aux.items():
+            if not _NAME.match(aux_name) or np.shape(aux_values) != values.shape:
+                raise ValueError(f"axis {self.name!r}: auxiliary coordinate {aux_name!r} needs a valid name "
+                                 f"and one value per point ({values.size})")
 
 
 @dataclasses.dataclass(frozen=True)
