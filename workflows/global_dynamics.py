@@ -16,9 +16,9 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
 import solver
-from solver import floquet
+from solver import floquet, solution_types as st, steady, trajectory
 from study import plotting as P
-from study.dataset import params_of, setting_of
+from study.dataset import setting_of
 from study.registry import Axis, Study, Var, register
 
 
@@ -114,4 +114,200 @@ register(Study(
     compute=_fig9_compute,
     plot=_fig9_plot,
     chunks={"rho_over_R": 50},
+))
+
+
+# ================================================================ Theorem 1: types of solutions
+SUBSETS = ("box", "pendulum_plane", "steady")
+
+
+def _conservative(s: dict) -> None:
+    if s["k_r"] != 0 or s["k_d"] != 0:
+        raise ValueError(f"Theorem 1 is about the conservative rolling equations: need k_r = k_d = 0; "
+                         f"got k_r={s['k_r']}, k_d={s['k_d']}")
+
+
+def _types_axes(s: dict) -> list[Axis]:
+    _conservative(s)
+    if s["subset"] not in SUBSETS:
+        raise ValueError(f"subset={s['subset']!r} is not one of {', '.join(SUBSETS)}")
+    if int(s["n_samples"]) < 2 or not s["t_max"] > 0:
+        raise ValueError(f"n_samples must be >= 2 and t_max > 0; got {s['n_samples']}, {s['t_max']}")
+    return [Axis("sample", np.arange(int(s["n_samples"]), dtype=float), "1", "index of the seeded sample state")]
+
+
+def sample_states(s: dict, p) -> np.ndarray:
+    """The seeded initial states (n_samples, 4) of a ``solution_types`` run (same for every chunk).
+
+    ``box``: uniform in beta in [-pi, pi), |omega_i| <= omega_i_max. ``pendulum_plane``: the
+    plane omega2 = omega3 = 0 of Prop. 6 (beta, omega1 uniform). ``steady``: the steady motions
+    (47) with beta0 uniform in [-pi, pi), |omega30| <= omega3_max, every fifth a trivial one (46).
+    """
+    n = int(s["n_samples"])
+    rng = np.random.default_rng(int(s["seed"]))
+    beta = rng.uniform(-np.pi, np.pi, n)
+    w1 = rng.uniform(-1, 1, n) * s["omega1_max"]
+    w2 = rng.uniform(-1, 1, n) * s["omega2_max"]
+    w3 = rng.uniform(-1, 1, n) * s["omega3_max"]
+    if s["subset"] == "pendulum_plane":
+        w2 = np.zeros(n)
+        w3 = np.zeros(n)
+    elif s["subset"] == "steady":
+        x = steady.steady_state(beta, w3, p)
+        trivial = np.arange(n) % 5 == 4
+        x[trivial] = steady.trivial_state(np.where(beta[trivial] > 0, 1, -1), w2[trivial], p)
+        return x
+    return np.stack([beta, w1, w2, w3], axis=-1)
+
+
+def _types_compute(coords, p, s):
+    idx = coords[0].astype(int)
+    x = sample_states(s, p)[idx]
+    res = st.classify(x, p, t_max=s["t_max"], rtol=s["rtol"], atol=s["atol"])
+    e = solver.invariants(x, p)["E"]
+    return {"type": res["type"], "half_period": res["half_period"], "t_first_zero": res["t_first_zero"],
+            "beta_init": x[..., 0], "omega1_init": x[..., 1], "omega2_init": x[..., 2],
+            "omega3_init": x[..., 3], "E": e}
+
+
+TYPE_COLOURS = ("tab:red", "tab:orange", "tab:blue", "tab:green", "0.5")
+
+
+def _types_plot(ds):
+    codes = [int(v) for v in ds["type"].attrs["flag_values"]]
+    names = ds["type"].attrs["flag_meanings"].split()
+    counts = np.array([(ds["type"].values == c).sum() for c in codes])
+    n = int(ds.sizes["sample"])
+    frac = counts / n
+    fig, ax = P.new_figure(7.5, 4.8)
+    ypos = np.arange(len(codes))[::-1]
+    ax.barh(ypos, frac, color=TYPE_COLOURS[:len(codes)], edgecolor="k", lw=0.6)
+    for y, f, c in zip(ypos, frac, counts):
+        ax.text(min(f, 1.0) + 0.01, y, f"{f:.1%} ({c})", va="center", fontsize=10)
+    ax.set_yticks(ypos, [nm.replace("_", " ") for nm in names])
+    ax.set_xlim(0, 1.3)
+    ax.set_xlabel(f"fraction of the {n} sampled states")
+    subset = setting_of(ds, "subset")
+    t_max = float(setting_of(ds, "t_max"))
+    ax.set_title(f"Types of solutions of the rolling equations (Theorem 1)\nsubset '{subset}', "
+                 f"seed {setting_of(ds, 'seed')}, $t_{{max}}$ = {t_max:g} s", fontsize=11)
+    return fig
+
+
+register(Study(
+    name="solution_types",
+    title="Types of the solutions of the conservative rolling equations (Theorem 1, Table 2) over sampled states",
+    settings={"n_samples": 400, "seed": 0, "subset": "box", "omega1_max": 20.0, "omega2_max": 70.0,
+              "omega3_max": 70.0, "t_max": 20.0, "rtol": 1e-10, "atol": 1e-12},
+    quick={"n_samples": 40, "t_max": 10.0},
+    axes=_types_axes,
+    variables=[
+        Var("type", "1", "type of the solution through the state (Theorem 1)", dtype="int8",
+            flag_values=st.TYPE_FLAG_VALUES, flag_meanings=st.TYPE_FLAG_MEANINGS),
+        Var("half_period", "s", "time t2 - t1 between two transversal zeros of omega1 (NaN unless periodic)"),
+        Var("t_first_zero", "s", "first zero of omega1 at or after t = 0 (NaN if none within t_max)"),
+        Var("beta_init", "rad", "initial height angle beta"),
+        Var("omega1_init", "s-1", "initial angular velocity omega1"),
+        Var("omega2_init", "s-1", "initial angular velocity omega2"),
+        Var("omega3_init", "s-1", "initial angular velocity omega3"),
+        Var("E", "J", "total energy (60) of the state (potential m g rho sin beta)"),
+    ],
+    compute=_types_compute,
+    plot=_types_plot,
+    chunks={"sample": 20},
+))
+
+
+# ================================================================ conserved quantities E, P_I, P_II
+def _inv_axes(s: dict) -> list[Axis]:
+    _conservative(s)
+    n, n_t = int(s["n_trajectories"]), int(s["n_time"])
+    if n < 2 or n_t < 2 or not s["t_max"] > 0:
+        raise ValueError(f"n_trajectories and n_time must be >= 2 and t_max > 0; got {n}, {n_t}, {s['t_max']}")
+    return [Axis("trajectory", np.arange(n, dtype=float), "1", "index of the seeded trajectory"),
+            Axis("time", np.linspace(0.0, s["t_max"], n_t), "s", "time")]
+
+
+def initial_states(s: dict, p) -> np.ndarray:
+    """Seeded initial states (n_trajectories, 4) near stable steady motions of region A.
+
+    beta0 uniform in [beta0_min, beta0_max], omega30 = s["omega30"], omega20 from (48), then
+    omega1 = uniform in [-d_omega1, d_omega1] added to the steady motion's omega1 = 0.
+    """
+    n = int(s["n_trajectories"])
+    rng = np.random.default_rng(int(s["seed"]))
+    beta0 = rng.uniform(s["beta0_min"], s["beta0_max"], n)
+    x = steady.steady_state(beta0, np.full(n, float(s["omega30"])), p)
+    x[:, 1] += rng.uniform(-1, 1, n) * s["d_omega1"]
+    return x
+
+
+def _inv_compute(coords, p, s):
+    k, t = coords
+    x0 = initial_states(s, p)
+    out = {name: np.empty(k.shape) for name in ("E", "P_I", "P_II", "beta", "omega1")}
+    for row in range(k.shape[0]):
+        traj = trajectory.rolling_trajectory(x0[int(k[row, 0])], p, t[row], rtol=s["rtol"], atol=s["atol"])
+        q = solver.invariants(traj, p)
+        for name in ("E", "P_I", "P_II"):
+            out[name][row] = q[name]
+        out["beta"][row] = traj[:, 0]
+        out["omega1"][row] = traj[:, 1]
+    q0 = solver.invariants(x0[k[:, 0].astype(int)], p)
+    p_norm = np.hypot(q0["P_I"], q0["P_II"])[:, None]
+    return {"rel_change_E": (out["E"] - q0["E"][:, None]) / np.abs(q0["E"])[:, None],
+            "rel_change_P_I": (out["P_I"] - q0["P_I"][:, None]) / p_norm,
+            "rel_change_P_II": (out["P_II"] - q0["P_II"][:, None]) / p_norm,
+            "E": out["E"], "P_I": out["P_I"], "P_II": out["P_II"],
+            "beta_t": out["beta"], "omega1_t": out["omega1"]}
+
+
+def _inv_plot(ds):
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(8.0, 7.0), layout="constrained")
+    axes = fig.subplots(3, 1, sharex=True)
+    t = ds["time"].values
+    rtol = float(setting_of(ds, "rtol"))
+    tiny = 1e-17
+    for ax, name, label in zip(axes, ("rel_change_E", "rel_change_P_I", "rel_change_P_II"),
+                               (r"$|\Delta E|/|E_0|$", r"$|\Delta P_I|/|P_0|$", r"$|\Delta P_{II}|/|P_0|$")):
+        for k in ds["trajectory"].values:
+            v = np.abs(ds[name].sel(trajectory=k).values)
+            ax.semilogy(t[1:], np.maximum(v[1:], tiny), lw=1.0, label=f"trajectory {int(k)}")
+        ax.axhline(rtol, color="k", ls="--", lw=1.0)
+        ax.text(t[-1], rtol, " rtol", va="bottom", ha="right", fontsize=9)
+        ax.set_ylabel(label)
+        ax.set_ylim(tiny, max(1e-6, 10 * rtol))
+        ax.grid(True, which="major", alpha=0.3)
+    axes[-1].set_xlabel("time $t$ [s]")
+    axes[0].set_title(rf"Conserved quantities along rolling trajectories near steady motions "
+                      rf"($\omega_{{30}}$ = {float(setting_of(ds, 'omega30')):g} 1/s)" "\n"
+                      rf"DOP853 rtol = {rtol:g}; "
+                      r"$|P_0| = |(P_I, P_{II})(0)|$", fontsize=10)
+    if ds.sizes["trajectory"] <= 8:
+        axes[0].legend(fontsize=8, ncol=4, loc="upper left")
+    return fig
+
+
+register(Study(
+    name="invariants",
+    title="Conservation of E (60), P_I and P_II (65)-(68) along rolling trajectories (paper Sect. 4.4)",
+    settings={"n_trajectories": 6, "seed": 1, "beta0_min": 0.3, "beta0_max": 1.2, "omega30": 10.0,
+              "d_omega1": 0.5, "t_max": 20.0, "n_time": 401, "rtol": 1e-10, "atol": 1e-12},
+    quick={"n_trajectories": 3, "t_max": 5.0, "n_time": 101},
+    axes=_inv_axes,
+    variables=[
+        Var("rel_change_E", "1", "relative change of the energy (60), (E(t) - E(0))/|E(0)|"),
+        Var("rel_change_P_I", "1", "change of P_I (68) relative to |(P_I, P_II)| at t = 0"),
+        Var("rel_change_P_II", "1", "change of P_II (68) relative to |(P_I, P_II)| at t = 0"),
+        Var("E", "J", "total energy (60) (potential m g rho sin beta)"),
+        Var("P_I", "s-1", "conserved quantity P_I (68), c_I = (1, 0)"),
+        Var("P_II", "s-1", "conserved quantity P_II (68), c_II = (0, 1)"),
+        Var("beta_t", "rad", "height angle beta along the trajectory"),
+        Var("omega1_t", "s-1", "angular velocity omega1 along the trajectory"),
+    ],
+    compute=_inv_compute,
+    plot=_inv_plot,
+    chunks={"trajectory": 1},
 ))
