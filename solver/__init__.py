@@ -10,3 +10,7 @@ from solver.invariants import invariants
 
 __all__ = ["Params", "kinematics", "rolling", "slipping", "steady"]
 __all__ += ["floquet", "invariants"]
+from solver.outcomes import OUTCOME_MEANINGS, STATUS_MEANINGS
+from solver.simulate import simulate
+
+__all__ += ["simulate", "OUTCOME_MEANINGS", "STATUS_MEANINGS"]

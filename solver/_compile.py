@@ -1,0 +1,26 @@
+"""Compilation policy of the integration kernels (stepper, events, scenes).
+
+As ``solver._jit.kernel`` (nopython, ``nogil``, cached on disk, ``RIMROLL_NO_JIT=1`` runs the
+Python source) but with numba's ``error_model="numpy"``: a division by zero gives inf/NaN,
+which the kernels turn into a ``status`` code for that lane, instead of raising
+``ZeroDivisionError`` out of a whole chunk of trajectories. No ``fastmath``: event location and
+energy checks rely on IEEE arithmetic.
+
+numba's disk cache is keyed on the source file of each compiled function only: after editing
+a module that a kernel calls (e.g. ``solver.events``), delete ``solver/__pycache__/*.nbi`` and
+``*.nbc`` (or bump the package) so that the callers are recompiled.
+"""
+
+from __future__ import annotations
+
+import numba
+
+from solver import _jit
+
+
+def kernel(func):
+    """Compile ``func`` with numba (nopython, nogil, cache, error_model="numpy")."""
+    if _jit._DISABLE:
+        func.py_func = func
+        return func
+    return numba.njit(cache=True, nogil=True, error_model="numpy")(func)

@@ -1,0 +1,166 @@
+"""``solver.simulate``: classify rolling initial states by the rules of DESIGN §4.
+
+Validates the arguments, picks the scene from ``Params`` (DESIGN §3) and the method's table,
+flattens the states and hands contiguous chunks to the compiled, ``nogil`` chunk driver on a
+pool of threads (one per core by default): every core works, and callers that already run
+threads (dask) can pass ``workers=1``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+
+from solver import kernels
+from solver.params import Params
+from solver.switching import default_tolerances
+from solver.tableaus import TABLEAUS
+
+FLOAT_FIELDS = {
+    "t_end": kernels.RF_T_END,
+    "f2_min": kernels.RF_F2_MIN,
+    "half_period": kernels.RF_HALF_PERIOD,
+    "revolutions": kernels.RF_REVOLUTIONS,
+    "slip_time": kernels.RF_SLIP_TIME,
+    "energy_drift": kernels.RF_ENERGY_DRIFT,
+    "beta_end": kernels.RF_BETA,
+    "omega1_end": kernels.RF_OMEGA1,
+    "omega2_end": kernels.RF_OMEGA2,
+    "omega3_end": kernels.RF_OMEGA3,
+}
+INT_FIELDS = {  # name: (column, dtype)
+    "outcome": (kernels.RI_OUTCOME, np.int8),
+    "slip_phases": (kernels.RI_SLIP_PHASES, np.int32),
+    "n_steps": (kernels.RI_N_STEPS, np.int64),
+    "status": (kernels.RI_STATUS, np.int8),
+}
+
+DEFAULT_MAX_STEPS = 1_000_000
+DEFAULT_MAX_SWITCHES = 10_000
+_CHUNKS_PER_WORKER = 8  # chunks per thread: balances fast falls against long periodic runs
+
+
+def scene_of(params: Params) -> int:
+    """The compiled scene for the parameters: rolling-only or hybrid, conservative or dissipative."""
+    if params.rolling_only:
+        return kernels.SCENE_ROLLING_DISSIPATIVE if params.dissipative else kernels.SCENE_ROLLING_CONSERVATIVE
+    return kernels.SCENE_HYBRID_DISSIPATIVE if params.dissipative else kernels.SCENE_HYBRID_CONSERVATIVE
+
+
+def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="dp5", *,
+             max_steps=DEFAULT_MAX_STEPS, max_switches=DEFAULT_MAX_SWITCHES, workers=None, switching=None):
+    """Integrate rolling initial states until they fall, roll periodically or reach t_max.
+
+    Parameters
+    ----------
+    states : array_like, shape (..., 4)
+        Rolling initial states (beta [rad], omega1, omega2, omega3 [1/s]), u1 = u3 = 0.
+    params : Params
+        Physical parameters; they pick the scene (mu = inf: rolling only; k_r, k_d > 0:
+        dissipative, no periodic detection).
+    t_max : float [s]
+        End of the run for states that stay on the rim (> 0).
+    rtol, atol : float
+        Relative and absolute tolerances (both > 0) of the embedded error estimate.
+    method : {"dp5", "dop853"}
+        Dormand-Prince 5(4) with 4th-order dense output, or DOP853 with 7th-order dense output.
+    max_steps : int
+        Budget of attempted steps per trajectory (status ``max_steps`` when spent).
+    max_switches : int
+        Budget of rolling/slipping switches per trajectory (status ``too_many_switches``).
+    workers : int or None
+        Threads (default: ``os.cpu_count()``); the compiled kernels release the GIL.
+    switching : dict or None
+        Overrides of the switching tolerances ``delta``, ``u_stop``, ``phi_tol``, ``u_floor``
+        [m/s, m/s, rad, m/s] of ``solver.switching`` (for convergence checks).
+
+    Returns
+    -------
+    dict of numpy arrays of shape ``states.shape[:-1]``: ``outcome`` (int8, see
+    ``OUTCOME_MEANINGS``), ``t_end`` [s], ``f2_min`` [N], ``half_period`` [s] (NaN unless
+    periodic), ``revolutions`` (signed alpha travelled / 2 pi), ``slip_phases``, ``slip_time``
+    [s], ``energy_drift`` (|E(t_end) - E(0)| / max(|E(0)|, m g rho): the integration drift in
+    conservative rolling, the energy lost otherwise), ``n_steps`` (attempted steps),
+    ``beta_end``, ``omega1_end``, ``omega2_end``, ``omega3_end`` (the state at t_end, before
+    any free flight) and ``status`` (int8, see ``STATUS_MEANINGS``). A failing lane is
+    recorded in ``status`` and never raises.
+
+    Raises
+    ------
+    ValueError
+        For a bad argument; the message names it and what is allowed.
+    """
+    if not isinstance(params, Params):
+        raise ValueError(f"`params` must be a solver.Params; got {type(params).__name__}")
+    x = np.asarray(states, dtype=float)
+    if x.ndim < 1 or x.shape[-1] != 4:
+        raise ValueError(f"`states` must have last axis 4 (beta, omega1, omega2, omega3); got shape {x.shape}")
+    if not np.all(np.isfinite(x)):
+        raise ValueError("`states` must be finite; got inf or NaN")
+    t_max = _positive("t_max", t_max)
+    rtol = _positive("rtol", rtol)
+    atol = _positive("atol", atol)
+    if method not in TABLEAUS:
+        raise ValueError(f"`method` must be one of {sorted(TABLEAUS)}; got {method!r}")
+    max_steps = _count("max_steps", max_steps)
+    max_switches = _count("max_switches", max_switches, minimum=0)
+    if workers is None:
+        workers = os.cpu_count() or 1
+    workers = _count("workers", workers)
+    sw = default_tolerances(**(switching or {}))
+
+    tab = TABLEAUS[method]
+    shape = x.shape[:-1]
+    flat = np.ascontiguousarray(x.reshape(-1, 4))
+    m = flat.shape[0]
+    res_f = np.empty((m, kernels.N_RF))
+    res_i = np.empty((m, kernels.N_RI), dtype=np.int64)
+    p = params.as_array()
+    scene = scene_of(params)
+
+    def run(lo, hi):
+        kernels.run_chunk(scene, flat[lo:hi], p, t_max, rtol, atol, tab.A, tab.E, tab.P, tab.n_stages,
+                          tab.err_mode, tab.error_order, max_steps, max_switches, sw, res_f[lo:hi], res_i[lo:hi])
+
+    n_chunks = min(m, workers * _CHUNKS_PER_WORKER) if workers > 1 else min(m, 1)
+    if n_chunks <= 1:
+        if m:
+            run(0, m)
+    else:
+        bounds = np.linspace(0, m, n_chunks + 1).astype(int)
+        with ThreadPoolExecutor(max_workers=workers) as pool:
+            for fut in [pool.submit(run, lo, hi) for lo, hi in zip(bounds[:-1], bounds[1:])]:
+                fut.result()
+
+    out = {name: res_f[:, col].reshape(shape).copy() for name, col in FLOAT_FIELDS.items()}
+    for name, (col, dtype) in INT_FIELDS.items():
+        out[name] = res_i[:, col].astype(dtype).reshape(shape)
+    return out
+
+
+def _real(name, value):
+    if isinstance(value, bool):
+        raise ValueError(f"`{name}` must be a real number; got {value!r}")
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"`{name}` must be a real number; got {value!r}") from None
+    if not math.isfinite(v):
+        raise ValueError(f"`{name}` must be finite; got {value!r}")
+    return v
+
+
+def _positive(name, value):
+    v = _real(name, value)
+    if not v > 0:
+        raise ValueError(f"`{name}` must be > 0; got {value!r}")
+    return v
+
+
+def _count(name, value, minimum=1):
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
+        raise ValueError(f"`{name}` must be an integer >= {minimum}; got {value!r}")
+    return int(value)
