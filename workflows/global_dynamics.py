@@ -61,7 +61,7 @@ def _fig9_plot(ds):
     tr = ds["trace_M"].transpose("j", "rho_over_R").values
     x_max = 1.0 - float(setting_of(ds, "a")) / float(setting_of(ds, "R"))
     fig, ax = P.new_figure(7.5, 6.4)
-    ax.contourf(x, j, stable, levels=[0.5, 1.5], colors=["0.72"])
+    ax.contourf(x, j, np.abs(tr), levels=[0.0, 2.0], colors=["0.72"])  # = stable, drawn smoothly
     ax.contour(x, j, np.abs(tr), levels=[2.0], colors="k", linewidths=1.2)
     P.label_parts(ax, x, j, stable == 1, "S", min_fraction=0.004, fontsize=16)
     P.label_parts(ax, x, j, stable == 0, "U", min_fraction=0.004, fontsize=16)
