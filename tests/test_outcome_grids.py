@@ -1,0 +1,93 @@
+"""Outcome sections fig11-fig13 (paper Figs. 11-13) on their --quick grids: the statements of DESIGN §8."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import xarray as xr
+from scipy import ndimage
+
+import solver
+from solver import outcomes
+
+ROLL, SLIP, DRILL, RRES = range(4)
+
+
+@pytest.fixture(scope="module")
+def sections(tmp_path_factory):
+    from study.cli import main
+
+    out = tmp_path_factory.mktemp("outcomes")
+    for name in ("fig11", "fig12", "fig13"):
+        assert main(["run", name, "--quick", "--out", str(out), "--no-progress"]) == 0
+    return {name: xr.open_dataset(out / f"{name}.nc") for name in ("fig11", "fig12", "fig13")}
+
+
+def test_files_carry_scenes_every_result_field_and_t_max(sections):
+    ds = sections["fig12"]
+    assert ds["outcome"].dims == ("scene", "beta", "omega1")
+    assert np.isinf(ds["mu"][ROLL]) and (ds["mu"][1:] == 1.0).all()
+    assert float(ds["k_d"][DRILL]) == 0.02 and float(ds["k_r"][RRES]) == 0.02
+    assert float(ds["t_max"][DRILL]) == 60.0 and float(ds["t_max"][RRES]) == 60.0
+    for name in ("outcome", "t_end", "f2_min", "half_period", "revolutions", "slip_phases", "slip_time",
+                 "energy_drift", "n_steps", "beta_end", "omega1_end", "omega2_end", "omega3_end", "status"):
+        assert "units" in ds[name].attrs and "long_name" in ds[name].attrs
+    assert ds["outcome"].attrs["flag_meanings"].split() == ["fall_in", "fall_out", "periodic_rolling", "on_rim_at_t_max"]
+    assert ds.attrs["setting_omega2"] == 65.0
+    assert (ds["status"] == outcomes.OK).all()
+
+
+def test_grid_matches_design_section_4(sections):
+    ds = sections["fig11"]
+    assert ds["beta"].values[[0, -1]].tolist() == [0.8, 1.8]
+    assert ds["omega1"].values[[0, -1]].tolist() == [-20.0, 20.0]
+    assert ds.attrs["setting_omega3"] == 10.0
+
+
+def test_fig11_slipping_barely_changes_the_diagram(sections):
+    out = sections["fig11"]["outcome"].values
+    assert (out[ROLL] == outcomes.PERIODIC_ROLLING).any()
+    assert np.mean(out[ROLL] != out[SLIP]) < 0.02
+
+
+@pytest.mark.parametrize("name", ["fig12", "fig13"])
+def test_periodic_region_is_embedded_in_fall_out(sections, name):
+    out = sections[name]["outcome"].values[SLIP]
+    periodic = out == outcomes.PERIODIC_ROLLING
+    assert periodic.any()
+    ring = ndimage.binary_dilation(periodic) & ~periodic
+    assert (out[ring] == outcomes.FALL_OUT).all()
+
+
+@pytest.mark.parametrize("name", ["fig11", "fig12"])
+def test_drilling_sends_former_periodic_states_out_rolling_resistance_in(sections, name):
+    out = sections[name]["outcome"].values
+    former = out[SLIP] == outcomes.PERIODIC_ROLLING
+    assert former.sum() >= 5
+    assert np.mean(out[DRILL][former] == outcomes.FALL_OUT) >= 0.9
+    assert np.mean(out[RRES][former] == outcomes.FALL_IN) >= 0.9
+
+
+def test_fig13_dissipation_sends_former_periodic_states_out(sections):
+    out = sections["fig13"]["outcome"].values
+    former = out[SLIP] == outcomes.PERIODIC_ROLLING
+    assert former.any()
+    assert (out[DRILL][former] == outcomes.FALL_OUT).all() and (out[RRES][former] == outcomes.FALL_OUT).all()
+
+
+def test_dissipative_scenes_have_no_periodic_states_and_stay_long_near_the_former_orbits(sections):
+    ds = sections["fig11"]
+    out = ds["outcome"].values
+    assert not (out[DRILL:] == outcomes.PERIODIC_ROLLING).any()
+    former = out[SLIP] == outcomes.PERIODIC_ROLLING
+    t_end = ds["t_end"].values
+    assert np.median(t_end[DRILL][former]) > 5 * np.median(t_end[DRILL][~former])
+
+
+def test_stored_values_equal_a_direct_simulate_call(sections):
+    ds = sections["fig12"]
+    i, k = 7, 20
+    state = [float(ds["beta"][i]), float(ds["omega1"][k]), 65.0, 10.0]
+    direct = solver.simulate(np.array([state]), solver.Params(mu=1.0), t_max=20.0)
+    assert direct["outcome"][0] == ds["outcome"].values[SLIP, i, k]
+    assert direct["t_end"][0] == pytest.approx(float(ds["t_end"][SLIP, i, k]), rel=1e-12)
