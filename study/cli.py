@@ -12,8 +12,12 @@ import pathlib
 import shlex
 import sys
 
-from study import io, registry, runner
-from study.dataset import build_dataset
+from study import fanout, io, registry
+from study.assemble import assemble
+from study.dataset import global_attrs
+from study.parts import PartStore
+from study.plan import make_plan
+from study.progress import ProgressLine
 from study.registry import UserError
 
 EXIT_USAGE = 2
@@ -34,9 +38,12 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("name")
     run.add_argument("--quick", action="store_true", help="coarse settings for a fast look")
     run.add_argument("--out", default="results", help="output directory (default: results)")
-    run.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
-                     help="override a setting or a physical parameter (repeatable)")
-    run.add_argument("--workers", type=int, default=None, help="threads (default: one per core)")
+    run.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUES",
+                     help="override a setting or a physical parameter (repeatable); a list a,b,c or a "
+                          "range start:stop:num of a sweepable setting becomes an axis of the cube")
+    run.add_argument("--workers", type=int, default=None, help="local threads (default: one per core)")
+    run.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                     help="run the chunks on an existing dask.distributed cluster, e.g. tcp://host:8786")
     run.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                      help="show chunks done/total on stderr (default: when stderr is a terminal)")
     run.add_argument("--force", action="store_true", help="recompute even if the file exists")
@@ -57,10 +64,11 @@ def _cmd_list(args) -> int:
 
 
 def _draw(study, nc: pathlib.Path) -> pathlib.Path | None:
-    """Re-open ``nc`` and save the study's plot next to it as PNG."""
+    """Re-open ``nc`` lazily and save the study's plot next to it as PNG."""
     if study.plot is None:
         return None
-    fig = study.plot(io.open_result(nc))
+    with io.open_result(nc, lazy=True) as ds:
+        fig = study.plot(ds)
     return io.write_figure(fig, nc.with_suffix(".png"))
 
 
@@ -68,22 +76,36 @@ def _cmd_run(args, command: str) -> int:
     study = registry.get(args.name)
     if args.workers is not None and args.workers < 1:
         raise UserError(f"--workers must be >= 1; got {args.workers}")
-    settings = runner.resolve_settings(study, args.quick, args.sets)
-    params = runner.build_params(settings)
-    axes = runner.build_axes(study, settings)
-    nc = pathlib.Path(args.out) / f"{study.name}.nc"
+    if args.workers is not None and args.scheduler:
+        raise UserError("--workers is for local runs; a --scheduler cluster has its own workers")
+    plan = make_plan(study, args.quick, args.sets)
+    out = pathlib.Path(args.out)
+    nc = out / f"{study.name}.nc"
     if nc.exists() and not args.force:
-        png = nc.with_suffix(".png")
-        redrawn = _draw(study, nc) if not png.exists() else None
-        print(f"study: {nc} exists, not recomputing (use --force to recompute)"
-              + (f"; re-drew {redrawn}" if redrawn else ""))
-        return 0
+        return _exists(study, nc)
     progress = sys.stderr.isatty() if args.progress is None else args.progress
-    arrays = runner.evaluate(study, axes, params, settings, workers=args.workers, progress=progress)
-    ds = build_dataset(study, axes, arrays, params, settings, command)
-    io.write_dataset(ds, nc, runner.chunk_shape(study, axes))
+    store = PartStore(out, study.name, plan.fingerprint)
+    with fanout.client(args.workers, args.scheduler) as client, store.lock():
+        if nc.exists() and not args.force:  # a run that held the lock just finished it
+            return _exists(study, nc)
+        done = store.valid(plan.n_chunks, plan.expected)
+        todo = [k for k in range(plan.n_chunks) if k not in done]
+        line = ProgressLine(plan.n_chunks, study.name, resumed=len(done), enabled=progress)
+        stats = fanout.run(plan, store, todo, client, line)
+        swept = tuple(a.name for a in plan.outer)
+        assemble(plan, store, nc, global_attrs(study, plan.params, plan.settings, command, swept))
+        store.remove()
     png = _draw(study, nc)
-    print(f"wrote {nc}" + (f" and {png}" if png else ""))
+    resumed = f" ({stats.resumed} of {stats.total} chunks resumed)" if stats.resumed else ""
+    print(f"wrote {nc}" + (f" and {png}" if png else "") + resumed)
+    return 0
+
+
+def _exists(study, nc: pathlib.Path) -> int:
+    png = nc.with_suffix(".png")
+    redrawn = _draw(study, nc) if not png.exists() else None
+    print(f"study: {nc} exists, not recomputing (use --force to recompute)"
+          + (f"; re-drew {redrawn}" if redrawn else ""))
     return 0
 
 

@@ -52,23 +52,29 @@ def _attr_value(value):
     return value
 
 
-def build_dataset(study: Study, axes: list[Axis], arrays: dict, params: solver.Params,
-                  settings: dict, command: str) -> xr.Dataset:
-    """The Dataset of one run: coordinates from ``axes``, variables from ``arrays``."""
-    dims = [a.name for a in axes]
+def coords_of(axes: list[Axis]) -> dict:
+    """xarray coordinates of the axes (each with units and long_name), auxiliary ones included."""
     coords = {a.name: (a.name, a.values, {"units": a.units, "long_name": a.long_name}) for a in axes}
     for a in axes:
         for aux_name, (values, units, long_name) in a.aux.items():
             coords[aux_name] = (a.name, np.asarray(values), {"units": units, "long_name": long_name})
-    data = {v.name: (dims, arrays[v.name], v.attrs) for v in study.variables}
+    return coords
+
+
+def global_attrs(study: Study, params: solver.Params, settings: dict, command: str,
+                 swept: tuple = ()) -> dict:
+    """Provenance of one run. ``swept``: names of the settings swept as outer axes (their
+    ``param_``/``setting_`` attributes hold the first value; the coordinate holds all)."""
     now = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat()
     attrs = {"Conventions": "CF-1.10", "title": study.title, "study": study.name}
     for name, value in params.as_dict().items():
         attrs[f"param_{name}"] = float(value)
     attrs["param_rho"] = float(params.rho)
     for name, value in settings.items():
-        if name not in PHYSICAL_KEYS or name in study.settings:
-            attrs[f"setting_{name}"] = _attr_value(value)
+        if (name not in PHYSICAL_KEYS or name in study.settings) and value is not None:
+            attrs[f"setting_{name}"] = _attr_value(value[0] if isinstance(value, tuple) else value)
+    if swept:
+        attrs["swept"] = " ".join(swept)
     version = rimroll_version()
     attrs["rimroll_version"] = version
     rev = git_revision()
@@ -76,7 +82,15 @@ def build_dataset(study: Study, axes: list[Axis], arrays: dict, params: solver.P
         attrs["git_revision"] = rev
     attrs["created"] = now
     attrs["history"] = f"{now} {command} - rimroll {version}" + (f" (git {rev})" if rev else "")
-    return xr.Dataset(data, coords=coords, attrs=attrs)
+    return attrs
+
+
+def build_dataset(study: Study, axes: list[Axis], arrays: dict, params: solver.Params,
+                  settings: dict, command: str) -> xr.Dataset:
+    """The Dataset of one run: coordinates from ``axes``, variables from ``arrays``."""
+    dims = [a.name for a in axes]
+    data = {v.name: (dims, arrays[v.name], v.attrs) for v in study.variables}
+    return xr.Dataset(data, coords=coords_of(axes), attrs=global_attrs(study, params, settings, command))
 
 
 def params_of(ds: xr.Dataset) -> solver.Params:

@@ -61,16 +61,24 @@ def write_figure(fig, path, dpi: int = 120) -> pathlib.Path:
     return path
 
 
-def open_result(path) -> xr.Dataset:
-    """Open a rimroll results file (loaded into memory, file closed); UserError if it is not one."""
+def open_result(path, lazy: bool = False) -> xr.Dataset:
+    """Open a rimroll results file; UserError if it is not one.
+
+    Default: loaded into memory, file closed. ``lazy``: dask-backed in the file's chunks
+    (``chunks={}``), for cubes larger than memory; close it (``with``) when done.
+    """
     path = pathlib.Path(path)
     if not path.is_file():
         raise UserError(f"no such results file: {path}")
     try:
-        with xr.open_dataset(path, engine="netcdf4") as ds:
-            ds = ds.load()
+        if lazy:
+            ds = xr.open_dataset(path, engine="netcdf4", chunks={})
+        else:
+            with xr.open_dataset(path, engine="netcdf4") as ds:
+                ds = ds.load()
     except (OSError, ValueError) as exc:
         raise UserError(f"cannot read {path} as netCDF: {exc}") from None
     if "study" not in ds.attrs or "rimroll_version" not in ds.attrs:
+        ds.close()
         raise UserError(f"{path} is not a rimroll results file (no 'study'/'rimroll_version' attributes)")
     return ds

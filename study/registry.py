@@ -7,7 +7,10 @@ module only holds the declarations; ``study.runner`` evaluates them and ``study.
 from __future__ import annotations
 
 import dataclasses
+import importlib.util
+import os
 import re
+import sys
 from typing import Any, Callable
 
 import numpy as np
@@ -15,7 +18,15 @@ import numpy as np
 PHYSICAL_KEYS = ("r", "R", "a", "m", "j", "mu", "g", "k_r", "k_d")
 """Settings that build the :class:`solver.Params` of a run; every study accepts them."""
 
+SWEEP_KEYS = ("mu", "v_throw", "j", "rho_over_R", "k_r", "k_d", "omega2", "omega3")
+"""Settings a study may declare ``sweepable``: a list or range of values becomes an outer axis."""
+
+PLUGIN_ENV = "RIMROLL_STUDY_MODULES"
+"""Environment variable: extra study modules (``.py`` paths, ``os.pathsep``-separated) to register,
+e.g. test-only studies. Read in every process that loads the registry (dask workers too)."""
+
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+_STUDY_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_-]*$")  # study names may also use '-' (realisable-cube)
 
 
 class UserError(Exception):
@@ -65,6 +76,7 @@ class Var:
     dtype: str = "float64"
     flag_values: tuple | None = None
     flag_meanings: str | None = None
+    outer: bool = False  # one value per point of the swept (outer) axes, e.g. an area over the grid
 
     def __post_init__(self):
         if not _NAME.match(self.name):
@@ -93,6 +105,9 @@ class Study:
     ``axes(settings) -> [Axis]``; ``compute(coords, params, settings) -> {var: array}`` with
     coords the chunk's coordinates broadcast to the chunk's shape (axis order as declared);
     ``plot(dataset) -> matplotlib Figure``; ``chunks``: chunk length per axis name.
+    ``sweepable``: settings (of :data:`SWEEP_KEYS`) that ``--set KEY=a,b,c`` or
+    ``KEY=start:stop:num`` turns into outer axes; a tuple default in ``settings`` sweeps by default.
+    A variable with ``outer=True`` has the swept axes only, so the study's grid is one chunk.
     """
 
     name: str
@@ -104,10 +119,17 @@ class Study:
     plot: Callable | None = None
     quick: dict = dataclasses.field(default_factory=dict)
     chunks: dict = dataclasses.field(default_factory=dict)
+    sweepable: tuple = ()
 
     def __post_init__(self):
-        if not _NAME.match(self.name):
-            raise ValueError(f"study name {self.name!r} is not a valid identifier")
+        if not _STUDY_NAME.match(self.name):
+            raise ValueError(f"study name {self.name!r} is not a valid name (letters, digits, '_', '-')")
+        bad = set(self.sweepable) - set(SWEEP_KEYS)
+        if bad:
+            raise ValueError(f"study {self.name!r}: sweepable {sorted(bad)} not among {SWEEP_KEYS}")
+        for key, value in {**self.settings, **self.quick}.items():
+            if isinstance(value, (tuple, list)) and key not in self.sweepable:
+                raise ValueError(f"study {self.name!r}: setting {key!r} has a list of values but is not sweepable")
         unknown = set(self.quick) - set(self.settings) - set(PHYSICAL_KEYS)
         if unknown:
             raise ValueError(f"study {self.name!r}: quick settings {sorted(unknown)} are not settings")
@@ -129,6 +151,22 @@ def register(study: Study) -> Study:
 
 def _load_workflows() -> None:
     import workflows  # noqa: F401  (registers every named study on import)
+
+    for path in filter(None, os.environ.get(PLUGIN_ENV, "").split(os.pathsep)):
+        _load_module_file(path)
+
+
+def _load_module_file(path: str) -> None:
+    """Import the module at ``path`` once per process (its ``register`` calls run on import)."""
+    name = "rimroll_plugin_" + re.sub(r"\W", "_", os.path.abspath(path))
+    if name in sys.modules:
+        return
+    spec = importlib.util.spec_from_file_location(name, path)
+    if spec is None or spec.loader is None:
+        raise UserError(f"{PLUGIN_ENV}: cannot import {path}")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
 
 
 def names() -> list[str]:

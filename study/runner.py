@@ -1,4 +1,7 @@
-"""Run a named study: resolve its settings, build its Params, evaluate its grid with dask.
+"""Settings, Params and axes of a study, and an in-memory evaluation of its grid with dask.
+
+``study run`` goes through ``study.plan`` / ``study.fanout`` (sweeps, parts on disk, resume);
+:func:`evaluate` is the in-memory path for small grids in Python.
 
 Settings resolve as defaults < ``--quick`` < ``--set``. The physical keys (r R a m j mu g
 k_r k_d, SI units) build a :class:`solver.Params`; a bad value gives Params' ValueError
@@ -9,16 +12,16 @@ the GIL), one worker per core unless told otherwise.
 
 from __future__ import annotations
 
-import contextlib
 import itertools
 import os
 
 import dask
+from dask.callbacks import Callback
 import numpy as np
 
 import solver
-from study.progress import ChunkProgress
-from study.registry import PHYSICAL_KEYS, Axis, Study, UserError
+from study.progress import ProgressLine
+from study.registry import Axis, Study, UserError
 
 DEFAULT_CHUNK = 64  # points per chunk along the first axis when the study does not say
 
@@ -73,11 +76,10 @@ def resolve_settings(study: Study, quick: bool = False, sets=()) -> dict:
 
 
 def build_params(settings: dict) -> solver.Params:
-    """The validated :class:`solver.Params` of the physical settings."""
-    try:
-        return solver.Params(**{k: settings[k] for k in PHYSICAL_KEYS})
-    except ValueError as exc:
-        raise UserError(str(exc)) from None
+    """The validated :class:`solver.Params` of the physical settings (and ``rho_over_R`` if set)."""
+    from study.sweep import params_from
+
+    return params_from(settings)
 
 
 def build_axes(study: Study, settings: dict) -> list[Axis]:
@@ -120,6 +122,18 @@ def _compute_chunk(study, axes, index, params, settings):
     return result
 
 
+class _Advance(Callback):
+    """Advance a :class:`ProgressLine` for each finished ``chunk-*`` task."""
+
+    def __init__(self, line: ProgressLine):
+        super().__init__()
+        self.line = line
+
+    def _posttask(self, key, result, dsk, state, worker_id):
+        if isinstance(key, str) and key.startswith("chunk-"):
+            self.line.advance()
+
+
 def evaluate(study: Study, axes: list[Axis], params, settings: dict, workers: int | None = None,
              progress: bool = False) -> dict[str, np.ndarray]:
     """Evaluate ``study.compute`` on every chunk as dask tasks; full numpy arrays per variable.
@@ -133,11 +147,10 @@ def evaluate(study: Study, axes: list[Axis], params, settings: dict, workers: in
     tasks = [dask.delayed(_compute_chunk, pure=False)(study, axes, index, params, settings,
                                                       dask_key_name=f"chunk-{k}")
              for k, index in enumerate(slices)]
-    callbacks = [ChunkProgress(len(tasks), study.name)] if progress else []
-    with contextlib.ExitStack() as stack:
-        for cb in callbacks:
-            stack.enter_context(cb)
+    line = ProgressLine(len(tasks), study.name, enabled=progress)
+    with _Advance(line):
         results = dask.compute(*tasks, scheduler="threads", num_workers=workers)
+    line.close()
     arrays = {v.name: np.empty(shape, dtype=v.dtype) for v in study.variables}
     for index, chunk in zip(slices, results):
         for name, values in chunk.items():

@@ -1,0 +1,50 @@
+"""Assemble the final netCDF of a run from its part files, region by region, atomically.
+
+The coordinates and global attributes are written by xarray (so files look exactly like
+:func:`study.dataset.build_dataset`'s); the data variables are created once with netCDF4 and
+filled one chunk at a time, so memory holds one chunk whatever the size of the cube. The
+file's chunks are the compute chunks (outer axes by 1), which is what
+``xarray.open_dataset(path, chunks={})`` hands to dask.
+"""
+
+from __future__ import annotations
+
+import netCDF4
+import numpy as np
+import xarray as xr
+
+from study import io
+from study.dataset import coords_of
+from study.parts import PartStore
+from study.plan import Plan
+
+
+def assemble(plan: Plan, store: PartStore, path, attrs: dict) -> None:
+    """Write ``path`` from the parts of every chunk of ``plan`` (all must be present)."""
+    skeleton = xr.Dataset(coords=coords_of(plan.axes), attrs=attrs)
+    encoding = {name: dict(io.COMPRESSION, _FillValue=None) for name in skeleton.coords}
+    dims = tuple(a.name for a in plan.axes)
+    outer_dims = dims[: len(plan.outer)]
+    with io.atomic_path(path) as tmp:
+        skeleton.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=encoding)
+        with netCDF4.Dataset(tmp, "a") as nc:
+            variables = {}
+            for v in plan.study.variables:
+                vdims = outer_dims if v.outer else dims
+                shape = tuple(nc.dimensions[d].size for d in vdims)
+                chunks = shape if v.outer else plan.nc_chunks
+                kind = np.dtype(v.dtype)
+                fill = np.nan if kind.kind == "f" else False
+                var = nc.createVariable(v.name, kind, vdims, fill_value=fill, chunksizes=chunks or None,
+                                        zlib=bool(vdims), complevel=io.COMPRESSION["complevel"])
+                var.set_auto_maskandscale(False)
+                var.setncatts(v.attrs)
+                variables[v.name] = (var, v.outer)
+            for k in range(plan.n_chunks):
+                arrays = store.load(k, plan.expected(k))
+                if arrays is None:
+                    raise RuntimeError(f"part {store.path(k)} vanished or was damaged during assembly; "
+                                       "run again to recompute it")
+                region = plan.region(k)
+                for name, (var, outer) in variables.items():
+                    var[region[: len(plan.outer)] if outer else region] = arrays[name]

@@ -1,0 +1,192 @@
+"""The plan of one run: resolved settings, outer (swept) and grid axes, chunks, per-chunk jobs.
+
+The cube's dimensions are the outer axes (one per swept setting) followed by the study's grid
+axes. A chunk is one point of the outer axes times a block of the grid (outer axes are chunked
+by 1, so a chunk's Params and settings are constants); chunks are numbered in C order. The
+on-disk netCDF chunks are the same blocks. :meth:`Plan.fingerprint` hashes everything that
+determines the numbers of a chunk, so a part file of another input is never reused.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import hashlib
+import inspect
+import json
+import math
+import pathlib
+
+import numpy as np
+
+import solver
+from study import runner, sweep
+from study.dataset import rimroll_version
+from study.registry import PHYSICAL_KEYS, SWEEP_KEYS, Axis, Study, UserError
+
+SOLVER_DIR = pathlib.Path(solver.__file__).resolve().parent
+
+
+@dataclasses.dataclass(frozen=True)
+class ChunkJob:
+    """Everything a worker needs to compute chunk ``k`` (picklable: the study goes by name)."""
+
+    study: str
+    k: int
+    settings: dict
+    params: solver.Params
+    grid: tuple  # 1-D coordinate arrays of the chunk's grid block, one per grid axis
+    n_outer: int
+
+
+@dataclasses.dataclass(frozen=True)
+class Plan:
+    study: Study
+    settings: dict  # resolved; a swept key holds its tuple of values
+    params: solver.Params  # Params of the scalar settings (swept keys at their first value)
+    outer: tuple  # Axis per swept setting
+    grid: tuple  # the study's grid axes
+    block: tuple  # chunk length per grid axis
+
+    @property
+    def axes(self) -> list[Axis]:
+        return [*self.outer, *self.grid]
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return tuple(a.values.size for a in self.axes)
+
+    @property
+    def outer_shape(self) -> tuple[int, ...]:
+        return tuple(a.values.size for a in self.outer)
+
+    @functools.cached_property
+    def counts(self) -> tuple[int, ...]:
+        """Chunks along each dimension."""
+        grid = tuple(-(-a.values.size // b) for a, b in zip(self.grid, self.block))
+        return self.outer_shape + grid
+
+    @property
+    def n_chunks(self) -> int:
+        return math.prod(self.counts)
+
+    @property
+    def nc_chunks(self) -> tuple[int, ...]:
+        """netCDF chunk shape of a full-cube variable (= a full compute chunk)."""
+        return (1,) * len(self.outer) + tuple(self.block)
+
+    def region(self, k: int) -> tuple[slice, ...]:
+        """Slices of the full cube covered by chunk ``k``."""
+        idx = np.unravel_index(k, self.counts)
+        n = len(self.outer)
+        out = [slice(int(i), int(i) + 1) for i in idx[:n]]
+        for i, a, b in zip(idx[n:], self.grid, self.block):
+            out.append(slice(int(i) * b, min((int(i) + 1) * b, a.values.size)))
+        return tuple(out)
+
+    def expected(self, k: int) -> dict[str, tuple[tuple[int, ...], np.dtype]]:
+        """Shape and dtype of every variable in chunk ``k``'s part."""
+        region = self.region(k)
+        full = tuple(s.stop - s.start for s in region)
+        outer = full[: len(self.outer)]
+        return {v.name: (outer if v.outer else full, np.dtype(v.dtype)) for v in self.study.variables}
+
+    def outer_region(self, k: int) -> tuple[slice, ...]:
+        return self.region(k)[: len(self.outer)]
+
+    def settings_at(self, k: int) -> tuple[dict, solver.Params]:
+        """Scalar settings and Params of chunk ``k`` (swept values substituted)."""
+        region = self.region(k)
+        s = sweep.base_settings(self.settings)
+        for a, sl in zip(self.outer, region):
+            s[a.name] = float(a.values[sl.start])
+        params = sweep.params_from(s) if self.outer else self.params
+        s.update(params.as_dict())
+        return s, params
+
+    def job(self, k: int) -> ChunkJob:
+        region = self.region(k)
+        s, params = self.settings_at(k)
+        grid = tuple(a.values[sl] for a, sl in zip(self.grid, region[len(self.outer):]))
+        return ChunkJob(self.study.name, k, s, params, grid, len(self.outer))
+
+    @functools.cached_property
+    def fingerprint(self) -> str:
+        """16 hex digits: study, settings, Params, axes, variables, chunking and code version."""
+        h = hashlib.sha256()
+
+        def put(obj):
+            h.update(json.dumps(obj, sort_keys=True, default=repr).encode())
+
+        put({"study": self.study.name, "settings": {k: repr(v) for k, v in self.settings.items()},
+             "params": self.params.as_dict(), "block": list(self.block), "rimroll": rimroll_version(),
+             "variables": [(v.name, v.dtype, v.outer) for v in self.study.variables]})
+        for a in self.axes:
+            put([a.name, a.units, sorted(a.aux)])
+            h.update(np.ascontiguousarray(a.values, dtype=float).tobytes())
+            for values, *_ in a.aux.values():
+                h.update(np.ascontiguousarray(values).tobytes())
+        h.update(code_digest(self.study).encode())
+        return h.hexdigest()[:16]
+
+
+def code_digest(study: Study) -> str:
+    """Hash of the solver's sources and of the module defining the study's ``compute``."""
+    files = sorted(SOLVER_DIR.glob("*.py"))
+    try:
+        files.append(pathlib.Path(inspect.getsourcefile(study.compute)))
+    except TypeError:
+        pass
+    h = hashlib.sha256()
+    for f in files:
+        h.update(f.name.encode())
+        h.update(f.read_bytes())
+    return h.hexdigest()
+
+
+def make_plan(study: Study, quick: bool = False, sets=()) -> Plan:
+    """Resolve settings and ``--set`` sweeps into a validated :class:`Plan` (UserError if bad)."""
+    settings, order, grid_values = sweep.resolve(study, quick, sets)
+    base = sweep.base_settings(settings)
+    for key in SWEEP_KEYS:
+        if key not in order and isinstance(base.get(key), float):
+            sweep.check_value(key, base[key])
+    outer = sweep.outer_axes(settings, order)
+    # Params of the scalar settings; a swept key stays at its first value there
+    params = sweep.params_from(base)
+    grid = sweep.regrid(runner.build_axes(study, base), grid_values)
+    names = [a.name for a in outer] + [a.name for a in grid]
+    if len(set(names)) != len(names):
+        raise UserError(f"study {study.name!r}: a swept setting has the name of a grid axis: {names}")
+    whole = any(v.outer for v in study.variables)
+    block = []
+    for i, a in enumerate(grid):
+        n = a.values.size
+        size = n if whole else study.chunks.get(a.name, runner.DEFAULT_CHUNK if i == 0 else n)
+        block.append(max(1, min(int(size), n)))
+    return Plan(study, settings, params, tuple(outer), tuple(grid), tuple(block))
+
+
+def compute_chunk(job: ChunkJob) -> dict[str, np.ndarray]:
+    """Run the study's ``compute`` on one chunk; arrays shaped like the chunk's region.
+
+    Module-level and driven by a :class:`ChunkJob` only, so dask.distributed can ship it:
+    the worker looks the study up in its own registry.
+    """
+    from study import registry
+
+    study = registry.get(job.study)
+    coords = np.meshgrid(*job.grid, indexing="ij") if job.grid else []
+    grid_shape = tuple(g.size for g in job.grid)
+    out = study.compute(coords, job.params, job.settings)
+    result = {}
+    for var in study.variables:
+        if var.name not in out:
+            raise KeyError(f"study {study.name!r}: compute returned no {var.name!r}")
+        shape = () if var.outer else grid_shape
+        values = np.broadcast_to(np.asarray(out[var.name]), shape).astype(var.dtype)
+        result[var.name] = np.ascontiguousarray(values.reshape((1,) * job.n_outer + shape))
+    return result
+
+
+__all__ = ["ChunkJob", "Plan", "compute_chunk", "make_plan", "PHYSICAL_KEYS"]

@@ -1,0 +1,163 @@
+"""``--set KEY=VALUES``: a scalar stays a setting; a list or a range becomes an axis of the cube.
+
+Forms: ``KEY=0.5`` (scalar), ``KEY=0.5,1,2`` (list, in the order given) and
+``KEY=start:stop:num`` (``num >= 2`` points of an inclusive linspace). A list or range is
+allowed for the study's ``sweepable`` settings (outer axes of the cube, in the study's order,
+then in the order of ``--set``) and for the names of its grid axes (new grid values). Every
+swept value is checked against the parameter's allowed range before any work starts.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+import solver
+from study import runner
+from study.registry import PHYSICAL_KEYS, SWEEP_KEYS, Axis, Study, UserError
+
+META = {  # units and long_name of an outer axis
+    "mu": ("1", "Coulomb friction coefficient"),
+    "v_throw": ("m s-1", "throw speed whose kinetic energy bounds the steady motion (59)"),
+    "j": ("1", "dimensionless moment of inertia of the ball, J = j m r^2"),
+    "rho_over_R": ("1", "ratio rho/R of the ball centre's distance from the rim's middle circle to "
+                        "the rim's major radius (R and a fixed, r = rho - a)"),
+    "k_r": ("s-1", "rolling-resistance rate C_r/(j m R^2) of (83)"),
+    "k_d": ("s-1", "drilling-resistance rate C_d/(j m R^2) of (83)"),
+    "omega2": ("s-1", "initial orthogonal angular velocity"),
+    "omega3": ("s-1", "initial circular angular velocity"),
+}
+assert set(META) == set(SWEEP_KEYS)
+
+
+def _float(key: str, text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise UserError(f"--set {key}={text}: expected a number") from None
+
+
+def parse_values(key: str, text: str):
+    """A tuple of floats for a list or range, else ``None`` (the text is a scalar)."""
+    if ":" in text:
+        parts = text.split(":")
+        if len(parts) != 3:
+            raise UserError(f"--set {key}={text}: a range is start:stop:num, e.g. {key}=0.4:0.6:5")
+        start, stop = _float(key, parts[0]), _float(key, parts[1])
+        try:
+            num = int(parts[2])
+        except ValueError:
+            raise UserError(f"--set {key}={text}: num of start:stop:num must be an integer") from None
+        if num < 2:
+            raise UserError(f"--set {key}={text}: a range needs num >= 2 points (give one value as a scalar)")
+        if not (math.isfinite(start) and math.isfinite(stop)) or start == stop:
+            raise UserError(f"--set {key}={text}: a range needs finite start != stop")
+        return tuple(float(v) for v in np.linspace(start, stop, num))
+    if "," in text:
+        items = [t.strip() for t in text.split(",")]
+        if any(not t for t in items):
+            raise UserError(f"--set {key}={text}: empty item in the list")
+        return tuple(_float(key, t) for t in items)
+    return None
+
+
+def resolve(study: Study, quick: bool, sets) -> tuple[dict, list[str], dict]:
+    """(settings, swept keys in axis order, grid overrides ``{axis: values}``).
+
+    A swept key's setting holds its tuple of values. Defaults < ``quick`` < ``--set``.
+    """
+    settings = runner.default_settings(study)
+    for key in study.sweepable:
+        settings.setdefault(key, None)
+    if quick:
+        settings.update(study.quick)
+    declared = dict.fromkeys([*study.settings, *(study.quick if quick else ())])
+    order = [k for k in declared if isinstance(settings[k], (tuple, list))]
+    grid_names = {a.name for a in runner.build_axes(study, base_settings(settings))}
+    grid = {}
+    for item in sets:
+        key, text = runner.parse_set(item)
+        values = parse_values(key, text)
+        if values is not None and key in grid_names:
+            grid[key] = values
+            continue
+        if key not in settings:
+            raise UserError(f"unknown setting {key!r} for study {study.name!r}; "
+                            f"known: {', '.join(sorted(settings))}")
+        if values is None:
+            default = settings[key]
+            default = 1.0 if key in SWEEP_KEYS or isinstance(default, (tuple, list)) else default
+            settings[key] = runner._convert(key, text, default)
+            if key in order:
+                order.remove(key)
+        elif key in study.sweepable:
+            settings[key] = values
+            if key not in order:
+                order.append(key)
+        else:
+            sweepable = ", ".join(study.sweepable) or "none"
+            raise UserError(f"--set {key}={text}: {key!r} cannot be swept in study {study.name!r} "
+                            f"(sweepable: {sweepable}; or a grid axis: {', '.join(sorted(grid_names))})")
+    settings = {k: (tuple(float(x) for x in v) if isinstance(v, (tuple, list)) else v) for k, v in settings.items()}
+    return settings, order, grid
+
+
+def base_settings(settings: dict) -> dict:
+    """Settings with every swept key at its first value (what the grid axes are built from)."""
+    return {k: (v[0] if isinstance(v, tuple) else v) for k, v in settings.items()}
+
+
+def params_from(settings: dict) -> solver.Params:
+    """Params of scalar settings; ``rho_over_R`` (if not None) fixes r = rho_over_R * R - a."""
+    physical = {k: settings[k] for k in PHYSICAL_KEYS}
+    x = settings.get("rho_over_R")
+    try:
+        if x is None:
+            return solver.Params(**physical)
+        physical.pop("r")
+        return solver.Params.from_rho_over_R(float(x), **physical)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+
+
+def check_value(key: str, value) -> None:
+    """Ranges of the non-physical sweep keys (the physical ones are checked by Params)."""
+    if key == "v_throw" and not (math.isfinite(value) and value >= 0):
+        raise UserError(f"parameter v_throw={value!r} is out of range: allowed 0 <= v_throw < inf [m/s]")
+    if key in ("omega2", "omega3") and not math.isfinite(value):
+        raise UserError(f"parameter {key}={value!r} is out of range: allowed a finite rate [1/s]")
+
+
+def outer_axes(settings: dict, order: list[str]) -> list[Axis]:
+    """The outer axes of the swept keys, each value validated with the other settings at base."""
+    base = base_settings(settings)
+    axes = []
+    for key in order:
+        values = settings[key]
+        for v in values:
+            check_value(key, v)
+            if key in PHYSICAL_KEYS or key == "rho_over_R":
+                params_from({**base, key: v})
+        units, long_name = META[key]
+        try:
+            axes.append(Axis(key, np.array(values), units, long_name))
+        except ValueError as exc:
+            raise UserError(f"--set {key}: {exc}") from None
+    return axes
+
+
+def regrid(axes: list[Axis], grid: dict) -> list[Axis]:
+    """Grid axes with the values given by ``--set AXIS=list|range``."""
+    out = []
+    for a in axes:
+        if a.name in grid:
+            if a.aux:
+                raise UserError(f"--set {a.name}: axis {a.name!r} carries auxiliary coordinates and "
+                                "cannot be given new values")
+            try:
+                a = Axis(a.name, np.array(grid[a.name]), a.units, a.long_name)
+            except ValueError as exc:
+                raise UserError(f"--set {a.name}: {exc}") from None
+        out.append(a)
+    return out

@@ -1,0 +1,236 @@
+"""Fan-out of studies into cubes: --set sweeps, parts on disk, resume after SIGKILL, fingerprints,
+the run lock, a real dask.distributed cluster, lazy reading.
+
+The slow, killable study is ``tests/fanout_probe.py`` (loaded through ``RIMROLL_STUDY_MODULES``).
+"""
+
+from __future__ import annotations
+
+import fcntl
+import os
+import pathlib
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from study import registry
+from study.cli import main
+from study.parts import PartStore
+from study.plan import make_plan
+from study.registry import PLUGIN_ENV
+
+PROBE = str(pathlib.Path(__file__).with_name("fanout_probe.py"))
+N_PROBE = 3 * 2 * 2  # mu x v_throw x (8 x points in chunks of 4)
+
+
+@pytest.fixture
+def probe(monkeypatch):
+    monkeypatch.setenv(PLUGIN_ENV, PROBE)
+    monkeypatch.delenv("FANOUT_PROBE_FAIL_MU", raising=False)
+    return registry.get("fanout-probe")
+
+
+def _env():
+    return {**os.environ, PLUGIN_ENV: PROBE}
+
+
+def _run(out, *extra, name="fanout-probe"):
+    return main(["run", name, "--out", str(out), "--no-progress", *extra])
+
+
+def _log_lines(path) -> list[str]:
+    return path.read_text().splitlines() if path.exists() else []
+
+
+def _assert_same_data(a, b):
+    """Same coordinates, data variables and variable attributes (global provenance may differ)."""
+    with xr.open_dataset(a) as x, xr.open_dataset(b) as y:
+        assert list(x.dims) == list(y.dims) and set(x.data_vars) == set(y.data_vars)
+        for name in [*x.coords, *x.data_vars]:
+            assert x[name].dtype == y[name].dtype, name
+            np.testing.assert_array_equal(x[name].values, y[name].values, err_msg=name)
+            assert x[name].attrs.keys() == y[name].attrs.keys(), name
+
+
+def _chunk_ids(plan, ks):
+    """The (mu, v_throw, x0) that the probe logs for chunks ``ks`` of ``plan``."""
+    out = set()
+    for k in ks:
+        r = plan.region(k)
+        out.add((float(plan.outer[0].values[r[0].start]), float(plan.outer[1].values[r[1].start]),
+                 float(plan.grid[0].values[r[2].start])))
+    return out
+
+
+def _parse_ids(lines):
+    return {tuple(float(w) for w in line.split()) for line in lines}
+
+
+# ---------------------------------------------------------------- --set parsing
+def test_set_forms_make_axes(probe):
+    plan = make_plan(probe, sets=["mu=0.25,1,4", "v_throw=3", "j=0.4:0.6:5", "n_x=6"])
+    assert [a.name for a in plan.outer] == ["mu", "j"]  # scalar v_throw is a setting again
+    np.testing.assert_allclose(plan.outer[0].values, [0.25, 1.0, 4.0])
+    np.testing.assert_allclose(plan.outer[1].values, [0.4, 0.45, 0.5, 0.55, 0.6])  # inclusive
+    assert plan.settings["v_throw"] == 3.0 and plan.grid[0].values.size == 6
+    assert plan.shape == (3, 5, 6, 3) and plan.nc_chunks == (1, 1, 4, 3)
+    assert plan.n_chunks == 3 * 5 * 2  # outer axes chunked by 1, x by 4
+    s, p = plan.settings_at(plan.n_chunks - 1)
+    assert (p.mu, p.j, s["mu"], s["j"]) == (4.0, 0.6, 4.0, 0.6)
+    # rho_over_R keeps R and a and moves r; a grid axis takes new values
+    plan = make_plan(probe, sets=["rho_over_R=0.5,0.6", "x=0:2:3"])
+    _, p = plan.settings_at(plan.n_chunks - 1)
+    assert p.R == 0.225 and p.a == 0.01 and p.rho == pytest.approx(0.6 * 0.225)
+    np.testing.assert_allclose(plan.grid[0].values, [0.0, 1.0, 2.0])
+
+
+@pytest.mark.parametrize("item, expect", [
+    ("nosuch=1,2", "unknown setting 'nosuch'"),
+    ("n_x=4,8", "cannot be swept"),
+    ("mu=0.5:2:0", "num >= 2"),
+    ("mu=0.5:2", "start:stop:num"),
+    ("mu=0.5:2:x", "must be an integer"),
+    ("mu=0.5,,2", "empty item"),
+    ("mu=-1,1", "parameter mu=-1.0 is out of range"),
+    ("j=0,0.5", "parameter j=0.0 is out of range"),
+    ("rho_over_R=0.5,1.5", "rho_over_R=1.5"),
+    ("v_throw=-2:3:4", "v_throw=-2.0 is out of range"),
+    ("mu=2,1,2", "strictly monotonic"),
+])
+def test_bad_set_is_one_line_exit_2(probe, tmp_path, capsys, item, expect):
+    assert _run(tmp_path, "--set", item) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("study: error:") and len(err.strip().splitlines()) == 1 and expect in err, err
+    assert not list(tmp_path.iterdir())
+
+
+def test_bad_set_in_a_subprocess(tmp_path):
+    run = subprocess.run([sys.executable, "-m", "study", "run", "realisable-cube", "--quick", "--out",
+                          str(tmp_path), "--set", "rho_over_R=0.5:1.5:3"], capture_output=True, text=True,
+                         timeout=120)
+    assert run.returncode == 2 and run.stderr.startswith("study: error:"), run.stderr
+    assert len(run.stderr.strip().splitlines()) == 1 and "rho_over_R" in run.stderr
+
+
+# ---------------------------------------------------------------- resume after SIGKILL
+def test_sigkill_then_resume_recomputes_nothing_finished(probe, tmp_path):
+    log = tmp_path / "computed.log"
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "study", "run", "fanout-probe", "--out", str(out), "--workers", "1",
+           "--no-progress", "--set", "delay=0.35", "--set", f"log={log}"]
+    proc = subprocess.Popen(cmd, env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    plan = make_plan(probe, sets=["delay=0.35", f"log={log}"])
+    parts = PartStore(out, "fanout-probe", plan.fingerprint)
+    deadline = time.monotonic() + 60
+    while len(list(parts.dir.glob("chunk-*.npz"))) < 3:
+        assert proc.poll() is None, proc.communicate()
+        assert time.monotonic() < deadline, "the run never wrote 3 parts"
+        time.sleep(0.02)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait(timeout=30)
+    finished = {int(p.stem.split("-")[1]) for p in parts.dir.glob("chunk-*.npz")}
+    assert 3 <= len(finished) < N_PROBE and not (out / "fanout-probe.nc").exists()
+    before = len(_log_lines(log))
+
+    rerun = subprocess.run(cmd, env=_env(), capture_output=True, text=True, timeout=120)
+    assert rerun.returncode == 0, rerun.stderr
+    assert f"{len(finished)} of {N_PROBE} chunks resumed" in rerun.stdout
+    recomputed = _parse_ids(_log_lines(log)[before:])
+    assert len(_log_lines(log)) - before == N_PROBE - len(finished)  # each missing chunk once
+    assert recomputed == _chunk_ids(plan, set(range(N_PROBE)) - finished)  # and no finished one
+    assert not (out / ".parts").exists()
+
+    clean = tmp_path / "clean"
+    assert _run(clean) == 0  # uninterrupted, in this process
+    _assert_same_data(out / "fanout-probe.nc", clean / "fanout-probe.nc")
+
+
+# ---------------------------------------------------------------- fingerprint, corrupt parts, lock
+def test_fingerprint_and_corrupt_parts(probe, tmp_path, monkeypatch):
+    log = tmp_path / "computed.log"
+    out = tmp_path / "out"
+    sets = ["--set", f"log={log}", "--workers", "1"]
+    monkeypatch.setenv("FANOUT_PROBE_FAIL_MU", "2.0")
+    with pytest.raises(RuntimeError, match="probe asked to fail"):
+        _run(out, *sets)
+    monkeypatch.delenv("FANOUT_PROBE_FAIL_MU")
+    plan = make_plan(probe, sets=[f"log={log}"])
+    store = PartStore(out, "fanout-probe", plan.fingerprint)
+    kept = sorted(int(p.stem.split("-")[1]) for p in store.dir.glob("chunk-*.npz"))
+    assert 2 <= len(kept) < N_PROBE and not (out / "fanout-probe.nc").exists()
+
+    # one changed value: a new fingerprint, a new parts folder, every chunk computed afresh
+    changed = make_plan(probe, sets=[f"log={log}", "v_throw=1,2.5"])
+    assert changed.fingerprint != plan.fingerprint
+    other = tmp_path / "other"
+    n0 = len(_log_lines(log))
+    assert _run(other, *sets, "--set", "v_throw=1,2.5") == 0
+    assert len(_log_lines(log)) - n0 == N_PROBE
+    assert store.dir.is_dir() and sorted(int(p.stem.split("-")[1]) for p in store.dir.glob("chunk-*.npz")) == kept
+    assert make_plan(probe, sets=[f"log={log}", "k_r=0.001"]).fingerprint != plan.fingerprint
+
+    # damage two kept parts: truncated, and a valid zip with a wrong checksum
+    truncated, tampered = store.path(kept[0]), store.path(kept[1])
+    truncated.write_bytes(truncated.read_bytes()[:100])
+    good = store.load(kept[1], plan.expected(kept[1]))
+    good["f"] = good["f"] + 1.0
+    np.savez(tampered, **good, __sha256__=np.array("0" * 64))
+    assert store.load(kept[1], plan.expected(kept[1])) is None
+    n0 = len(_log_lines(log))
+    assert _run(out, *sets) == 0
+    assert len(_log_lines(log)) - n0 == N_PROBE - len(kept) + 2
+    assert _parse_ids(_log_lines(log)[n0:]) >= _chunk_ids(plan, kept[:2])
+    assert _run(tmp_path / "clean", "--set", f"log={tmp_path / 'other.log'}") == 0
+    _assert_same_data(out / "fanout-probe.nc", tmp_path / "clean" / "fanout-probe.nc")
+
+
+def test_second_run_refuses_while_locked(probe, tmp_path, capsys):
+    plan = make_plan(probe)
+    store = PartStore(tmp_path, "fanout-probe", plan.fingerprint)
+    store.root.mkdir(parents=True)
+    with open(store.lock_path, "w") as held:
+        fcntl.flock(held, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        assert _run(tmp_path) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("study: error:") and "in progress" in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "fanout-probe.nc").exists()
+    assert _run(tmp_path) == 0  # lock released: runs
+
+
+def test_unreachable_scheduler_is_a_user_error(probe, tmp_path, capsys):
+    import dask
+
+    with dask.config.set({"distributed.comm.timeouts.connect": "1s"}):
+        assert _run(tmp_path, "--scheduler", "tcp://127.0.0.1:9") == 2
+    assert "cannot connect to the dask scheduler" in capsys.readouterr().err
+
+
+# ---------------------------------------------------------------- distributed, lazy reading
+def test_distributed_cluster_gives_identical_file(tmp_path):
+    from distributed import LocalCluster
+
+    quick = ["--quick", "--set", "v_throw=4,8", "--set", "j=0.5,0.6"]
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        assert _run(tmp_path / "dist", *quick, "--scheduler", cluster.scheduler_address,
+                    name="realisable-cube") == 0
+    assert _run(tmp_path / "local", *quick, "--workers", "2", name="realisable-cube") == 0
+    _assert_same_data(tmp_path / "dist" / "realisable-cube.nc", tmp_path / "local" / "realisable-cube.nc")
+
+
+def test_cube_opens_lazily_chunked_along_swept_axes(tmp_path):
+    assert _run(tmp_path, "--quick", name="realisable-cube") == 0
+    with xr.open_dataset(tmp_path / "realisable-cube.nc", chunks={}) as ds:
+        assert list(ds.region.dims) == ["mu", "v_throw", "j", "rho_over_R", "beta0", "omega30"]
+        assert ds.region.data.chunksize == (1, 1, 1, 1, 121, 80)
+        one = ds.region.sel(mu=1.0, v_throw=10.0, j=2 / 3, rho_over_R=ds.rho_over_R[-1])
+        assert one.data.npartitions == 1
+        area = float(ds.area_A.sel(mu=1.0, v_throw=10.0, j=2 / 3, rho_over_R=ds.rho_over_R[-1]))
+        cell = (2 * np.pi / 121) * (140.0 / 79)
+        assert area == pytest.approx(float((one == 1).sum()) * cell)
+        assert ds.area_A.attrs["units"] == "rad s-1"
+        assert (tmp_path / "realisable-cube.png").stat().st_size > 0
