@@ -234,3 +234,19 @@ def test_cube_opens_lazily_chunked_along_swept_axes(tmp_path):
         assert area == pytest.approx(float((one == 1).sum()) * cell)
         assert ds.area_A.attrs["units"] == "rad s-1"
         assert (tmp_path / "realisable-cube.png").stat().st_size > 0
+
+
+def test_outcome_cube_matches_direct_simulate(tmp_path):
+    import solver
+
+    sets = ["--quick", "--set", "mu=1", "--set", "k_r=0,0.02", "--set", "k_d=0", "--set", "omega2=105",
+            "--set", "n_beta=4", "--set", "n_omega1=5"]
+    assert _run(tmp_path, *sets, name="outcome-cube") == 0
+    with xr.open_dataset(tmp_path / "outcome-cube.nc") as ds:
+        assert list(ds.outcome.dims) == ["k_r", "beta", "omega1"]
+        assert ds.outcome.attrs["flag_meanings"].split()[:2] == ["fall_in", "fall_out"]
+        b, w = np.meshgrid(ds.beta.values, ds.omega1.values, indexing="ij")
+        states = np.stack([b, w, np.full_like(b, 105.0), np.full_like(b, 10.0)], axis=-1)
+        ref = solver.simulate(states, solver.Params(mu=1.0, k_r=0.02), t_max=20.0, rtol=1e-6, atol=1e-9, workers=1)
+        np.testing.assert_array_equal(ds.outcome.sel(k_r=0.02).values, ref["outcome"])
+        np.testing.assert_array_equal(ds.t_end.sel(k_r=0.02).values, ref["t_end"])

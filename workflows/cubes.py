@@ -87,8 +87,11 @@ def _realisable_plot(ds):
         ax.set_title(f"region {name}")
         ax.grid(alpha=0.3)
     fig.legend(handles=handles, loc="outside right upper", fontsize=9)
-    fig.suptitle(r"Realisable steady motions (Fig. 8) vs throw speed, standard ball "
-                 rf"(j={STANDARD.j:.3g}, $\rho/R$={STANDARD_RHO_OVER_R:.3g}; nearest in the cube)")
+    ball = _at_standard(ds["area_A"], ())
+    j = float(ball["j"]) if "j" in ball.coords else float(ds.attrs["param_j"])
+    x = float(ball["rho_over_R"]) if "rho_over_R" in ball.coords else ds.attrs["param_rho"] / ds.attrs["param_R"]
+    fig.suptitle(rf"Realisable steady motions (Fig. 8) vs throw speed at j={j:.3g}, $\rho/R$={x:.3g} "
+                 "(the cube's nearest to the standard ball)")
     return fig
 
 
@@ -113,4 +116,79 @@ register(Study(
                _area("A"), _area("B"), _area("C")],
     compute=_realisable_compute,
     plot=_realisable_plot,
+))
+
+
+# ================================================================ outcome-cube
+OUTCOME_NAMES = ("fall_in", "fall_out", "periodic_rolling", "on_rim_at_t_max")
+OUTCOME_COLOURS = ("tab:green", "tab:red", "tab:blue", "0.4")
+
+
+def _outcome_axes(s: dict) -> list[Axis]:
+    if s["n_beta"] < 2 or s["n_omega1"] < 2:
+        raise ValueError(f"n_beta and n_omega1 must be >= 2; got {s['n_beta']}, {s['n_omega1']}")
+    return [Axis("beta", np.linspace(0.8, 1.8, s["n_beta"]), "rad", "initial height angle on the rim"),
+            Axis("omega1", np.linspace(-20.0, 20.0, s["n_omega1"]), "s-1", "initial angular velocity omega1")]
+
+
+def _outcome_compute(coords, p, s):
+    beta, omega1 = coords
+    states = np.stack([beta, omega1, np.full_like(beta, s["omega2"]), np.full_like(beta, s["omega3"])], axis=-1)
+    res = solver.simulate(states, p, t_max=s["t_max"], rtol=s["rtol"], atol=s["atol"], workers=1)
+    return {name: res[name] for name in ("outcome", "t_end", "revolutions", "status")}
+
+
+def _outcome_plot(ds):
+    fig, _ = P.new_figure(12.5, 4.8)
+    fig.clear()
+    panels = fig.subplots(1, 2, sharey=True)
+    outcome = ds["outcome"]
+    for name in ("k_r", "k_d", "mu"):
+        outcome = _ensure_dim(outcome, ds, name)
+    grid = [d for d in outcome.dims if d not in ("mu", "k_r", "k_d")]  # omega2, beta, omega1, ...
+    handles = []
+    for ax, (along, other) in zip(panels, (("k_r", "k_d"), ("k_d", "k_r"))):
+        cut = outcome.isel({other: 0})
+        x = cut[along].values
+        for i, mu in enumerate(cut["mu"].values):
+            style = ("-", "--", ":", "-.")[i % 4]
+            for code, (label, colour) in enumerate(zip(OUTCOME_NAMES, OUTCOME_COLOURS)):
+                frac = (cut.isel(mu=i) == code).mean(grid).transpose(along).values
+                ax.plot(x, frac, style, color=colour, marker="o", ms=4, lw=1.5)
+                if along == "k_r" and i == 0:
+                    handles.append(Line2D([], [], color=colour, lw=1.5, label=label))
+            if along == "k_r":
+                handles.append(Line2D([], [], color="k", ls=style, label=rf"$\mu$={mu:g}"))
+        ax.set_xlabel({"k_r": r"rolling resistance $k_r$ [1/s]", "k_d": r"drilling resistance $k_d$ [1/s]"}[along]
+                      + f" ({other}={float(cut[other]):g})")
+        ax.grid(alpha=0.3)
+    panels[0].set_ylabel("fraction of initial states")
+    fig.legend(handles=handles, loc="outside right upper", fontsize=9)
+    fig.suptitle(r"Outcome fractions over the ($\beta$, $\omega_1$) section"
+                 + (r" and $\omega_2$" if "omega2" in grid else "") + ": dissipation (83) vs outcome")
+    return fig
+
+
+def _flag_var(name, long_name, values, meanings):
+    return Var(name, "1", long_name, dtype="int8", flag_values=tuple(values), flag_meanings=meanings)
+
+
+register(Study(
+    name="outcome-cube",
+    title="Outcomes of rolling initial states (Figs. 11-13, reduced grid) over mu x k_r x k_d x omega2",
+    settings={"mu": (0.5, 1.0, 2.0), "k_r": (0.0, 0.01, 0.02), "k_d": (0.0, 0.01, 0.02),
+              "omega2": (35.0, 65.0, 105.0), "omega3": 10.0, "n_beta": 36, "n_omega1": 60,
+              "t_max": 20.0, "rtol": 1e-6, "atol": 1e-9},
+    quick={"mu": (0.5, 1.0), "k_r": (0.0, 0.02), "k_d": (0.0, 0.02), "omega2": (65.0, 105.0),
+           "n_beta": 12, "n_omega1": 18},
+    sweepable=("mu", "k_r", "k_d", "omega2", "omega3", "j", "rho_over_R"),
+    axes=_outcome_axes,
+    variables=[_flag_var("outcome", "outcome of the rolling initial state (DESIGN 4)", outcomes.OUTCOME_FLAG_VALUES,
+                         outcomes.OUTCOME_FLAG_MEANINGS),
+               Var("t_end", "s", "time the ball leaves the rim, starts periodic rolling or reaches t_max"),
+               Var("revolutions", "1", "revolutions around the rim's axis until t_end (alpha / 2 pi)"),
+               _flag_var("status", "integration status of the trajectory", outcomes.STATUS_FLAG_VALUES,
+                         outcomes.STATUS_FLAG_MEANINGS)],
+    compute=_outcome_compute,
+    plot=_outcome_plot,
 ))
