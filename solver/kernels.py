@@ -41,7 +41,7 @@ from solver.stepper import (
     rk_step,
     step_factor,
 )
-from solver.switching import enter_slipping, leave_slipping, stop_slip_rate
+from solver.switching import enter_slipping, try_return
 from solver.system import (
     EV_FALL,
     EV_OMEGA1,
@@ -125,6 +125,7 @@ def _make_trajectory(hybrid, conservative):
         h = 0.0
         after_reject = False
         n_bad = 0
+        dt_return = -1.0
 
         while True:
             # ---------------- start of a phase ----------------
@@ -251,8 +252,9 @@ def _make_trajectory(hybrid, conservative):
                         done = True
                 elif phase == ROLLING:  # EV_SWITCH: the friction cone is left
                     switch = True
-                elif stop_slip_rate(y_ev, p, sw) < 0.0:  # EV_SWITCH: slip speed reached u_stop
-                    switch = True
+                else:  # EV_SWITCH: the slip speed reached u_stop
+                    dt_return = try_return(y_ev, p, sw, t_max - t_ev, y_hi)
+                    switch = dt_return >= 0.0
                 if done or switch:
                     for i in range(n):
                         y[i] = y_ev[i]
@@ -273,8 +275,9 @@ def _make_trajectory(hybrid, conservative):
                 for e in range(N_EVENTS):
                     g[e] = g_hi[e]
                 h = h_next
-                if phase == SLIPPING and stop_slip_rate(y, p, sw) < 0.0:
-                    switch = True
+                if phase == SLIPPING:
+                    dt_return = try_return(y, p, sw, t_max - t, y_hi)
+                    switch = dt_return >= 0.0
             if switch:
                 switches += 1
                 if switches > max_switches:
@@ -286,8 +289,10 @@ def _make_trajectory(hybrid, conservative):
                     n = N_SLIPPING
                     slip_phases += 1
                     t_slip0 = t
-                else:
-                    t += leave_slipping(y, p, stop_slip_rate(y, p, sw), t_max - t)
+                else:  # y_hi holds the rolling state of the return
+                    for i in range(N_ROLLING):
+                        y[i] = y_hi[i]
+                    t += dt_return
                     slip_time += t - t_slip0
                     phase = ROLLING
                     n = N_ROLLING

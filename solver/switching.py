@@ -10,11 +10,15 @@ phi2 = phi1 + pi. The return is taken (:func:`stop_slip_rate`) when
 * the slip speed is small, |u| <= u_stop, and the slip angle phi = atan2(u3, u1) lies within
   phi_tol of the nearer limit direction phi_i, and that direction attracts, u_dot*(x, phi_i)
   < 0 (79); or
-* (floor, a progress guarantee) |u| <= u_floor and some limit direction attracts.
+* (floor, a progress guarantee) |u| <= u_floor and some limit direction attracts;
 
-Then the remaining time u / (-u_dot*) is extrapolated: the state is advanced by one Euler step
-of the slipping equations over that time, u is set to 0 and rolling resumes
-(:func:`leave_slipping`). The check runs where |u| crosses u_stop downward (an event located on
+and, in both cases, the remaining time u / (-u_dot*) is at most dt_max. The state is then
+advanced by one Euler step of the slipping equations over that time, u is set to 0
+(:func:`leave_slipping`), and rolling resumes, unless the slip came back along phi1 and the
+rolling state is not strictly inside the friction cone (39): rolling would at once slip again
+along the same direction, so the return is refused and slipping goes on (no chattering on the
+cone's boundary). Returning along phi2 while phi1 repels is a slip reversal: rolling resumes
+and slips at once along phi1, as the algorithm of Sect. 5.2.2 prescribes. The check runs where |u| crosses u_stop downward (an event located on
 the dense output) and at the end of every slipping step with |u| < u_stop.
 
 The tolerances travel to the kernels as a float64 vector indexed by the ``SW_*`` constants, so a
@@ -25,9 +29,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from solver import slipping
+from solver import rolling, slipping
 from solver._compile import kernel
-from solver.params import P_R_BALL, P_R_RIM, P_RHO
+from solver.params import P_J, P_M, P_R_BALL, P_R_RIM, P_RHO
 
 DELTA = 1e-6
 """Initial slip speed when slipping starts [m/s] (delta of Sect. 5.2.2)."""
@@ -38,17 +42,21 @@ PHI_TOL = 1e-2
 U_FLOOR = 1e-7
 """Slip speed [m/s] at or below which the return is taken whatever the slip angle, if a limit
 direction attracts (delta / 10): no slipping phase can creep towards u = 0 forever."""
+DT_MAX = 1e-4
+"""Longest extrapolated time u / (-u_dot*) [s] of a return: a barely attracting direction is
+not trusted to carry the slip to 0 over a longer time."""
 
 SW_DELTA = 0
 SW_U_STOP = 1
 SW_PHI_TOL = 2
 SW_U_FLOOR = 3
-N_SW = 4
+SW_DT_MAX = 4
+N_SW = 5
 
 
 def default_tolerances(**changes) -> np.ndarray:
-    """The switching-tolerance vector, defaults overridden by keyword (delta, u_stop, phi_tol, u_floor)."""
-    values = {"delta": DELTA, "u_stop": U_STOP, "phi_tol": PHI_TOL, "u_floor": U_FLOOR}
+    """The switching-tolerance vector, defaults overridden by keyword (delta, u_stop, phi_tol, u_floor, dt_max)."""
+    values = {"delta": DELTA, "u_stop": U_STOP, "phi_tol": PHI_TOL, "u_floor": U_FLOOR, "dt_max": DT_MAX}
     for key, value in changes.items():
         if key not in values:
             raise ValueError(f"unknown switching tolerance `{key}`; allowed: {', '.join(values)}")
@@ -61,6 +69,7 @@ def default_tolerances(**changes) -> np.ndarray:
     out[SW_U_STOP] = values["u_stop"]
     out[SW_PHI_TOL] = values["phi_tol"]
     out[SW_U_FLOOR] = values["u_floor"]
+    out[SW_DT_MAX] = values["dt_max"]
     return out
 
 
@@ -81,31 +90,67 @@ def _wrap(angle):
 
 
 @kernel
+def _rate_phi1(y, p):
+    """u_dot*(x, phi1) = |B| - C (79) [m/s^2], computed as -(1+j)/(j m) times the friction margin (39).
+
+    The two are equal (paper Sect. 5.2.1: the repelling/attracting boundary of phi1 is the slip
+    condition); using the margin makes the return test and the slip test one and the same
+    function, so rounding (large when mu F2 and |F_t| nearly cancel, e.g. mu = 1e8 at
+    separation) cannot make them disagree and chatter.
+    """
+    margin = rolling.friction_margin(y[0], y[1], y[2], y[3], p)
+    return -(1.0 + p[P_J]) / (p[P_J] * p[P_M]) * margin
+
+
+@kernel
 def stop_slip_rate(y, p, sw):
     """u_dot* (79) [m/s^2] along the limit direction the slip returns by, or 0.0 if no return now.
 
-    A negative value means: return to rolling now (see the module docstring for the rule).
+    A negative value means: the slip reaches 0 within dt_max (see the module docstring).
+    Returns (rate, along_phi1).
     """
     u1 = y[4]
     u3 = y[5]
     u = np.hypot(u1, u3)
     if u > sw[SW_U_STOP]:
-        return 0.0
+        return 0.0, False
     phi = np.arctan2(u3, u1)
     phi1 = slipping.limit_direction(y[0], y[1], y[2], y[3], p)
     d1 = abs(_wrap(phi - phi1))
     d2 = abs(_wrap(phi - phi1 - np.pi))
-    near = phi1 if d1 <= d2 else phi1 + np.pi
-    rate = slipping.radial_slip_rate(y[0], y[1], y[2], y[3], near, p)
-    if min(d1, d2) <= sw[SW_PHI_TOL] and rate < 0.0:
-        return rate
+    along1 = d1 <= d2
+    rate1 = _rate_phi1(y, p)
+    rate2 = slipping.radial_slip_rate(y[0], y[1], y[2], y[3], phi1 + np.pi, p)
+    rate = rate1 if along1 else rate2
+    fast = -rate * sw[SW_DT_MAX] >= u
+    if min(d1, d2) <= sw[SW_PHI_TOL] and rate < 0.0 and fast:
+        return rate, along1
     if u <= sw[SW_U_FLOOR]:
-        far = phi1 + np.pi if d1 <= d2 else phi1
-        rate_far = slipping.radial_slip_rate(y[0], y[1], y[2], y[3], far, p)
-        best = min(rate, rate_far)
-        if best < 0.0:
-            return best
-    return 0.0
+        rate_far = rate2 if along1 else rate1
+        if rate_far < rate:
+            rate = rate_far
+            along1 = not along1
+        if rate < 0.0 and -rate * sw[SW_DT_MAX] >= u:
+            return rate, along1
+    return 0.0, False
+
+
+@kernel
+def try_return(y, p, sw, t_left, out):
+    """The slipping -> rolling map, if the return rule allows it now.
+
+    On success writes the rolling state (beta, w1, w2, w3, alpha) into ``out`` and returns the
+    time advanced (>= 0) [s]; returns -1.0 when slipping goes on.
+    """
+    rate, along1 = stop_slip_rate(y, p, sw)
+    if not rate < 0.0:
+        return -1.0
+    for i in range(7):
+        out[i] = y[i]
+    dt = leave_slipping(out, p, rate, t_left)
+    if along1 and not rolling.friction_margin(out[0], out[1], out[2], out[3], p) > 0.0:
+        return -1.0
+    return dt
 
 
 @kernel
