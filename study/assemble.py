@@ -20,12 +20,15 @@ from study.plan import Plan
 
 
 def assemble(plan: Plan, store: PartStore, path, attrs: dict) -> None:
-    """Write ``path`` from the parts of every chunk of ``plan`` (all must be present)."""
+    """Write ``path`` from the parts of every chunk of ``plan`` (all must be present).
+
+    The temporary file lives in the parts folder, so one left by a kill is cleaned with it."""
     skeleton = xr.Dataset(coords=coords_of(plan.axes), attrs=attrs)
     encoding = {name: dict(io.COMPRESSION, _FillValue=None) for name in skeleton.coords}
     dims = tuple(a.name for a in plan.axes)
     outer_dims = dims[: len(plan.outer)]
-    with io.atomic_path(path) as tmp:
+    store.dir.mkdir(parents=True, exist_ok=True)
+    with io.atomic_path(path, tmp_dir=store.dir) as tmp:  # a SIGKILL leaves it with the parts
         skeleton.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=encoding)
         with netCDF4.Dataset(tmp, "a") as nc:
             variables = {}

@@ -20,11 +20,12 @@ COMPRESSION = {"zlib": True, "complevel": 4}
 
 
 @contextlib.contextmanager
-def atomic_path(path: pathlib.Path):
-    """Yield a temporary path next to ``path``; on success move it onto ``path``, else delete it."""
+def atomic_path(path: pathlib.Path, tmp_dir=None):
+    """Yield a temporary path next to ``path`` (or in ``tmp_dir``, same file system); on success
+    move it onto ``path``, else delete it."""
     path = pathlib.Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=tmp_dir or path.parent)
     os.close(fd)
     try:
         yield pathlib.Path(tmp)

@@ -109,7 +109,7 @@ class PartStore:
         """
         if not self.dir.is_dir():
             return set()
-        for tmp in self.dir.glob(".chunk-*.tmp"):
+        for tmp in self.dir.glob(".*.tmp"):  # parts or an assembly cut short
             with contextlib.suppress(OSError):
                 tmp.unlink()
         ok = set()
