@@ -12,7 +12,7 @@ from solver import floquet, solution_types as st, steady, trajectory
 from study.cli import main
 
 P_ROLL = solver.Params(mu=float("inf"))
-STUDIES = ("fig9", "solution_types", "invariants")
+STUDIES = ("fig9", "solution-types", "invariants")
 
 
 @pytest.fixture(scope="module")
@@ -143,12 +143,12 @@ def test_near_stable_steady_motion_is_periodic():
 def test_dissipative_parameters_are_refused(tmp_path):
     with pytest.raises(ValueError, match="k_r"):
         st.solution_type(np.zeros(4), solver.Params(k_r=0.02))
-    assert main(["run", "solution_types", "--quick", "--out", str(tmp_path), "--set", "k_r=0.02"]) == 2
+    assert main(["run", "solution-types", "--quick", "--out", str(tmp_path), "--set", "k_r=0.02"]) == 2
 
 
 # ----------------------------------------------------------------------------- studies
 def test_solution_types_quick_run(results):
-    with _open(results, "solution_types") as ds:
+    with _open(results, "solution-types") as ds:
         assert ds.sizes == {"sample": 40}
         types = ds["type"].values
         counts = np.bincount(types, minlength=len(st.TYPE_FLAG_VALUES))

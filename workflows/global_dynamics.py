@@ -195,7 +195,7 @@ def _types_plot(ds):
 
 
 register(Study(
-    name="solution_types",
+    name="solution-types",
     title="Types of the solutions of the conservative rolling equations (Theorem 1, Table 2) over sampled states",
     settings={"n_samples": 400, "seed": 0, "subset": "box", "omega1_max": 20.0, "omega2_max": 70.0,
               "omega3_max": 70.0, "t_max": 20.0, "rtol": 1e-10, "atol": 1e-12},

@@ -1,0 +1,197 @@
+"""Work-precision of the outcome engine against scipy (DESIGN §7).
+
+One seeded sample of initial states from the three outcome sections (omega2 = 35, 65,
+105 1/s; omega3 = 10 1/s; beta in [0.8, 1.8] rad; omega1 in [-20, 20] 1/s) is run in every
+scene by each method at each tolerance, in the same process at the same moment: rimroll's
+compiled DP5 and DOP853 and scipy's ``solve_ivp`` RK45, DOP853 and LSODA (same right-hand
+side, same event rules: ``solver.reference``). The reference is rimroll's DOP853 at
+rtol = 1e-12. Recorded per (scene, method, rtol): seconds per trajectory (one thread),
+misclassified fraction, |t_end| error (median, max), median energy drift.
+
+Timings exclude compilation (each kernel is warmed up first). scipy runs use the first
+``n_scipy`` states of the sample (scipy is slow); its figures are per trajectory, so the two
+sample sizes compare. The scipy baseline covers the scenes ``solver.reference`` supports;
+elsewhere its entries are NaN.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from matplotlib.figure import Figure
+
+import solver
+from solver import reference
+from study.dataset import setting_of
+from study.registry import Axis, Study, Var, register
+from workflows.outcome_grids import SCENE_NAMES, scene_table
+
+METHODS = ("rimroll_dp5", "rimroll_dop853", "scipy_RK45", "scipy_DOP853", "scipy_LSODA")
+OURS = {"rimroll_dp5": "dp5", "rimroll_dop853": "dop853"}
+SCIPY = {"scipy_RK45": "RK45", "scipy_DOP853": "DOP853", "scipy_LSODA": "LSODA"}
+REFERENCE_RTOL = 1e-12
+ATOL_OVER_RTOL = 1e-2  # atol = 1e-2 * rtol for every method (state scales ~1 rad, ~10 1/s)
+
+SETTINGS = {
+    "n_states": 240, "n_scipy": 12, "seed": 20261122,
+    "rtol_max": 1e-4, "rtol_min": 1e-12, "n_rtol": 9,
+    "omega3": 10.0, "mu_slip": 1.0, "k_dissipation": 0.02,
+    "t_max": 10.0, "t_max_dissipative": 30.0,
+}
+QUICK = {"n_states": 40, "n_scipy": 3, "n_rtol": 3, "rtol_min": 1e-8, "t_max": 5.0, "t_max_dissipative": 10.0}
+
+VARIABLES = [
+    Var("seconds_per_trajectory", "s", "wall time per trajectory on one thread, compile time excluded"),
+    Var("misclassified_fraction", "1", "fraction of states whose outcome differs from the reference"),
+    Var("t_end_error_median", "s", "median |t_end - t_end_reference| over states with the reference outcome"),
+    Var("t_end_error_max", "s", "largest |t_end - t_end_reference| over states with the reference outcome"),
+    Var("energy_drift_median", "1", "median relative energy change over the run (conservative scenes: drift)"),
+    Var("n_trajectories", "1", "number of states run", dtype="int32"),
+    Var("seconds_per_trajectory_common", "s",
+        "wall time per trajectory on the states scipy also runs (the first n_scipy), one thread"),
+]
+
+
+def sample_states(s: dict) -> np.ndarray:
+    """The seeded sample (n_states, 4) of initial states from the three outcome sections."""
+    rng = np.random.default_rng(int(s["seed"]))
+    n = int(s["n_states"])
+    return np.column_stack([rng.uniform(0.8, 1.8, n), rng.uniform(-20.0, 20.0, n),
+                            rng.choice([35.0, 65.0, 105.0], n), np.full(n, float(s["omega3"]))])
+
+
+def _axes(s: dict) -> list[Axis]:
+    table = scene_table(s)
+    rtols = np.geomspace(float(s["rtol_max"]), float(s["rtol_min"]), int(s["n_rtol"]))
+    return [
+        Axis("scene", np.arange(4), "1", "physical scene: " + "; ".join(f"{i} {n}" for i, n in enumerate(SCENE_NAMES)),
+             aux={"mu": (table["mu"], "1", "Coulomb friction coefficient of the scene (inf: rolling only)"),
+                  "k_r": (table["k_r"], "s-1", "rolling-resistance rate of the scene"),
+                  "k_d": (table["k_d"], "s-1", "drilling-resistance rate of the scene"),
+                  "t_max": (table["t_max"], "s", "end of the run for states still on the rim")}),
+        Axis("method", np.arange(len(METHODS)), "1", "integration method: " + "; ".join(
+            f"{i} {m}" for i, m in enumerate(METHODS)), aux={"method_name": (np.array(METHODS), "1", "method name")}),
+        Axis("rtol", rtols, "1", "relative tolerance of the run (atol = 1e-2 rtol)"),
+    ]
+
+
+def _scene_params(p: solver.Params, s: dict, k: int) -> tuple[solver.Params, float]:
+    table = scene_table(s)
+    return p.replace(mu=table["mu"][k], k_r=table["k_r"][k], k_d=table["k_d"][k]), float(table["t_max"][k])
+
+
+def _ours(states, params, t_max, rtol, method, min_seconds=0.05):
+    """Results and seconds per trajectory (best of repeats lasting >= min_seconds in all; warm)."""
+    kwargs = dict(t_max=t_max, rtol=rtol, atol=rtol * ATOL_OVER_RTOL, method=method, workers=1)
+    solver.simulate(states[:1], params, **kwargs)  # compiled or loaded from cache: not timed
+    best, spent = np.inf, 0.0
+    while spent < min_seconds or best == np.inf:
+        start = time.perf_counter()
+        res = solver.simulate(states, params, **kwargs)
+        elapsed = time.perf_counter() - start
+        best, spent = min(best, elapsed), spent + elapsed
+    return res, best / len(states)
+
+
+def _scipy(states, params, t_max, rtol, method):
+    start = time.perf_counter()
+    res = reference.reference(states, params, t_max=t_max, rtol=rtol, atol=rtol * ATOL_OVER_RTOL, method=method)
+    return res, (time.perf_counter() - start) / len(states)
+
+
+def _scores(res, ref, seconds):
+    same = res["outcome"] == ref["outcome"]
+    err = np.abs(res["t_end"] - ref["t_end"])[same]
+    drift = res.get("energy_drift")
+    return {
+        "seconds_per_trajectory": seconds,
+        "misclassified_fraction": 1.0 - same.mean(),
+        "t_end_error_median": float(np.median(err)) if err.size else np.nan,
+        "t_end_error_max": float(err.max()) if err.size else np.nan,
+        "energy_drift_median": float(np.median(drift)) if drift is not None else np.nan,
+        "n_trajectories": len(same),
+    }
+
+
+def _compute(coords, p: solver.Params, s: dict) -> dict:
+    scene, method, rtol = coords
+    shape = scene.shape
+    out = {v.name: np.full(shape, np.nan) for v in VARIABLES}
+    out["n_trajectories"] = np.zeros(shape, dtype=np.int32)
+    states = sample_states(s)
+    n_scipy = min(int(s["n_scipy"]), len(states))
+    for k in np.unique(scene).astype(int):
+        params, t_max = _scene_params(p, s, k)
+        ref, _ = _ours(states, params, t_max, REFERENCE_RTOL, "dop853")
+        for i in np.unique(method).astype(int):
+            name = METHODS[i]
+            for r in np.unique(rtol):
+                where = (scene == k) & (method == i) & (rtol == r)
+                if name in OURS:
+                    res, sec = _ours(states, params, t_max, float(r), OURS[name])
+                    scores = _scores(res, ref, sec)
+                    if n_scipy:
+                        scores["seconds_per_trajectory_common"] = _ours(states[:n_scipy], params, t_max, float(r),
+                                                                        OURS[name])[1]
+                elif params.rolling_only and n_scipy:
+                    res, sec = _scipy(states[:n_scipy], params, t_max, float(r), SCIPY[name])
+                    scores = _scores(res, {key: v[:n_scipy] for key, v in ref.items()}, sec)
+                    scores["seconds_per_trajectory_common"] = sec
+                else:
+                    continue
+                for key, value in scores.items():
+                    out[key][where] = value
+    return out
+
+
+def _plot(ds) -> Figure:
+    fig = Figure(figsize=(11.0, 8.5), layout="constrained")
+    axes = fig.subplots(2, 2, sharex=True, sharey=True)
+    styles = {"rimroll_dp5": ("C0", "o-"), "rimroll_dop853": ("C1", "s-"), "scipy_RK45": ("C2", "^--"),
+              "scipy_DOP853": ("C3", "v--"), "scipy_LSODA": ("C4", "d--")}
+    for k, ax in enumerate(axes.flat):
+        for i, name in enumerate(ds["method_name"].values):
+            sel = ds.isel(scene=k, method=i)
+            x = sel["seconds_per_trajectory"].values
+            y = sel["t_end_error_median"].values
+            ok = np.isfinite(x) & np.isfinite(y) & (y > 0)
+            if ok.any():
+                colour, style = styles[str(name)]
+                ax.loglog(x[ok], y[ok], style, color=colour, label=str(name), ms=4)
+        ax.set_title(SCENE_NAMES[k], fontsize=10)
+        ax.grid(True, which="both", alpha=0.3)
+    for ax in axes[1]:
+        ax.set_xlabel("seconds per trajectory (one thread)")
+    for ax in axes[:, 0]:
+        ax.set_ylabel(r"median $|t_{end} - t_{end}^{ref}|$ [s]")
+    handles, labels = axes.flat[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncol=5, fontsize=9, frameon=False)
+    ratio = speed_ratio(ds)
+    extra = f"; rimroll dp5 vs scipy RK45 at rtol 1e-8 (rolling only): {ratio:.0f}x faster" if np.isfinite(ratio) else ""
+    fig.suptitle(f"Work-precision: error against cost, reference rimroll DOP853 at rtol {REFERENCE_RTOL:g}{extra}\n"
+                 f"{int(setting_of(ds, 'n_states'))} states (scipy: {int(setting_of(ds, 'n_scipy'))}), "
+                 "labels: one point per rtol", fontsize=10)
+    return fig
+
+
+def speed_ratio(ds, scene: int = 0, rtol: float = 1e-8) -> float:
+    """scipy RK45 seconds per trajectory over rimroll DP5's on the same states, at the rtol nearest ``rtol``."""
+    sel = ds.isel(scene=scene).sel(rtol=rtol, method="nearest")
+    names = list(ds["method_name"].values)
+    ours = float(sel["seconds_per_trajectory_common"].isel(method=names.index("rimroll_dp5")))
+    theirs = float(sel["seconds_per_trajectory_common"].isel(method=names.index("scipy_RK45")))
+    return theirs / ours
+
+
+register(Study(
+    name="work-precision",
+    title="Work-precision of the outcome engine against scipy solve_ivp",
+    settings=SETTINGS,
+    quick=QUICK,
+    axes=_axes,
+    variables=VARIABLES,
+    compute=_compute,
+    plot=_plot,
+    chunks={"scene": 4, "method": len(METHODS)},
+))
