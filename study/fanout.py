@@ -58,7 +58,8 @@ def client(workers: int | None = None, scheduler: str | None = None):
             yield c
         return
     threads = workers or os.cpu_count() or 1
-    with LocalCluster(n_workers=1, threads_per_worker=threads, processes=False, dashboard_address=None,
+    # dashboard on a free port: the default 8787 may be taken (a warning per run otherwise)
+    with LocalCluster(n_workers=1, threads_per_worker=threads, processes=False, dashboard_address=":0",
                       memory_limit=0) as cluster, Client(cluster) as c:
         yield c
 
