@@ -15,6 +15,7 @@ import xarray as xr
 
 from study import io
 from study.dataset import coords_of
+from study.derived import derived_variables
 from study.parts import PartStore
 from study.plan import Plan
 
@@ -51,3 +52,20 @@ def assemble(plan: Plan, store: PartStore, path, attrs: dict) -> None:
                 region = plan.region(k)
                 for name, (var, outer) in variables.items():
                     var[region[: len(plan.outer)] if outer else region] = arrays[name]
+        if plan.study.derive is not None:
+            _add_derived(plan, tmp)
+
+
+def _add_derived(plan: Plan, tmp) -> None:
+    """Append the study's derived variables (``Study.derive`` on the whole grid) to ``tmp``."""
+    with xr.open_dataset(tmp, engine="netcdf4") as ds:  # lazy: derive reads what it needs
+        extra = derived_variables(plan.study, ds)
+    dims_all = tuple(a.name for a in plan.axes)
+    with netCDF4.Dataset(tmp, "a") as nc:
+        for name, (dims, values, attrs) in extra.items():
+            chunks = plan.nc_chunks if dims == dims_all else None
+            var = nc.createVariable(name, values.dtype, dims, chunksizes=chunks, zlib=bool(dims),
+                                    complevel=io.COMPRESSION["complevel"])
+            var.set_auto_maskandscale(False)
+            var.setncatts(attrs)
+            var[...] = values

@@ -88,9 +88,12 @@ def global_attrs(study: Study, params: solver.Params, settings: dict, command: s
 def build_dataset(study: Study, axes: list[Axis], arrays: dict, params: solver.Params,
                   settings: dict, command: str) -> xr.Dataset:
     """The Dataset of one run: coordinates from ``axes``, variables from ``arrays``."""
+    from study.derived import with_derived
+
     dims = [a.name for a in axes]
     data = {v.name: (dims, arrays[v.name], v.attrs) for v in study.variables}
-    return xr.Dataset(data, coords=coords_of(axes), attrs=global_attrs(study, params, settings, command))
+    ds = xr.Dataset(data, coords=coords_of(axes), attrs=global_attrs(study, params, settings, command))
+    return with_derived(study, ds)
 
 
 def params_of(ds: xr.Dataset) -> solver.Params:

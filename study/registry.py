@@ -108,6 +108,9 @@ class Study:
     ``sweepable``: settings (of :data:`SWEEP_KEYS`) that ``--set KEY=a,b,c`` or
     ``KEY=start:stop:num`` turns into outer axes; a tuple default in ``settings`` sweeps by default.
     A variable with ``outer=True`` has the swept axes only, so the study's grid is one chunk.
+    ``derive(dataset) -> {name: (dims, values, attrs)}``: variables computed once from the whole
+    assembled grid (neighbours across chunks), added to the file before it is moved into place
+    (``study.derived``).
     """
 
     name: str
@@ -120,6 +123,7 @@ class Study:
     quick: dict = dataclasses.field(default_factory=dict)
     chunks: dict = dataclasses.field(default_factory=dict)
     sweepable: tuple = ()
+    derive: Callable | None = None
 
     def __post_init__(self):
         if not _STUDY_NAME.match(self.name):

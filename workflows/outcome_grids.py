@@ -10,7 +10,10 @@ scenes, stored along a ``scene`` dimension whose auxiliary coordinates ``mu``, `
 3. slipping + rolling resistance (mu = 1, k_r = 0.02 1/s)
 
 The physical settings (r, R, a, m, j, g) apply to every scene; the scene's mu, k_r, k_d
-override the run's. Every result field of ``solver.simulate`` is stored.
+override the run's. Every result field of ``solver.simulate`` is stored, plus
+``boundary_type`` (derived once from the whole grid, ``solver.boundaries``): which cells lie on
+a boundary of periodic rolling and of which kind (deadlock, separatrix, slipping-induced; paper
+Sect. 5.1, 5.2.3). Slipping scenes are compared with the rolling-only scene of the same file.
 """
 
 from __future__ import annotations
@@ -23,7 +26,7 @@ from matplotlib.patches import Patch
 from scipy.optimize import brentq
 
 import solver
-from solver import outcomes, steady
+from solver import boundaries, outcomes, steady
 from study.dataset import params_of, setting_of
 from study.registry import Axis, Study, Var, register
 
@@ -102,6 +105,53 @@ def _compute(coords, p: solver.Params, s: dict) -> dict:
                            method=s["method"], workers=1)
 
 
+BOUNDARY_ATTRS = {
+    "units": "1",
+    "long_name": "type of the boundary of periodic rolling at this initial state (paper Sect. 5.1)",
+    "flag_values": np.array(boundaries.BOUNDARY_FLAG_VALUES, dtype="int8"),
+    "flag_meanings": boundaries.BOUNDARY_FLAG_MEANINGS,
+    "comment": "solver.boundaries.classify on each scene's (beta, omega1) grid with its default thresholds "
+               + ", ".join(f"{k}={v:g}" for k, v in boundaries.DEFAULTS.items())
+               + "; slipping scenes are compared with the rolling-only scene (slipping_induced)",
+}
+
+
+def _derive(ds) -> dict:
+    """``boundary_type`` of every scene, from the whole (beta, omega1) grid of each."""
+    p = params_of(ds)
+    dims = ("scene", "beta", "omega1")
+    get = lambda name: ds[name].transpose(*dims).values
+    outcome, f2, hp, t_end = get("outcome"), get("f2_min"), get("half_period"), get("t_end")
+    mu = ds["mu"].values
+    conservative = (ds["k_r"].values == 0) & (ds["k_d"].values == 0)
+    rolling = [k for k in range(mu.size) if np.isinf(mu[k]) and conservative[k]]
+    labels = np.empty(outcome.shape, dtype=np.int8)
+    for k in range(mu.size):
+        ref = outcome[rolling[0]] if rolling and np.isfinite(mu[k]) else None
+        labels[k] = boundaries.classify(outcome[k], f2[k], hp[k], t_end[k], p.m * p.g, rolling_outcome=ref)
+    return {"boundary_type": (dims, labels, BOUNDARY_ATTRS)}
+
+
+BOUNDARY_MARKERS = {  # how the plot draws each boundary type
+    boundaries.DEADLOCK: dict(marker=".", ls="", ms=3.5, color="k", label="deadlock boundary (F2_min -> 0)"),
+    boundaries.SEPARATRIX: dict(marker="x", ls="", ms=3.5, mew=0.9, color="white",
+                                label="separatrix boundary (half period -> inf)"),
+    boundaries.SLIPPING_INDUCED: dict(marker="+", ls="", ms=4.0, mew=0.9, color="#7a0177",
+                                      label="slipping-induced boundary"),
+}
+
+
+def _draw_boundaries(ax, sel, w1, beta) -> None:
+    if "boundary_type" not in sel:
+        return
+    lab = sel["boundary_type"].transpose("beta", "omega1").values
+    W, B = np.meshgrid(w1, beta)
+    for code, style in BOUNDARY_MARKERS.items():
+        m = lab == code
+        if m.any():
+            ax.plot(W[m], B[m], zorder=4, **{k: v for k, v in style.items() if k != "label"})
+
+
 def steady_beta0(omega2: float, omega3: float, p: solver.Params, lo: float, hi: float) -> float | None:
     """beta0 in [lo, hi] [rad] of the steady motion (48) with these omega20, omega30; None if none."""
     f = lambda b: steady.omega20(b, omega3, p) - omega2
@@ -126,6 +176,7 @@ def _plot(ds):
         sel = ds.isel(scene=k)
         out = sel["outcome"].transpose("beta", "omega1").values
         ax.pcolormesh(w1, beta, out, cmap=cmap, norm=norm, shading="nearest", rasterized=True)
+        _draw_boundaries(ax, sel, w1, beta)
         mu, k_r, k_d = (float(sel[c]) for c in ("mu", "k_r", "k_d"))
         if k_r == 0 and k_d == 0:
             conservative_periodic = out == outcomes.PERIODIC_ROLLING
@@ -149,7 +200,13 @@ def _plot(ds):
     handles = [Patch(color=c, label=lbl) for c, lbl in zip(OUTCOME_COLOURS, (
         "falls in (score)", "falls out", "periodic rolling", "on the rim at t_max"))]
     handles.append(Line2D([], [], marker="*", ls="", ms=12, mfc="yellow", mec="k", label="steady motion (48)"))
-    fig.legend(handles=handles, loc="outside lower center", ncol=5, fontsize=9, frameon=False)
+    if "boundary_type" in ds:
+        for style in BOUNDARY_MARKERS.values():
+            st = dict(style, ms=7)
+            if st["color"] == "white":
+                st["mec"] = st["color"] = "0.4"  # white crosses are invisible on the legend's background
+            handles.append(Line2D([], [], **st))
+    fig.legend(handles=handles, loc="outside lower center", ncol=4, fontsize=9, frameon=False)
     fig.suptitle(rf"{ds.attrs['title']}: $\omega_2={omega2:g}$ 1/s, $\omega_3={omega3:g}$ 1/s"
                  "\nlines in dissipative panels: time on the rim; dotted: former periodic region", fontsize=11)
     return fig
@@ -166,4 +223,5 @@ for _name, _omega2, _fig in (("fig11", 35.0, 11), ("fig12", 65.0, 12), ("fig13",
         compute=_compute,
         plot=_plot,
         chunks={"scene": 1, "beta": 24},
+        derive=_derive,
     ))

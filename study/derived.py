@@ -1,0 +1,45 @@
+"""Derived variables: what a study computes once from the whole assembled grid (``Study.derive``).
+
+Chunks are computed independently; some results need neighbours across chunks (e.g. the
+boundary types of an outcome section, ``solver.boundaries``). A study declares
+``derive(ds) -> {name: (dims, values, attrs)}``; it is called once on the assembled Dataset
+(variables read lazily from the file) before the final file is moved into place, and its
+variables are added to that file. Deterministic and pure, like ``compute``: re-running the
+assembly (resume) gives the same file.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import xarray as xr
+
+from study.registry import Study
+
+
+def derived_variables(study: Study, ds: xr.Dataset) -> dict[str, tuple[tuple, np.ndarray, dict]]:
+    """The study's derived variables for ``ds``, checked: ``{name: (dims, values, attrs)}``.
+
+    Each must use dimensions of ``ds`` (values shaped accordingly), carry ``units`` and
+    ``long_name``, and not reuse the name of a variable or coordinate of ``ds``.
+    """
+    if study.derive is None:
+        return {}
+    out = {}
+    for name, (dims, values, attrs) in study.derive(ds).items():
+        dims = tuple(dims)
+        values = np.asarray(values)
+        if name in ds.variables:
+            raise ValueError(f"study {study.name!r}: derived variable {name!r} already exists in the dataset")
+        if any(d not in ds.sizes for d in dims) or values.shape != tuple(ds.sizes[d] for d in dims):
+            raise ValueError(f"study {study.name!r}: derived variable {name!r} has dims {dims} and shape "
+                             f"{values.shape}, not matching the dataset's sizes {dict(ds.sizes)}")
+        if not attrs.get("units") or not attrs.get("long_name"):
+            raise ValueError(f"study {study.name!r}: derived variable {name!r} needs units and long_name")
+        out[name] = (dims, values, dict(attrs))
+    return out
+
+
+def with_derived(study: Study, ds: xr.Dataset) -> xr.Dataset:
+    """``ds`` plus the study's derived variables (in-memory path, e.g. ``build_dataset``)."""
+    extra = derived_variables(study, ds)
+    return ds.assign({name: xr.Variable(dims, values, attrs) for name, (dims, values, attrs) in extra.items()})
