@@ -52,6 +52,13 @@ def _parser() -> argparse.ArgumentParser:
     plot.add_argument("--out", default="results", help="directory holding NAME.nc (default: results)")
     info = sub.add_parser("info", help="dimensions, variables and provenance of a results file")
     info.add_argument("file")
+    ref = sub.add_parser("reference", help="stored reference slices (tests/reference): build them")
+    ref.add_argument("--build", action="store_true", required=True,
+                     help="compute the slices (outcome sections at rtol 1e-12, DOP853) and write them")
+    ref.add_argument("--out", default=None, help="directory to write (default: the checkout's tests/reference)")
+    ref.add_argument("--only", action="append", default=[], metavar="STUDY", help="build only this study's slice")
+    ref.add_argument("--workers", type=int, default=None, help="local threads (default: one per core)")
+    ref.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None)
     return p
 
 
@@ -146,6 +153,17 @@ def _cmd_info(args) -> int:
     return 0
 
 
+def _cmd_reference(args, command: str) -> int:
+    from study import reference
+
+    if args.workers is not None and args.workers < 1:
+        raise UserError(f"--workers must be >= 1; got {args.workers}")
+    progress = sys.stderr.isatty() if args.progress is None else args.progress
+    for path in reference.build(args.out, args.only or None, args.workers, command, progress):
+        print(f"wrote {path} ({path.stat().st_size / 1024:.0f} KiB)")
+    return 0
+
+
 def main(argv=None) -> int:
     """Entry point of ``study`` / ``python -m study``; returns the exit status."""
     words = sys.argv[1:] if argv is None else list(argv)
@@ -158,6 +176,8 @@ def main(argv=None) -> int:
             return _cmd_run(args, command)
         if args.command == "plot":
             return _cmd_plot(args)
+        if args.command == "reference":
+            return _cmd_reference(args, command)
         return _cmd_info(args)
     except UserError as exc:
         message = " ".join(str(exc).split())

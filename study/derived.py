@@ -20,7 +20,9 @@ def derived_variables(study: Study, ds: xr.Dataset) -> dict[str, tuple[tuple, np
     """The study's derived variables for ``ds``, checked: ``{name: (dims, values, attrs)}``.
 
     Each must use dimensions of ``ds`` (values shaped accordingly), carry ``units`` and
-    ``long_name``, and not reuse the name of a variable or coordinate of ``ds``.
+    ``long_name``, and not reuse the name of a variable or coordinate of ``ds``. The attribute
+    ``rimroll_derived = 1`` is added (``study.compare`` does not use derived categorical
+    variables to decide which points lie away from boundaries).
     """
     if study.derive is None:
         return {}
@@ -35,7 +37,7 @@ def derived_variables(study: Study, ds: xr.Dataset) -> dict[str, tuple[tuple, np
                              f"{values.shape}, not matching the dataset's sizes {dict(ds.sizes)}")
         if not attrs.get("units") or not attrs.get("long_name"):
             raise ValueError(f"study {study.name!r}: derived variable {name!r} needs units and long_name")
-        out[name] = (dims, values, dict(attrs))
+        out[name] = (dims, values, {**attrs, "rimroll_derived": 1})
     return out
 
 

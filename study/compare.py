@@ -1,0 +1,208 @@
+"""Compare a result with a stored reference slice on their common coordinates.
+
+Common points: for every dimension of the reference, the file's coordinate values that match a
+reference value to within ``COORD_RTOL`` of the axis' span (nearest match); auxiliary
+coordinates along a dimension (a scene's mu, k_r, k_d, t_max) must match too. Settings that
+change the physics (``param_*`` and the non-numerical ``setting_*`` such as omega2, t_max) must
+be equal, else there are no common points. Categorical variables (``flag_values``) are compared
+for identity, at all common points and at those *away from boundaries* (all 4-neighbours of the
+point in the reference carry the same value, in every computed categorical variable of the
+reference; derived ones such as ``boundary_type`` mark boundaries themselves);
+continuous variables as a scaled error ``|x - x_ref| / (atol + rtol |x_ref|)`` at the points
+away from boundaries where every categorical variable agrees (elsewhere they describe different
+motions), with NaN == NaN and inf == inf of the same sign counted as equal.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import xarray as xr
+
+COORD_RTOL = 1e-6
+# settings that only set grid size or precision: they may differ between a file and the reference
+NUMERICAL_SETTINGS = ("rtol", "atol", "method", "max_steps")
+NOT_COMPARED = ("n_steps",)  # integrator work, differs by design between precisions
+
+# Default tolerances (atol, rtol) of continuous variables for `study verify` and the regression
+# tests, for results at the studies' default precision against references at rtol 1e-12:
+DEFAULT_TOLERANCE = (1e-9, 1e-9)
+TOLERANCES = {
+    # outcome sections: dp5 at rtol 1e-8 vs dop853 at 1e-12 on runs of up to 60 s, events located
+    # on dense output; slip/roll switching with tolerances of 1e-6..1e-9 m/s (solver.switching)
+    "t_end": (1e-3, 1e-3),
+    "f2_min": (1e-3, 1e-3),
+    "half_period": (1e-4, 1e-4),
+    "revolutions": (1e-3, 1e-3),
+    "slip_time": (1e-3, 1e-2),
+    "energy_drift": (1e-5, 1e-2),
+    "beta_end": (1e-3, 1e-3),
+    "omega1_end": (1e-2, 1e-3),
+    "omega2_end": (1e-2, 1e-3),
+    "omega3_end": (1e-2, 1e-3),
+    # fig9: tr M from the same fixed-step integration; the moduli of the multipliers follow it
+    "trace_M": (1e-9, 1e-9),
+}
+MIN_AGREEMENT_AWAY = 1.0  # categorical: fraction identical away from boundaries needed to pass
+
+
+@dataclasses.dataclass
+class VarReport:
+    name: str
+    kind: str  # "categorical" or "continuous"
+    n_compared: int
+    identical: float = math.nan  # categorical: fraction identical at all common points
+    identical_away: float = math.nan  # categorical: fraction identical away from boundaries
+    n_away: int = 0
+    worst: float = math.nan  # continuous: worst |x - x_ref|
+    worst_scaled: float = math.nan  # continuous: worst error / (atol + rtol |x_ref|)
+    tolerance: tuple = ()
+    ok: bool = True
+
+
+@dataclasses.dataclass
+class Report:
+    study: str
+    n_common: int
+    reason: str = ""  # why there are no common points
+    variables: list = dataclasses.field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        return self.n_common > 0 and all(v.ok for v in self.variables)
+
+
+def _setting_mismatch(ds: xr.Dataset, ref: xr.Dataset) -> list[str]:
+    out = []
+    for key, value in ref.attrs.items():
+        if not (key.startswith("param_") or key.startswith("setting_")):
+            continue
+        name = key.split("_", 1)[1]
+        if name in NUMERICAL_SETTINGS or name.startswith("n_") or key not in ds.attrs:
+            continue
+        mine = ds.attrs[key]
+        try:
+            same = np.isclose(float(mine), float(value), rtol=1e-12, atol=0.0) or (
+                np.isinf(float(mine)) and float(mine) == float(value))
+        except (TypeError, ValueError):
+            same = str(mine) == str(value)
+        if not same:
+            out.append(f"{name}: {mine} (file) vs {value} (reference)")
+    return out
+
+
+def _match(file_values: np.ndarray, ref_values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Indices (file, reference) of values matching within COORD_RTOL of the axis' span."""
+    span = max(float(np.ptp(ref_values)), float(np.max(np.abs(ref_values))), 1e-300)
+    tol = COORD_RTOL * span
+    idx_f, idx_r = [], []
+    for k, v in enumerate(ref_values):
+        d = np.abs(file_values - v)
+        i = int(np.argmin(d)) if d.size else -1
+        if i >= 0 and d[i] <= tol:
+            idx_f.append(i)
+            idx_r.append(k)
+    return np.array(idx_f, dtype=int), np.array(idx_r, dtype=int)
+
+
+def _away_from_boundaries(ref: xr.Dataset, names: list[str]) -> np.ndarray:
+    """Points of the reference whose 4-neighbours (along every dimension) share their value in
+    every categorical variable ``names``; edge points count their existing neighbours only."""
+    dims = list(ref[names[0]].dims) if names else list(ref.sizes)
+    shape = tuple(ref.sizes[d] for d in dims)
+    away = np.ones(shape, dtype=bool)
+    for name in names:
+        v = ref[name].transpose(*dims).values
+        for ax in range(v.ndim):
+            if dims[ax] == "scene" or v.shape[ax] < 2:
+                continue  # scenes are not a continuum
+            same = v[(slice(None),) * ax + (slice(1, None),)] == v[(slice(None),) * ax + (slice(None, -1),)]
+            lo = [slice(None)] * v.ndim
+            hi = [slice(None)] * v.ndim
+            lo[ax], hi[ax] = slice(1, None), slice(None, -1)
+            away[tuple(lo)] &= same
+            away[tuple(hi)] &= same
+    return away
+
+
+def compare(ds: xr.Dataset, ref: xr.Dataset, tolerances: dict | None = None) -> Report:
+    """Agreement of ``ds`` with the reference slice ``ref`` (see the module docstring)."""
+    tol = dict(TOLERANCES, **(tolerances or {}))
+    study = str(ref.attrs.get("study"))
+    mismatch = _setting_mismatch(ds, ref)
+    if mismatch:
+        return Report(study, 0, "settings differ, so no point is common: " + "; ".join(mismatch))
+    dims = [d for d in ref.dims]
+    extra = [d for d in ds.dims if d not in ref.dims and ds.sizes[d] > 1]
+    missing = [d for d in dims if d not in ds.dims]
+    if extra or missing:
+        return Report(study, 0, f"dimensions differ: file {dict(ds.sizes)}, reference {dict(ref.sizes)}")
+    ds = ds.squeeze([d for d in ds.dims if d not in ref.dims], drop=True)
+    sel_f, sel_r = {}, {}
+    for d in dims:
+        i_f, i_r = _match(ds[d].values.astype(float), ref[d].values.astype(float))
+        for name, c in ref.coords.items():  # auxiliary coordinates along d must match as well
+            if name != d and c.dims == (d,) and name in ds.coords and i_f.size:
+                a, b = ds[name].values[i_f].astype(float), c.values[i_r].astype(float)
+                keep = (a == b) | np.isclose(a, b, rtol=1e-12, atol=0.0)
+                i_f, i_r = i_f[keep], i_r[keep]
+        if i_f.size == 0:
+            return Report(study, 0, f"no common values of {d!r} (file {float(ds[d].min()):.4g}..{float(ds[d].max()):.4g}, "
+                                    f"reference {float(ref[d].min()):.4g}..{float(ref[d].max()):.4g})")
+        sel_f[d], sel_r[d] = i_f, i_r
+    a = ds.isel(sel_f)
+    b = ref.isel(sel_r)
+    names = [n for n in ref.data_vars if n in ds.data_vars and n not in NOT_COMPARED]
+    categorical = [n for n in names if "flag_values" in ref[n].attrs]
+    continuous = [n for n in names if n not in categorical]
+    away_full = _away_from_boundaries(ref, [n for n in ref.data_vars if "flag_values" in ref[n].attrs
+                                            and not ref[n].attrs.get("rimroll_derived")])
+    cat_dims = list(ref[categorical[0]].dims) if categorical else dims
+    away = away_full[np.ix_(*[sel_r[d] for d in cat_dims])] if categorical else np.ones(
+        tuple(len(sel_r[d]) for d in cat_dims), dtype=bool)
+    report = Report(study, int(np.prod([len(sel_r[d]) for d in dims])))
+    agree_all = np.ones_like(away)
+    for n in categorical:
+        x, y = a[n].transpose(*cat_dims).values, b[n].transpose(*cat_dims).values
+        same = x == y
+        agree_all &= same
+        frac_away = float(same[away].mean()) if away.any() else math.nan
+        report.variables.append(VarReport(
+            n, "categorical", same.size, identical=float(same.mean()), identical_away=frac_away,
+            n_away=int(away.sum()), ok=not away.any() or frac_away >= MIN_AGREEMENT_AWAY))
+    mask = away & agree_all
+    for n in continuous:
+        x, y = a[n].transpose(*cat_dims).values.astype(float), b[n].transpose(*cat_dims).values.astype(float)
+        atol, rtol = tol.get(n, DEFAULT_TOLERANCE)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            equal = (x == y) | (np.isnan(x) & np.isnan(y))
+            err = np.where(equal, 0.0, np.abs(x - y))
+            err = np.where(np.isnan(err), np.inf, err)  # one NaN, or inf against a number
+            scaled = np.where(err == 0.0, 0.0, err / (atol + rtol * np.where(np.isfinite(y), np.abs(y), 0.0)))
+        m = mask if mask.shape == x.shape else np.ones_like(x, dtype=bool)
+        worst = float(err[m].max()) if m.any() else 0.0
+        worst_scaled = float(scaled[m].max()) if m.any() else 0.0
+        report.variables.append(VarReport(n, "continuous", int(m.sum()), worst=worst, worst_scaled=worst_scaled,
+                                          tolerance=(atol, rtol), ok=worst_scaled <= 1.0))
+    return report
+
+
+def format_report(report: Report, file: str, ref_path: str) -> list[str]:
+    """Human-readable lines of a :class:`Report`."""
+    if report.n_common == 0:
+        return [f"{file}: study {report.study}: nothing to compare with {ref_path}: {report.reason}"]
+    lines = [f"{file} vs reference {ref_path} (study {report.study}): {report.n_common} common points"]
+    for v in report.variables:
+        mark = "ok  " if v.ok else "FAIL"
+        if v.kind == "categorical":
+            lines.append(f"  {mark} {v.name:<14} categorical: {100 * v.identical:.2f}% identical; "
+                         f"{100 * v.identical_away:.2f}% of {v.n_away} points away from boundaries "
+                         f"(needed {100 * MIN_AGREEMENT_AWAY:.0f}%)")
+        else:
+            lines.append(f"  {mark} {v.name:<14} continuous: worst |error| {v.worst:.3g} over {v.n_compared} points "
+                         f"= {v.worst_scaled:.3g} x tolerance (atol {v.tolerance[0]:g}, rtol {v.tolerance[1]:g})")
+    compared = ", ".join(v.name for v in report.variables)
+    lines.append(f"compared: {compared}; result: {'within tolerance' if report.ok else 'NOT within tolerance'}")
+    return lines

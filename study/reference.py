@@ -1,0 +1,143 @@
+"""Stored reference slices: small, precise results of every map and outcome study.
+
+``study reference --build`` writes ``tests/reference/<study>.nc`` (or ``--out DIR``): each
+study on its ``--quick`` grid (a 36 x 24 sub-grid of each outcome section in all four scenes,
+coarse maps), the outcome sections at rtol = 1e-12 with DOP853 (``PRECISE``). The regression
+tests (``tests/test_reference_slices.py``) recompute each slice at the study's default
+settings (:func:`recompute`) and compare with ``study.compare``; ``study verify FILE``
+compares any result file with the slice of its study.
+
+Every file records how it was made in global attributes: ``reference_command``,
+``reference_settings`` (the ``--quick --set ...`` of the run), ``reference_rtol``,
+``reference_atol``, ``reference_method`` and the usual provenance (``rimroll_version``,
+``git_revision``, ``created``, ``history``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import os
+import pathlib
+import shlex
+import tempfile
+
+import numpy as np
+import xarray as xr
+
+from study import fanout, io, registry
+from study.assemble import assemble
+from study.dataset import coords_of, global_attrs
+from study.derived import with_derived
+from study.parts import PartStore
+from study.plan import Plan, compute_chunk, make_plan
+from study.progress import ProgressLine
+
+ENV_DIR = "RIMROLL_REFERENCE_DIR"
+DEFAULT_DIR = pathlib.Path(__file__).resolve().parent.parent / "tests" / "reference"
+PRECISE = ("rtol=1e-12", "atol=1e-14", "method=dop853")  # outcome studies: the engine's tightest setting
+
+
+@dataclasses.dataclass(frozen=True)
+class Spec:
+    """How one reference slice is made: ``--quick`` plus ``sets`` (grid) plus ``precise``."""
+
+    name: str
+    sets: tuple = ()  # grid / settings shared with the regression recompute
+    precise: tuple = ()  # precision settings of the reference only
+    method: str = "closed form (no integration)"  # what reference_method records when no ``method`` setting
+
+
+SPECS = {s.name: s for s in (
+    Spec("fig3"), Spec("fig5"), Spec("fig6"), Spec("fig7"), Spec("fig8"),
+    Spec("fig9", method="solver.floquet fixed-step RK8 in theta (~1e-13 relative in tr M)"),
+    Spec("fig11", precise=PRECISE), Spec("fig12", precise=PRECISE), Spec("fig13", precise=PRECISE),
+)}
+
+
+def reference_dir() -> pathlib.Path:
+    """Where the stored slices live: ``$RIMROLL_REFERENCE_DIR`` or the checkout's tests/reference."""
+    return pathlib.Path(os.environ.get(ENV_DIR) or DEFAULT_DIR)
+
+
+def reference_path(study: str, directory=None) -> pathlib.Path:
+    return pathlib.Path(directory or reference_dir()) / f"{study}.nc"
+
+
+def plan_of(name: str, precise: bool) -> Plan:
+    """The plan of a slice: the reference (``precise``) or the study's defaults on the same grid."""
+    spec = SPECS[name]
+    return make_plan(registry.get(name), quick=True, sets=[*spec.sets, *(spec.precise if precise else ())])
+
+
+def recompute(name: str, precise: bool = False, workers: int = 2) -> xr.Dataset:
+    """The slice of ``name`` computed in memory (no files), derived variables included."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    plan = plan_of(name, precise)
+    study = plan.study
+    arrays = {v.name: np.empty(plan.outer_shape if v.outer else plan.shape, dtype=v.dtype) for v in study.variables}
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        for k, part in enumerate(pool.map(lambda k: compute_chunk(plan.job(k)), range(plan.n_chunks))):
+            region = plan.region(k)
+            for v in study.variables:
+                arrays[v.name][region[: len(plan.outer)] if v.outer else region] = part[v.name]
+    dims = [a.name for a in plan.axes]
+    outer_dims = dims[: len(plan.outer)]
+    data = {v.name: (outer_dims if v.outer else dims, arrays[v.name], v.attrs) for v in study.variables}
+    attrs = global_attrs(study, plan.params, plan.settings, f"study.reference.recompute({name!r}, precise={precise})")
+    return with_derived(study, xr.Dataset(data, coords=coords_of(plan.axes), attrs=attrs))
+
+
+def _provenance(name: str, plan: Plan, command: str) -> dict:
+    spec = SPECS[name]
+    s = plan.settings
+    return {
+        "reference_command": command,
+        "reference_settings": shlex.join(["--quick", *(f"--set={x}" for x in (*spec.sets, *spec.precise))]),
+        "reference_rtol": str(s.get("rtol", "n/a")),
+        "reference_atol": str(s.get("atol", "n/a")),
+        "reference_method": str(s.get("method", spec.method)),
+        "reference_purpose": "stored reference slice of rimroll: regression tests and `study verify`",
+    }
+
+
+def build(out=None, names=None, workers: int | None = None, command: str = "study reference --build",
+          progress: bool = False) -> list[pathlib.Path]:
+    """Compute the reference slices ``names`` (default: all) into ``out`` (default: tests/reference)."""
+    out = pathlib.Path(out) if out is not None else reference_dir()
+    names = list(names or SPECS)
+    unknown = [n for n in names if n not in SPECS]
+    if unknown:
+        raise registry.UserError(f"no reference slice for {', '.join(unknown)}; known: {', '.join(SPECS)}")
+    out.mkdir(parents=True, exist_ok=True)
+    written = []
+    with fanout.client(workers) as client, tempfile.TemporaryDirectory(dir=out, prefix=".reference-") as tmp:
+        for name in names:
+            plan = plan_of(name, precise=True)
+            store = PartStore(tmp, name, plan.fingerprint)
+            with store.lock():
+                line = ProgressLine(plan.n_chunks, name, enabled=progress)
+                fanout.run(plan, store, list(range(plan.n_chunks)), client, line)
+                attrs = global_attrs(plan.study, plan.params, plan.settings, command,
+                                     tuple(a.name for a in plan.outer))
+                attrs.update(_provenance(name, plan, command))
+                path = out / f"{name}.nc"
+                assemble(plan, store, path, attrs)
+                store.remove()
+            written.append(path)
+    return written
+
+
+@contextlib.contextmanager
+def open_reference(study: str, directory=None):
+    """The stored slice of ``study`` (loaded), or None if there is none."""
+    path = reference_path(study, directory)
+    if not path.is_file():
+        yield None
+        return
+    ds = io.open_result(path)
+    try:
+        yield ds
+    finally:
+        ds.close()

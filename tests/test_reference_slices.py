@@ -1,0 +1,105 @@
+"""Regression against the stored reference slices (tests/reference, ``study reference --build``).
+
+Each slice is recomputed at its study's default settings (outcome sections: dp5, rtol 1e-8,
+atol 1e-10; the references: DOP853 at rtol 1e-12) on the reference's grid and compared with
+``study.compare``: categorical variables must be identical at every point away from boundaries
+(all 4-neighbours of the point carry the same values in the reference), continuous variables
+must agree within the tolerances below at those points.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from study import compare, reference
+from study.io import open_result
+
+# (atol, rtol) per continuous variable, |x - x_ref| <= atol + rtol |x_ref|, and why:
+OUTCOME_TOLERANCES = {
+    # dp5 at rtol 1e-8 against DOP853 at 1e-12, runs of up to 60 s: observed <= 2.2e-5 s; 10x margin
+    "t_end": (2e-4, 2e-4),
+    # the minimum of F2 is taken on the dense output (4th order for dp5): observed <= 1.2e-7 N
+    "f2_min": (1e-5, 1e-6),
+    # omega1 = 0 crossings located on the dense output to the event tolerance: observed <= 3e-9 s
+    "half_period": (1e-7, 1e-7),
+    # alpha quadrature over the whole run, same error budget as t_end: observed <= 1.4e-5
+    "revolutions": (2e-4, 2e-4),
+    # slip phases end on the switching tolerances (solver.switching), observed <= 3e-7 s
+    "slip_time": (1e-5, 1e-4),
+    # conservative: integration drift ~1e-8..1e-7; dissipative: energy lost, O(1): observed <= 6e-7
+    "energy_drift": (1e-5, 1e-4),
+    # the state at t_end: observed <= 7.4e-8 rad and <= 1.3e-5 1/s (omega2 ~ 100 1/s)
+    "beta_end": (1e-6, 1e-6),
+    "omega1_end": (1e-4, 1e-5),
+    "omega2_end": (1e-4, 1e-5),
+    "omega3_end": (1e-4, 1e-5),
+    # an integer count: identical away from boundaries
+    "slip_phases": (0.0, 0.0),
+}
+# closed-form maps (fig3, fig5-fig8) and fig9's fixed-step Floquet integration: the same code
+# path at any setting, so equal to round-off
+MAP_TOLERANCES = {"omega20": (1e-12, 1e-12), "h": (1e-12, 1e-12), "required_friction": (1e-12, 1e-12),
+                  "F2": (1e-12, 1e-12), "throw_speed": (1e-12, 1e-12), "trace_M": (1e-10, 1e-10),
+                  "abs_mu1": (1e-10, 1e-10), "abs_mu2": (1e-10, 1e-10)}
+MIN_AWAY = 0.7  # at least 70 % of a slice lies away from boundaries, or the comparison says little
+
+
+@pytest.fixture(scope="module")
+def recomputed():
+    return {name: reference.recompute(name, workers=2) for name in reference.SPECS}
+
+
+def test_every_map_and_outcome_study_has_a_small_slice_with_provenance():
+    total = 0
+    for name, spec in reference.SPECS.items():
+        path = reference.reference_path(name)
+        assert path.is_file(), f"missing {path}: run `study reference --build`"
+        size = path.stat().st_size
+        total += size
+        assert size < 1_000_000
+        with xr.open_dataset(path) as ds:
+            assert ds.attrs["study"] == name
+            for key in ("reference_command", "reference_settings", "reference_rtol", "reference_method",
+                        "rimroll_version", "history", "created"):
+                assert key in ds.attrs, (name, key)
+            assert "study reference --build" in ds.attrs["reference_command"]
+            if spec.precise:
+                assert ds.attrs["reference_rtol"] == "1e-12" and ds.attrs["reference_method"] == "dop853"
+                assert ds.attrs["setting_rtol"] == 1e-12 and ds.attrs["setting_method"] == "dop853"
+                assert ds.sizes["beta"] == 24 and ds.sizes["omega1"] == 36 and ds.sizes["scene"] == 4
+                assert "boundary_type" in ds
+    assert total < 5_000_000
+
+
+@pytest.mark.parametrize("name", list(reference.SPECS))
+def test_default_settings_reproduce_the_reference(recomputed, name):
+    ds = recomputed[name]
+    ref = open_result(reference.reference_path(name))
+    tolerances = OUTCOME_TOLERANCES if reference.SPECS[name].precise else MAP_TOLERANCES
+    report = compare.compare(ds, ref, tolerances)
+    text = "\n".join(compare.format_report(report, f"recomputed {name}", "reference"))
+    assert report.n_common == np.prod(list(ref.sizes.values())), text
+    assert report.ok, text
+    cats = [v for v in report.variables if v.kind == "categorical"]
+    assert cats or name == "fig3"
+    for v in cats:
+        assert v.n_away >= MIN_AWAY * v.n_compared, text
+    compared = {v.name for v in report.variables if v.kind == "continuous"}
+    assert compared >= (set(tolerances) & set(ref.data_vars)), text
+    if name == "fig11":  # the physics the slices pin down: periodic rolling exists in the conservative scenes
+        assert (ref["outcome"].values[:2] == 2).any()
+
+
+def test_a_perturbed_slice_fails():
+    """The comparison is not vacuous: one outcome flipped away from boundaries, or t_end off by
+    10x its tolerance, fails."""
+    ref = open_result(reference.reference_path("fig11"))
+    bad = ref.copy(deep=True)
+    bad["outcome"].values[0, 0, 0] = 3 - bad["outcome"].values[0, 0, 0]  # a corner, far from any boundary
+    assert not compare.compare(bad, ref, OUTCOME_TOLERANCES).ok
+    bad = ref.copy(deep=True)
+    bad["t_end"].values[0, 0, 0] += 10 * (2e-4 + 2e-4 * float(ref["t_end"].values[0, 0, 0]))
+    report = compare.compare(bad, ref, OUTCOME_TOLERANCES)
+    assert not report.ok and [v.name for v in report.variables if not v.ok] == ["t_end"]
