@@ -52,6 +52,10 @@ def _parser() -> argparse.ArgumentParser:
     plot.add_argument("--out", default="results", help="directory holding NAME.nc (default: results)")
     info = sub.add_parser("info", help="dimensions, variables and provenance of a results file")
     info.add_argument("file")
+    verify = sub.add_parser("verify", help="compare a results file with the stored reference slice of its study")
+    verify.add_argument("file")
+    verify.add_argument("--reference", default=None, metavar="DIR",
+                        help="directory of the reference slices (default: $RIMROLL_REFERENCE_DIR or tests/reference)")
     ref = sub.add_parser("reference", help="stored reference slices (tests/reference): build them")
     ref.add_argument("--build", action="store_true", required=True,
                      help="compute the slices (outcome sections at rtol 1e-12, DOP853) and write them")
@@ -153,6 +157,24 @@ def _cmd_info(args) -> int:
     return 0
 
 
+def _cmd_verify(args) -> int:
+    """Exit 0: agrees with the reference within tolerance; 1: it does not (or nothing is
+    common); 2 (UserError): not a readable rimroll result, or no reference for its study."""
+    from study import compare, reference
+
+    ds = io.open_result(pathlib.Path(args.file))
+    name = str(ds.attrs["study"])
+    path = reference.reference_path(name, args.reference)
+    if not path.is_file():
+        known = sorted(p.stem for p in path.parent.glob("*.nc"))
+        raise UserError(f"no reference slice for study {name!r} in {path.parent} (slices: {', '.join(known) or 'none'})")
+    ref = io.open_result(path)
+    report = compare.compare(ds, ref)
+    for line in compare.format_report(report, args.file, str(path)):
+        print(line)
+    return 0 if report.ok else 1
+
+
 def _cmd_reference(args, command: str) -> int:
     from study import reference
 
@@ -176,6 +198,8 @@ def main(argv=None) -> int:
             return _cmd_run(args, command)
         if args.command == "plot":
             return _cmd_plot(args)
+        if args.command == "verify":
+            return _cmd_verify(args)
         if args.command == "reference":
             return _cmd_reference(args, command)
         return _cmd_info(args)

@@ -1,0 +1,82 @@
+"""``study verify FILE``: agreement of a results file with the stored reference slice of its study."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from study import reference
+from study.cli import main
+
+
+@pytest.fixture(scope="module")
+def good_fig12(tmp_path_factory):
+    """fig12 recomputed at its default settings on the reference's sub-grid, as a results file."""
+    path = tmp_path_factory.mktemp("verify") / "fig12.nc"
+    reference.recompute("fig12", workers=2).to_netcdf(path)
+    return path
+
+
+def test_good_file_exits_0(good_fig12, capsys):
+    assert main(["verify", str(good_fig12)]) == 0
+    out = capsys.readouterr().out
+    assert "3456 common points" in out and "within tolerance" in out
+    for name in ("outcome", "t_end", "half_period", "boundary_type"):
+        assert name in out
+    assert "% identical" in out and "worst |error|" in out
+
+
+def test_perturbed_file_exits_1(good_fig12, tmp_path, capsys):
+    with xr.open_dataset(good_fig12) as ds:
+        bad = ds.load()
+    bad["t_end"].values[...] *= 1.01  # 1 % off: 10x the default tolerance of t_end
+    bad["outcome"].values[1, 0, 0] = 3 - bad["outcome"].values[1, 0, 0]  # a corner, far from boundaries
+    path = tmp_path / "fig12.nc"
+    bad.to_netcdf(path)
+    assert main(["verify", str(path)]) == 1
+    out = capsys.readouterr().out
+    assert "FAIL outcome" in out and "FAIL t_end" in out and "NOT within tolerance" in out
+
+
+def test_other_settings_have_no_common_points(good_fig12, tmp_path, capsys):
+    with xr.open_dataset(good_fig12) as ds:
+        other = ds.load()
+    other.attrs["setting_omega2"] = 70.0
+    path = tmp_path / "fig12.nc"
+    other.to_netcdf(path)
+    assert main(["verify", str(path)]) == 1
+    assert "settings differ" in capsys.readouterr().out
+
+
+def test_quick_run_of_a_map_verifies_on_its_common_points(quick_results, capsys):
+    """A --quick grid is not a sub-grid of the default one: only the shared corners compare."""
+    assert main(["verify", str(quick_results / "fig8.nc")]) == 0
+    assert "common points" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("content", ["foreign", "garbage", "missing"])
+def test_not_a_rimroll_result_exits_2(tmp_path, capsys, content):
+    path = tmp_path / "x.nc"
+    if content == "foreign":
+        xr.Dataset({"a": ("x", np.arange(3))}).to_netcdf(path)
+    elif content == "garbage":
+        path.write_text("not netCDF")
+    assert main(["verify", str(path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("study: error: ")
+
+
+def test_study_without_a_slice_exits_2(good_fig12, tmp_path, capsys):
+    assert main(["verify", str(good_fig12), "--reference", str(tmp_path)]) == 2
+    assert "no reference slice" in capsys.readouterr().err
+
+
+def test_reference_build_writes_a_slice_with_provenance(tmp_path, capsys):
+    assert main(["reference", "--build", "--only", "fig9", "--out", str(tmp_path), "--workers", "1",
+                 "--no-progress"]) == 0
+    with xr.open_dataset(tmp_path / "fig9.nc") as ds:
+        assert ds.attrs["study"] == "fig9" and "reference --build" in ds.attrs["reference_command"]
+        assert ds.sizes == {"rho_over_R": 40, "j": 30}
+    assert main(["verify", str(tmp_path / "fig9.nc")]) == 0
+    assert main(["reference", "--build", "--only", "nope", "--out", str(tmp_path)]) == 2
