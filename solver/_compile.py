@@ -6,9 +6,10 @@ which the kernels turn into a ``status`` code for that lane, instead of raising
 ``ZeroDivisionError`` out of a whole chunk of trajectories. No ``fastmath``: event location and
 energy checks rely on IEEE arithmetic.
 
-numba's disk cache is keyed on the source file of each compiled function only: after editing
-a module that a kernel calls (e.g. ``solver.events``), delete ``solver/__pycache__/*.nbi`` and
-``*.nbc`` (or bump the package) so that the callers are recompiled.
+numba's disk cache is keyed on the source file of each compiled function only; a kernel that
+calls an edited module (e.g. ``solver.events``) would keep its old machine code.
+``solver._jit.invalidate_stale_cache`` (run on import) empties the cache whenever any
+``solver/*.py`` changed.
 """
 
 from __future__ import annotations

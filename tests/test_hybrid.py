@@ -106,15 +106,28 @@ def test_enter_slipping_starts_along_the_repelling_limit_direction():
     w = boundary_omega1(p) + 0.1  # just outside the cone
     y = np.zeros(7)
     y[:5] = [1.2, w, 35.0, 10.0, 0.3]
+    before = y.copy()
     switching.enter_slipping(y, a, sw)
     phi1 = slipping.limit_direction.py_func(1.2, w, 35.0, 10.0, a)
-    assert np.hypot(y[4], y[5]) == pytest.approx(sw[switching.SW_DELTA], rel=1e-12)
+    delta = sw[switching.SW_DELTA]
+    assert np.hypot(y[4], y[5]) == pytest.approx(delta, rel=1e-12)
     assert np.arctan2(y[5], y[4]) == pytest.approx(phi1, abs=1e-12)
     assert y[6] == 0.3  # alpha moved to the last slot
+    # launched by the contact impulse J = j m delta e(phi1) / (1 + j): the centre's velocity
+    # changes by J / m, beta is untouched, and the energy only by (1/2) j m delta^2 / (1 + j)
+    r, j, m = p.r, p.j, p.m
+    v_before = np.array([-r * before[3], r * before[1]])  # (V1, V3) while rolling
+    v_after = np.array([y[4] - r * y[3], y[5] + r * y[1]])
+    np.testing.assert_allclose(v_after - v_before, j * delta / (1 + j) * np.array([np.cos(phi1), np.sin(phi1)]),
+                               rtol=1e-9, atol=1e-15)
+    assert y[0] == before[0] and y[2] == before[2]
+    e0 = rolling.energy.py_func(*before[:4], a)
+    e1 = slipping.energy.py_func(*y[:6], a)
+    assert e1 - e0 == pytest.approx(0.5 * j * m * delta**2 / (1 + j), rel=1e-3)
     # phi1 repels (u grows) exactly when the friction margin is negative
     rate = slipping.radial_slip_rate.py_func(1.2, w, 35.0, 10.0, phi1, a)
     assert rate > 0
-    assert switching._rate_phi1(y, a) == pytest.approx(rate, rel=1e-9)
+    assert switching._rate_phi1(before, a) == pytest.approx(rate, rel=1e-9)
 
 
 def test_return_along_phi2_extrapolates_the_remaining_time():
