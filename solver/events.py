@@ -12,6 +12,17 @@ Rules (shared by every phase and scene; the event table itself is in ``solver.sy
   step end itself). This is the guard against a sign change that appears and vanishes inside
   one step (F2 dipping below 0 and back between the step ends), which an end-point check misses.
   The same samples give the running minimum of F2.
+* The samples cost a dense-output evaluation and the event functions each; most steps cannot
+  contain a crossing, so :func:`may_cross` first decides, from the event values *and their time
+  derivatives* at the two step ends (cheap: the slopes are the FSAL stages), whether a sign
+  change or a new minimum of F2 is possible at all. It bounds each event function over the step
+  by its cubic Hermite interpolant H (values and slopes at both ends) widened by a margin
+  GATE_MARGIN_CUBIC |a3| + GATE_MARGIN_SLOPE (|h g'(t)| + |h g'(t + h)|), a3 the cubic
+  coefficient of H in theta: the interpolant reproduces a smoothly varying event function up to
+  its quartic Taylor term, which over an accepted step is a small fraction of |a3|. Only if
+  the widened band reaches zero (or, for F2, an interior trough of H reaches below the running
+  minimum of F2) is the step scanned by samples as above; otherwise its end values are taken
+  as they are. An event whose slope is not available (NaN) always asks for the scan.
 * In the first sub-interval where some events fire, each is located by the Illinois method
   (a safeguarded regula falsi) on the dense output, to a bracket of ROOT_XTOL_EPS machine
   epsilons relative in t; the earliest root wins (ties: lower event index). The returned point
@@ -30,6 +41,8 @@ from solver.system import N_EVENTS, event_values
 EVENT_SAMPLES = 4  # sign comparisons per step on the dense output (the guard against grazing)
 ROOT_XTOL_EPS = 4.0  # root bracket width, in machine epsilons relative to |t|
 ROOT_MAX_ITER = 200  # cap on root-finder iterations (never reached in practice)
+GATE_MARGIN_CUBIC = 2.0  # margin of the grazing gate, in units of the Hermite cubic's theta^3 coefficient
+GATE_MARGIN_SLOPE = 0.05  # ... plus this fraction of the step's slope terms |h g'| at both ends
 _EPS = np.finfo(np.float64).eps
 
 
@@ -54,6 +67,63 @@ def update_signs(g, sign, skip):
                 sign[e] = 1
             elif g[e] < 0.0:
                 sign[e] = -1
+
+
+@kernel
+def _hermite_min(a, b, da, db):
+    """Minimum over theta in [0, 1] of the cubic Hermite interpolant of values a, b and theta-slopes da, db.
+
+    Returns (minimum over [0, 1], minimum over interior critical points or +inf, margin of the gate).
+    """
+    a2 = 3.0 * (b - a) - 2.0 * da - db
+    a3 = 2.0 * (a - b) + da + db
+    lo = min(a, b)
+    interior = np.inf
+    # critical points: da + 2 a2 theta + 3 a3 theta^2 = 0
+    if a3 == 0.0:
+        if a2 != 0.0:
+            th = -da / (2.0 * a2)
+            if 0.0 < th < 1.0:
+                interior = a + th * (da + th * a2)
+    else:
+        disc = a2 * a2 - 3.0 * a3 * da
+        if disc >= 0.0:
+            sq = np.sqrt(disc)
+            for th in ((-a2 - sq) / (3.0 * a3), (-a2 + sq) / (3.0 * a3)):
+                if 0.0 < th < 1.0:
+                    interior = min(interior, a + th * (da + th * (a2 + th * a3)))
+    margin = GATE_MARGIN_CUBIC * abs(a3) + GATE_MARGIN_SLOPE * (abs(da) + abs(db))
+    return min(lo, interior), interior, margin
+
+
+@kernel
+def may_cross(active, sign, g0, r0, g1, r1, h, f2_min):
+    """Whether an accepted step [t, t + h] needs the sampled scan (see the module rules).
+
+    g0, r0: event values and their time derivatives at t; g1, r1: at t + h. True when some
+    active event may change sign inside the step or at its end, when a slope is not finite, or
+    when F2 (event 0) may have an interior trough below ``f2_min``.
+    """
+    for e in range(N_EVENTS):
+        if not active[e]:
+            continue
+        s = sign[e]
+        if s == 0:
+            return True
+        a = s * g0[e]
+        b = s * g1[e]
+        if not (a > 0.0 and b > 0.0):
+            return True
+        da = s * h * r0[e]
+        db = s * h * r1[e]
+        if not (np.isfinite(da) and np.isfinite(db)):
+            return True
+        lo, interior, margin = _hermite_min(a, b, da, db)
+        if not (lo - margin > 0.0):
+            return True
+        if e == 0 and s > 0 and interior - margin < f2_min:
+            return True
+    return False
 
 
 @kernel

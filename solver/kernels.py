@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from solver._compile import kernel
-from solver.events import initial_signs, scan, update_signs
+from solver.events import initial_signs, may_cross, scan, update_signs
 from solver.flight import flight_outcome
 from solver.outcomes import (
     MAX_STEPS,
@@ -56,6 +56,7 @@ from solver.system import (
     ROLLING_DIRECTION,
     SLIPPING,
     SLIPPING_DIRECTION,
+    event_rates,
     event_values,
     rhs,
     state_energy,
@@ -77,7 +78,7 @@ SCENE_HYBRID_DISSIPATIVE = 3
 MAX_NONFINITE_RETRIES = 30  # consecutive non-finite trial steps (each cutting h by MIN_FACTOR)
 
 _W_ROWS = 7  # work vectors: y, y_new, f, tmp, y_ev, f1, y_hi
-_G_ROWS = 5  # event vectors: g (step start), g_lo, g_hi, g_ev, g_tmp
+_G_ROWS = 7  # event vectors: g (step start), g_lo, g_hi, g_ev, g_tmp, gr (rates at start), gr_hi (at end)
 
 
 def _make_trajectory(hybrid, conservative):
@@ -102,6 +103,8 @@ def _make_trajectory(hybrid, conservative):
         g_hi = G[2]
         g_ev = G[3]
         g_tmp = G[4]
+        gr = G[5]
+        gr_hi = G[6]
 
         for i in range(4):
             y[i] = x0[i]
@@ -174,6 +177,7 @@ def _make_trajectory(hybrid, conservative):
                 if not finite:
                     status = NON_FINITE
                     break
+                event_rates(phase, HYBRID, y, f, p, sw, gr)
                 h = initial_step(phase, y, f, n, n - 1, error_order, rtol, atol, t_max - t, tmp, f1, p)
                 after_reject = False
                 n_bad = 0
@@ -216,13 +220,21 @@ def _make_trajectory(hybrid, conservative):
             after_reject = False
 
             # ---------------- events on the dense output ----------------
-            dense_prepare(phase, y, h, n, A, n_stages, n_dense, P, n_poly, K, Q, tmp, p)
-            for e in range(N_EVENTS):
-                g_ev[e] = g[e]
-            theta0 = 0.0
+            # the end values and slopes first: most steps cannot hold an event (events.may_cross)
+            event_values(phase, HYBRID, y_new, p, sw, g_hi)
+            event_rates(phase, HYBRID, y_new, K[n_stages], p, sw, gr_hi)
             done = False  # the run ends at the event
             switch = False  # the phase ends at the event
-            while True:
+            scanned = may_cross(active[phase], sign, g, gr, g_hi, gr_hi, h, f2_min)
+            if scanned:
+                dense_prepare(phase, y, h, n, A, n_stages, n_dense, P, n_poly, K, Q, tmp, p)
+                for e in range(N_EVENTS):
+                    g_ev[e] = g[e]
+            else:
+                f2_min = min(f2_min, g_hi[EV_FALL])
+                update_signs(g_hi, sign, -1)
+            theta0 = 0.0
+            while scanned:
                 ev, theta, fmin = scan(phase, HYBRID, active[phase], direction[phase], sign, theta0, g_ev, y,
                                        y_new, h, t, Q, n, n_poly, p, sw, y_hi, g_lo, g_hi, tmp, g_tmp)
                 f2_min = min(f2_min, fmin)
@@ -274,6 +286,7 @@ def _make_trajectory(hybrid, conservative):
                     f[i] = K[n_stages, i]
                 for e in range(N_EVENTS):
                     g[e] = g_hi[e]
+                    gr[e] = gr_hi[e]
                 h = h_next
                 if phase == SLIPPING:
                     dt_return = try_return(y, p, sw, t_max - t, y_hi)

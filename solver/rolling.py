@@ -57,6 +57,21 @@ def normal_force(beta, omega1, omega3, p):
 
 
 @kernel
+def normal_force_rate(beta, omega1, omega3, beta_dot, omega1_dot, omega3_dot, p):
+    """Time derivative of the rolling normal force (31) along the rates given [N/s]."""
+    r = p[P_R_BALL]
+    rho = p[P_RHO]
+    R = p[P_R_RIM]
+    s = np.sin(beta)
+    c = np.cos(beta)
+    m = p[P_M]
+    D = R - rho * c
+    mr2 = m * r * r
+    d_beta = -mr2 * omega3 * omega3 * s * R / (D * D) + m * p[P_G] * c
+    return d_beta * beta_dot - 2.0 * mr2 * omega1 / rho * omega1_dot + 2.0 * mr2 * omega3 * c / D * omega3_dot
+
+
+@kernel
 def contact_forces(beta, omega1, omega2, omega3, p):
     """Contact force (F1, F2, F3) [N] of a rolling ball in the n-basis: (30)-(32) plus dissipation.
 

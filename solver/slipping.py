@@ -95,6 +95,23 @@ def slipping_normal_force(beta, omega1, omega3, u1, u3, p):
 
 
 @kernel
+def slipping_normal_force_rate(beta, omega1, omega3, u1, u3, beta_dot, omega1_dot, omega3_dot, u1_dot, u3_dot, p):
+    """Time derivative of the slipping normal force (41) along the rates given [N/s]."""
+    r = p[P_R_BALL]
+    rho = p[P_RHO]
+    R = p[P_R_RIM]
+    s = np.sin(beta)
+    c = np.cos(beta)
+    D = R - rho * c
+    V1 = u1 - r * omega3
+    V3 = u3 + r * omega1
+    m = p[P_M]
+    d_beta = -V1 * V1 * s * R / (D * D) + p[P_G] * c
+    return m * (d_beta * beta_dot + 2.0 * V1 * c / D * (u1_dot - r * omega3_dot)
+                - 2.0 * V3 / rho * (u3_dot + r * omega1_dot))
+
+
+@kernel
 def directional_limits(beta, omega1, omega2, omega3, p):
     """B1, B3 [m/s^2] and C [m/s^2] of (76) at a rolling state (dissipation included).
 

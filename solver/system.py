@@ -108,6 +108,34 @@ def event_values(phase, hybrid, y, p, sw, g):
 
 
 @kernel
+def event_rates(phase, hybrid, y, f, p, sw, gr):
+    """Time derivatives of the event functions at state y with rates f = rhs(y), into gr.
+
+    They feed the grazing gate of ``solver.events.may_cross`` (a cubic Hermite model of each
+    event function over a step). A rate that is not available cheaply is NaN, which makes the
+    gate always ask for the full scan (the friction margin (39) of a hybrid rolling phase).
+    """
+    if phase == ROLLING:
+        gr[EV_FALL] = rolling.normal_force_rate(y[0], y[1], y[3], f[0], f[1], f[3], p)
+        if hybrid:
+            gr[EV_SWITCH] = np.nan
+        else:
+            gr[EV_SWITCH] = 0.0
+        gr[EV_OMEGA1] = f[1]
+    elif phase == SLIPPING:
+        u1 = y[I_U1]
+        u3 = y[I_U3]
+        gr[EV_FALL] = slipping.slipping_normal_force_rate(y[0], y[1], y[3], u1, u3, f[0], f[1], f[3], f[I_U1],
+                                                          f[I_U3], p)
+        gr[EV_SWITCH] = (u1 * f[I_U1] + u3 * f[I_U3]) / np.hypot(u1, u3)
+        gr[EV_OMEGA1] = 0.0
+    else:  # OSCILLATOR
+        gr[0] = f[0]
+        gr[1] = f[1]
+        gr[2] = f[0]
+
+
+@kernel
 def state_energy(phase, y, p):
     """Mechanical energy of the state [J]: (60) with m g rho sin(beta), or its slipping form."""
     if phase == ROLLING:
