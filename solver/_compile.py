@@ -8,8 +8,8 @@ energy checks rely on IEEE arithmetic.
 
 numba's disk cache is keyed on the source file of each compiled function only; a kernel that
 calls an edited module (e.g. ``solver.events``) would keep its old machine code.
-``solver._jit.invalidate_stale_cache`` (run on import) empties the cache whenever any
-``solver/*.py`` changed.
+``solver._jit`` (imported first) replaces that stamp with a digest of all ``solver/*.py``,
+so any change of any solver source recompiles every kernel.
 """
 
 from __future__ import annotations

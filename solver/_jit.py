@@ -19,53 +19,60 @@ import numpy as np
 
 _DISABLE = os.environ.get("RIMROLL_NO_JIT", "") not in ("", "0")
 _SOURCES = pathlib.Path(__file__).resolve().parent
-_STAMP = "rimroll-solver-sources.sha256"
 
 
-def _cache_dir() -> pathlib.Path:
-    """The directory where numba caches machine code of functions defined in ``solver/``."""
-    try:
-        from numba.core.caching import _CacheImpl
-
-        for locator_cls in _CacheImpl._locator_classes:
-            locator = locator_cls.from_function(_cache_dir, str(_SOURCES / "_jit.py"))
-            if locator is not None:
-                return pathlib.Path(locator.get_cache_path())
-    except Exception:  # a private numba API: fall back to numba's usual in-tree location
-        pass
-    return _SOURCES / "__pycache__"
-
-
-def invalidate_stale_cache() -> bool:
-    """Drop cached machine code compiled from other versions of ``solver/*.py``; True if dropped.
-
-    numba keys its disk cache on the source file of each compiled function only, so a kernel
-    would keep running the old code of an edited (or upgraded) module it calls. A hash of all
-    solver sources, stamped beside the cache, detects that; the cache is then emptied once.
-    """
+def sources_digest() -> str:
+    """sha256 of every ``solver/*.py`` (names and contents), read once per process."""
     digest = hashlib.sha256()
     for path in sorted(_SOURCES.glob("*.py")):
         digest.update(path.name.encode() + b"\0" + path.read_bytes())
-    cache = _cache_dir()
-    stamp = cache / _STAMP
+    return digest.hexdigest()
+
+
+SOURCES_DIGEST = sources_digest()
+
+
+def _install_cache_stamp() -> bool:
+    """Make numba's disk cache of solver kernels depend on ALL solver sources.
+
+    numba stamps each cached function with a hash of its own source file only, so a kernel
+    would keep the old machine code of an edited (or upgraded) module it calls. For functions
+    defined in ``solver/``, numba's usual cache locations are used with the stamp replaced by
+    ``SOURCES_DIGEST``, taken when this process imported the sources: an index written from
+    other sources never matches and is recompiled, and a process still running older sources
+    can only write entries stamped with its own, older digest (no race). Returns False if
+    numba's (private) locator API is not as expected; then numba's own per-file stamp applies.
+    """
     try:
-        if stamp.read_text() == digest.hexdigest():
-            return False
-    except OSError:
-        pass
-    try:
-        cache.mkdir(parents=True, exist_ok=True)
-        for pattern in ("*.nbi", "*.nbc"):
-            for stale in cache.glob(pattern):
-                stale.unlink(missing_ok=True)
-        stamp.write_text(digest.hexdigest())
-    except OSError:  # read-only install: numba then caches elsewhere or not at all
+        from numba.core import caching
+
+        bases = (caching.UserProvidedCacheLocator, caching.InTreeCacheLocator, caching.UserWideCacheLocator)
+        impl = getattr(caching, "CacheImpl", None) or caching._CacheImpl  # renamed in numba 0.6x
+        impl_locators = impl._locator_classes
+    except (ImportError, AttributeError):
         return False
+
+    def solver_locator(base):
+        class Locator(base):
+            def get_source_stamp(self):
+                return SOURCES_DIGEST
+
+            @classmethod
+            def from_function(cls, py_func, py_file):
+                if pathlib.Path(py_file).resolve().parent != _SOURCES:
+                    return None
+                return super().from_function(py_func, py_file)
+
+        Locator.__name__ = Locator.__qualname__ = f"RimrollSources{base.__name__}"
+        return Locator
+
+    if not any(getattr(c, "__name__", "").startswith("RimrollSources") for c in impl_locators):
+        impl_locators[:0] = [solver_locator(base) for base in bases]
     return True
 
 
 if not _DISABLE:
-    invalidate_stale_cache()
+    _install_cache_stamp()
 
 
 def kernel(func):
