@@ -69,7 +69,7 @@ def update_signs(g, sign, skip):
                 sign[e] = -1
 
 
-@kernel
+@kernel(inline=True)
 def _hermite_min(a, b, da, db):
     """Minimum over theta in [0, 1] of the cubic Hermite interpolant of values a, b and theta-slopes da, db.
 
@@ -96,7 +96,7 @@ def _hermite_min(a, b, da, db):
     return min(lo, interior), interior, margin
 
 
-@kernel
+@kernel(inline=True)
 def may_cross(active, sign, g0, r0, g1, r1, h, f2_min):
     """Whether an accepted step [t, t + h] needs the sampled scan (see the module rules).
 

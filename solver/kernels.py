@@ -58,6 +58,7 @@ from solver.system import (
     SLIPPING_DIRECTION,
     event_rates,
     event_values,
+    event_values_rates,
     rhs,
     state_energy,
 )
@@ -129,6 +130,8 @@ def _make_trajectory(hybrid, conservative):
         after_reject = False
         n_bad = 0
         dt_return = -1.0
+        act = active[ROLLING]  # the active events and directions of the phase (set at its start)
+        dirn = direction[ROLLING]
 
         while True:
             # ---------------- start of a phase ----------------
@@ -162,7 +165,9 @@ def _make_trajectory(hybrid, conservative):
                     slip_phases += 1
                     t_slip0 = t
                     continue
-                initial_signs(g, direction[phase], sign)
+                act = active[phase]
+                dirn = direction[phase]
+                initial_signs(g, dirn, sign)
                 if CONSERVATIVE and phase == ROLLING:
                     n_cross = 0
                     if y[1] == 0.0:
@@ -218,14 +223,15 @@ def _make_trajectory(hybrid, conservative):
                 continue
             h_next = h * step_factor(err, exponent, after_reject)
             after_reject = False
+            for i in range(n):  # the FSAL slope of y_new (the slope of y is in K[0])
+                f[i] = K[n_stages, i]
 
             # ---------------- events on the dense output ----------------
             # the end values and slopes first: most steps cannot hold an event (events.may_cross)
-            event_values(phase, HYBRID, y_new, p, sw, g_hi)
-            event_rates(phase, HYBRID, y_new, K[n_stages], p, sw, gr_hi)
+            event_values_rates(phase, HYBRID, y_new, f, p, sw, g_hi, gr_hi)
             done = False  # the run ends at the event
             switch = False  # the phase ends at the event
-            scanned = may_cross(active[phase], sign, g, gr, g_hi, gr_hi, h, f2_min)
+            scanned = may_cross(act, sign, g, gr, g_hi, gr_hi, h, f2_min)
             if scanned:
                 dense_prepare(phase, y, h, n, A, n_stages, n_dense, P, n_poly, K, Q, tmp, p)
                 for e in range(N_EVENTS):
@@ -235,7 +241,7 @@ def _make_trajectory(hybrid, conservative):
                 update_signs(g_hi, sign, -1)
             theta0 = 0.0
             while scanned:
-                ev, theta, fmin = scan(phase, HYBRID, active[phase], direction[phase], sign, theta0, g_ev, y,
+                ev, theta, fmin = scan(phase, HYBRID, act, dirn, sign, theta0, g_ev, y,
                                        y_new, h, t, Q, n, n_poly, p, sw, y_hi, g_lo, g_hi, tmp, g_tmp)
                 f2_min = min(f2_min, fmin)
                 if ev < 0:
@@ -283,7 +289,6 @@ def _make_trajectory(hybrid, conservative):
                 t = t_max if last else t + h
                 for i in range(n):
                     y[i] = y_new[i]
-                    f[i] = K[n_stages, i]
                 for e in range(N_EVENTS):
                     g[e] = g_hi[e]
                     gr[e] = gr_hi[e]

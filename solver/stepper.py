@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from solver._compile import kernel
-from solver.system import rhs
+from solver.system import rhs, rhs_row
 
 SAFETY = 0.9  # fraction of the optimal step actually taken
 MIN_FACTOR = 0.2  # largest decrease of h in one rejection (also the cut after a non-finite trial)
@@ -25,7 +25,7 @@ MAX_FACTOR = 10.0  # largest increase of h after an accepted step
 MIN_STEP_ULPS = 10.0  # h below this many ulps of t is a step-size underflow (as scipy)
 
 
-@kernel
+@kernel(inline=True)
 def rk_step(phase, t, y, f, h, n, A, n_stages, K, y_new, tmp, p):
     """One explicit RK step from (t, y) with slope f = rhs(y): fills K[0..n_stages] and y_new.
 
@@ -43,10 +43,10 @@ def rk_step(phase, t, y, f, h, n, A, n_stages, K, y_new, tmp, p):
         if s == n_stages:
             for i in range(n):
                 y_new[i] = tmp[i]
-        rhs(phase, tmp, p, K[s])
+        rhs_row(phase, tmp, p, K, s)
 
 
-@kernel
+@kernel(inline=True)
 def error_norm(K, E, err_mode, n_stages, h, y, y_new, n_err, rtol, atol):
     """Scaled norm of the local error estimate; the step is accepted when it is <= 1.
 
@@ -79,7 +79,7 @@ def error_norm(K, E, err_mode, n_stages, h, y, y_new, n_err, rtol, atol):
     return abs(h) * n5 / np.sqrt((n5 + 0.01 * n3) * n_err)
 
 
-@kernel
+@kernel(inline=True)
 def step_factor(err, exponent, after_reject):
     """Factor for the next step from the error norm of an accepted (err <= 1) or rejected step."""
     if err == 0.0:
@@ -94,7 +94,7 @@ def step_factor(err, exponent, after_reject):
     return factor
 
 
-@kernel
+@kernel(inline=True)
 def min_step(t):
     """Smallest step allowed at time t (MIN_STEP_ULPS ulps of t) [s]."""
     return MIN_STEP_ULPS * (np.nextafter(abs(t), np.inf) - abs(t))
@@ -148,7 +148,7 @@ def dense_prepare(phase, y, h, n, A, n_stages, n_dense, P, n_poly, K, Q, tmp, p)
             for j in range(s):
                 acc += A[s, j] * K[j, i]
             tmp[i] = y[i] + h * acc
-        rhs(phase, tmp, p, K[s])
+        rhs_row(phase, tmp, p, K, s)
     for i in range(n):
         for q in range(n_poly):
             acc = 0.0

@@ -84,6 +84,37 @@ def rhs(phase, y, p, out):
         out[2] = y[0]
 
 
+@kernel(inline=True)
+def rhs_row(phase, y, p, K, s):
+    """As :func:`rhs`, into row s of the 2-D array K (no array view is made: the hot path)."""
+    if phase == ROLLING:
+        beta = y[0]
+        w3 = y[3]
+        b, d1, d2, d3 = rolling.rolling_rhs(beta, y[1], y[2], w3, p)
+        K[s, 0] = b
+        K[s, 1] = d1
+        K[s, 2] = d2
+        K[s, 3] = d3
+        K[s, 4] = -p[P_R_BALL] * w3 / (p[P_R_RIM] - p[P_RHO] * np.cos(beta))
+    elif phase == SLIPPING:
+        beta = y[0]
+        w3 = y[3]
+        u1 = y[I_U1]
+        u3 = y[I_U3]
+        b, d1, d2, d3, du1, du3 = slipping.slipping_rhs(beta, y[1], y[2], w3, u1, u3, p)
+        K[s, 0] = b
+        K[s, 1] = d1
+        K[s, 2] = d2
+        K[s, 3] = d3
+        K[s, 4] = du1
+        K[s, 5] = du3
+        K[s, 6] = (u1 - p[P_R_BALL] * w3) / (p[P_R_RIM] - p[P_RHO] * np.cos(beta))
+    else:
+        K[s, 0] = y[1]
+        K[s, 1] = -y[0]
+        K[s, 2] = y[0]
+
+
 @kernel
 def event_values(phase, hybrid, y, p, sw, g):
     """Event functions of the phase at state y into g (see the module table).
@@ -133,6 +164,28 @@ def event_rates(phase, hybrid, y, f, p, sw, gr):
         gr[0] = f[0]
         gr[1] = f[1]
         gr[2] = f[0]
+
+
+@kernel(inline=True)
+def event_values_rates(phase, hybrid, y, f, p, sw, g, gr):
+    """:func:`event_values` and :func:`event_rates` at once (one sin/cos of beta: the step end)."""
+    if phase == ROLLING:
+        beta = y[0]
+        w1 = y[1]
+        w3 = y[3]
+        g[EV_FALL] = rolling.normal_force(beta, w1, w3, p)
+        gr[EV_FALL] = rolling.normal_force_rate(beta, w1, w3, f[0], f[1], f[3], p)
+        if hybrid:
+            g[EV_SWITCH] = rolling.friction_margin(beta, w1, y[2], w3, p)
+            gr[EV_SWITCH] = np.nan
+        else:
+            g[EV_SWITCH] = 1.0
+            gr[EV_SWITCH] = 0.0
+        g[EV_OMEGA1] = w1
+        gr[EV_OMEGA1] = f[1]
+    else:
+        event_values(phase, hybrid, y, p, sw, g)
+        event_rates(phase, hybrid, y, f, p, sw, gr)
 
 
 @kernel
