@@ -1,16 +1,45 @@
 """A slow but simple reference for ``solver.simulate``: scipy ``solve_ivp`` with the same rules.
 
-Rolling-only scenes (mu = inf), conservative or dissipative. Each state is one ``solve_ivp``
-call on the rolling equations (plus alpha) with two scipy events: F2 (31) crossing zero
-downward (terminal) and, in conservative scenes, omega1 crossing zero (terminal at its second
-occurrence). Then DESIGN §4: F2 < 0 at t = 0 falls at once; a fall is classified by the free
-flight of ``solver.flight``; two omega1 crossings give ``periodic_rolling`` with
-half_period = t2 - t1; otherwise the ball is on the rim at t_max.
+Every scene: rolling only (mu = inf) and hybrid rolling/slipping (finite mu), conservative or
+dissipative. Physics and switching maps are the engine's own compiled functions
+(``solver.rolling``, ``solver.slipping``, ``solver.switching``, ``solver.flight``); what is
+independent is the integration (scipy), the event location (scipy's events, ``brentq``,
+bisection) and the bookkeeping of phases written out here.
+
+Rolling-only scenes. Each state is one ``solve_ivp`` call on the rolling equations (plus alpha)
+with two scipy events: F2 (31) crossing zero downward (terminal) and, in conservative scenes,
+omega1 crossing zero (terminal at its second occurrence). Then DESIGN §4: F2 < 0 at t = 0 falls
+at once; a fall is classified by the free flight of ``solver.flight``; two omega1 crossings give
+``periodic_rolling`` with half_period = t2 - t1; otherwise the ball is on the rim at t_max.
+
+Hybrid scenes (finite mu; the rules of ``solver.switching`` and ``solver.kernels``). One
+``solve_ivp`` call per phase:
+
+* a phase starts with its checks, in the engine's order: F2 < 0 (31)/(41): fall now (free flight
+  with the slip velocity of a slipping ball); rolling outside the friction cone (39): slip now
+  (``switching.enter_slipping``, a contact-impulse launch u = delta e(phi1)); t >= t_max: on the
+  rim;
+* rolling phase events: fall (F2 (31) down), slip onset (friction margin (39) down, then
+  ``enter_slipping`` at the event state) and, in conservative scenes, omega1 zero crossings:
+  two within ONE rolling phase give ``periodic_rolling`` (the count restarts at every rolling
+  phase, so no slip lies between them);
+* slipping phase events: fall (F2 (41) down: free flight with the slip velocities) and the
+  return, an event function that is +1 while ``switching.try_return`` refuses the return and
+  -1 once it allows it; the first allowed time on the dense output (also at the phase start)
+  is found by sampling and bisection, and ``try_return`` then gives the rolling state after
+  its extrapolated time u / (-u_dot*). The engine checks the return where |u| crosses u_stop
+  downward and at its step ends, so its return time lies after the reference's first allowed
+  time by at most one of its (short, slip-limited) steps.
 
 scipy looks for sign changes only at step ends, so an F2 dip below zero inside one step is
-missed (scipy issue #9228). The reference therefore also samples F2 on the dense output,
-GRAZE_SAMPLES points per step, and takes the first downward crossing found there (located by
-``brentq``) as the fall if it comes before the end scipy reported.
+missed (scipy issue #9228). The reference therefore also samples the downward events (F2, and
+the friction margin) on the dense output, GRAZE_SAMPLES points per step, and takes the first
+downward crossing found there (located by ``brentq``) if it comes before the event scipy
+reported.
+
+Results per state: outcome, t_end, half_period, nfev (right-hand-side evaluations), slip_phases,
+slip_time [s] (0 in rolling-only scenes) and energy_drift, |E(t_end) - E(0)| / max(|E(0)|,
+m g rho), as ``solver.simulate`` reports it.
 
 Used by the tests and by the work-precision study as the independent baseline.
 """
@@ -21,12 +50,14 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
-from solver import flight, kinematics, rolling
+from solver import flight, kinematics, rolling, slipping, switching
 from solver.outcomes import ON_RIM_AT_T_MAX, PERIODIC_ROLLING
-from solver.params import Params
-
+from solver.params import P_G, P_M, P_RHO, Params
 
 GRAZE_SAMPLES = 32
+RETURN_XTOL_EPS = 4.0  # bracket of the first allowed return time, in machine epsilons of t
+_EPS = np.finfo(float).eps
+_SAMPLE_CHUNK = 512  # steps sampled at once on the dense output
 
 
 def _first_missed_dip(sol, F2, t_end):
@@ -43,10 +74,12 @@ def _first_missed_dip(sol, F2, t_end):
     return None
 
 
-def reference_one(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, method="DOP853"):
-    """Outcome of one rolling initial state by ``solve_ivp``: dict(outcome, t_end, half_period, nfev)."""
-    if not params.rolling_only:
-        raise NotImplementedError("the scipy reference covers rolling-only scenes (mu = inf)")
+def _energy_drift(E0, E1, p):
+    return abs(E1 - E0) / max(abs(E0), p[P_M] * p[P_G] * p[P_RHO])
+
+
+def _reference_rolling(state, params: Params, t_max, rtol, atol, method):
+    """Rolling-only scenes (mu = inf): dict(outcome, t_end, half_period, nfev, y_end)."""
     p = params.as_array()
     rhs = rolling.rolling_rhs.py_func
     F2 = rolling.normal_force.py_func
@@ -71,7 +104,7 @@ def reference_one(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, met
     y0 = np.array([*np.asarray(state, float), 0.0])
     if fall(0.0, y0) < 0:
         return {"outcome": int(flight.flight_outcome.py_func(y0[0], y0[1], y0[3], 0.0, 0.0, p)),
-                "t_end": 0.0, "half_period": np.nan, "nfev": 0}
+                "t_end": 0.0, "half_period": np.nan, "nfev": 0, "y_end": y0}
     events = [fall] if params.dissipative else [fall, omega1_zero]
     sol = solve_ivp(fun, (0.0, t_max), y0, method=method, rtol=rtol, atol=atol, events=events, dense_output=True)
     t_fall = sol.t_events[0]
@@ -80,19 +113,367 @@ def reference_one(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, met
     if t_dip is not None and not (t_fall.size and t_fall[0] <= t_dip):
         y = sol.sol(t_dip)
         outcome = int(flight.flight_outcome.py_func(y[0], y[1], y[3], 0.0, 0.0, p))
-        return {"outcome": outcome, "t_end": float(t_dip), "half_period": np.nan, "nfev": sol.nfev}
+        return {"outcome": outcome, "t_end": float(t_dip), "half_period": np.nan, "nfev": sol.nfev, "y_end": y}
     if t_fall.size and (t_w1.size < 2 or t_fall[0] <= t_w1[1]):
         y = sol.y_events[0][0]
         outcome = int(flight.flight_outcome.py_func(y[0], y[1], y[3], 0.0, 0.0, p))
-        return {"outcome": outcome, "t_end": float(t_fall[0]), "half_period": np.nan, "nfev": sol.nfev}
+        return {"outcome": outcome, "t_end": float(t_fall[0]), "half_period": np.nan, "nfev": sol.nfev, "y_end": y}
     if t_w1.size >= 2:
         return {"outcome": PERIODIC_ROLLING, "t_end": float(t_w1[1]), "half_period": float(t_w1[1] - t_w1[0]),
-                "nfev": sol.nfev}
-    return {"outcome": ON_RIM_AT_T_MAX, "t_end": float(sol.t[-1]), "half_period": np.nan, "nfev": sol.nfev}
+                "nfev": sol.nfev, "y_end": sol.y_events[1][1]}
+    return {"outcome": ON_RIM_AT_T_MAX, "t_end": float(sol.t[-1]), "half_period": np.nan, "nfev": sol.nfev,
+            "y_end": sol.y[:, -1]}
+
+
+# ------------------------------------------------------------------------------ hybrid scenes
+
+
+def _sampled_first(sol, t_end, value, wanted):
+    """Earliest sample pair on the dense output in [t0, t_end] where the event condition turns on.
+
+    The dense output is sampled at GRAZE_SAMPLES + 1 points per integrator step (step ends
+    included). ``value(y)`` gives an event value at one state; ``wanted(g_prev, g_next)`` says
+    whether the pair brackets the event. Returns (t_prev, t_next, g_prev, g_next) or None.
+    """
+    ts = np.asarray(sol.t)
+    n = len(ts) - 1
+    frac = np.linspace(0.0, 1.0, GRAZE_SAMPLES + 1)
+    for lo in range(0, n, _SAMPLE_CHUNK):
+        hi = min(n, lo + _SAMPLE_CHUNK)
+        a = ts[lo:hi]
+        b = np.minimum(ts[lo + 1:hi + 1], t_end)
+        if a[0] >= t_end:
+            return None
+        T = a[:, None] + (b - a)[:, None] * frac[None, :]
+        Y = sol.sol(T.ravel())
+        G = np.array([value(Y[:, i]) for i in range(Y.shape[1])]).reshape(T.shape)
+        hits = wanted(G[:, :-1], G[:, 1:]) & (T[:, :-1] < t_end)
+        if hits.any():
+            k, i = np.argwhere(hits)[0]
+            return T[k, i], T[k, i + 1], G[k, i], G[k, i + 1]
+    return None
+
+
+def _down(g0, g1):
+    return (g0 > 0) & (g1 < 0)
+
+
+def _first_down(sol, t_end, value):
+    """Earliest downward zero of value(y) on the dense output in [t0, t_end] (sampled), or None."""
+    hit = _sampled_first(sol, t_end, value, _down)
+    if hit is None:
+        return None
+    return brentq(lambda t: value(sol.sol(t)), hit[0], hit[1], xtol=1e-15, rtol=4 * _EPS)
+
+
+def reference_hybrid(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, method="DOP853", *,
+                     switching_tolerances=None, max_switches=10_000):
+    """One rolling initial state in a hybrid scene (finite mu) by ``solve_ivp``, phase by phase.
+
+    Returns dict(outcome, t_end, half_period, nfev, slip_phases, slip_time, energy_drift,
+    switches, y_end) with y_end the state at t_end in the layout of its phase.
+    """
+    if params.rolling_only:
+        raise ValueError("reference_hybrid needs a finite mu (a hybrid scene)")
+    p = params.as_array()
+    sw = switching.default_tolerances(**(switching_tolerances or {}))
+    conservative = not params.dissipative
+    u_stop = sw[switching.SW_U_STOP]
+
+    rolling_rhs = rolling.rolling_rhs
+    slipping_rhs = slipping.slipping_rhs
+    F2_roll = rolling.normal_force
+    F2_slip = slipping.slipping_normal_force
+    margin = rolling.friction_margin
+    angle_rates = kinematics.angle_rates
+
+    def fun_roll(t, y):
+        b, w1, w2, w3 = rolling_rhs(y[0], y[1], y[2], y[3], p)
+        alpha_dot, _ = angle_rates(y[0], y[1], y[3], 0.0, 0.0, p)
+        return [b, w1, w2, w3, alpha_dot]
+
+    def fun_slip(t, y):
+        b, w1, w2, w3, du1, du3 = slipping_rhs(y[0], y[1], y[2], y[3], y[4], y[5], p)
+        alpha_dot, _ = angle_rates(y[0], y[1], y[3], y[4], y[5], p)
+        return [b, w1, w2, w3, du1, du3, alpha_dot]
+
+    def fall_roll_value(y):
+        return F2_roll(y[0], y[1], y[3], p)
+
+    def margin_value(y):
+        return margin(y[0], y[1], y[2], y[3], p)
+
+    def fall_slip_value(y):
+        return F2_slip(y[0], y[1], y[3], y[4], y[5], p)
+
+    out = np.empty(7)
+
+    def return_dt(t, y):
+        """try_return at (t, y): the time it advances (>= 0), or -1.0 (refused); rolling state in out."""
+        yy = np.ascontiguousarray(y, dtype=float)
+        return switching.try_return(yy, p, sw, t_max - t, out)
+
+    def fall_roll(t, y):
+        return fall_roll_value(y)
+
+    fall_roll.terminal = True
+    fall_roll.direction = -1
+
+    def slip_onset(t, y):
+        return margin_value(y)
+
+    slip_onset.terminal = True
+    slip_onset.direction = -1
+
+    def omega1_zero(t, y):
+        return y[1]
+
+    omega1_zero.terminal = 2
+    omega1_zero.direction = 0
+
+    def fall_slip(t, y):
+        return fall_slip_value(y)
+
+    fall_slip.terminal = True
+    fall_slip.direction = -1
+
+    def refused(t, y):
+        if np.hypot(y[4], y[5]) > u_stop:
+            return 1.0
+        return 1.0 if return_dt(t, y) < 0.0 else -1.0
+
+    refused.terminal = True
+    refused.direction = -1
+
+    y = np.array([*np.asarray(state, float), 0.0])
+    phase_slipping = False
+    t = 0.0
+    E0 = rolling.energy(y[0], y[1], y[2], y[3], p)
+    outcome = ON_RIM_AT_T_MAX
+    half_period = np.nan
+    nfev = 0
+    switches = 0
+    slip_phases = 0
+    slip_time = 0.0
+    t_slip0 = 0.0
+
+    def to_slipping(y5):
+        y7 = np.empty(7)
+        y7[:5] = y5
+        y7[5:] = 0.0
+        switching.enter_slipping(y7, p, sw)
+        return y7
+
+    while True:
+        if not phase_slipping:
+            # ---------------- rolling phase ----------------
+            if fall_roll_value(y) < 0.0:
+                outcome = int(flight.flight_outcome(y[0], y[1], y[3], 0.0, 0.0, p))
+                break
+            if margin_value(y) < 0.0:
+                switches += 1
+                if switches > max_switches:
+                    break
+                y = to_slipping(y)
+                phase_slipping = True
+                slip_phases += 1
+                t_slip0 = t
+                continue
+            if t >= t_max:
+                break
+            events = [fall_roll, slip_onset] + ([omega1_zero] if conservative else [])
+            sol = solve_ivp(fun_roll, (t, t_max), y, method=method, rtol=rtol, atol=atol, events=events,
+                            dense_output=True)
+            nfev += sol.nfev
+            t_stop = float(sol.t[-1])
+            # candidates (time, rule index): scipy's events and the sampled dips, earliest first
+            cands = []
+            if sol.t_events[0].size:
+                cands.append((float(sol.t_events[0][0]), 0))
+            if sol.t_events[1].size:
+                cands.append((float(sol.t_events[1][0]), 1))
+            t_w1 = sol.t_events[2] if conservative else np.empty(0)
+            if t_w1.size >= 2:
+                cands.append((float(t_w1[1]), 2))
+            t_dip = _first_down(sol, t_stop, fall_roll_value)
+            if t_dip is not None:
+                cands.append((t_dip, 0))
+            t_dip = _first_down(sol, t_stop, margin_value)
+            if t_dip is not None:
+                cands.append((t_dip, 1))
+            if not cands:
+                t = t_stop
+                y = sol.y[:, -1]
+                break
+            t_ev, rule = min(cands)
+            t = t_ev
+            y = sol.sol(t_ev)
+            if rule == 0:
+                outcome = int(flight.flight_outcome(y[0], y[1], y[3], 0.0, 0.0, p))
+                break
+            if rule == 2:
+                outcome = PERIODIC_ROLLING
+                half_period = float(t_w1[1] - t_w1[0])
+                break
+            switches += 1  # the friction cone is left: slip at the event state
+            if switches > max_switches:
+                break
+            y = to_slipping(y)
+            phase_slipping = True
+            slip_phases += 1
+            t_slip0 = t
+        else:
+            # ---------------- slipping phase ----------------
+            if fall_slip_value(y) < 0.0:
+                outcome = int(flight.flight_outcome(y[0], y[1], y[3], y[4], y[5], p))
+                break
+            if t >= t_max:
+                break
+            t_ret = None
+            if np.hypot(y[4], y[5]) <= u_stop and return_dt(t, y) >= 0.0:
+                t_ret = t  # allowed at the start already
+                sol = None
+            else:
+                sol = solve_ivp(fun_slip, (t, t_max), y, method=method, rtol=rtol, atol=atol,
+                                events=[fall_slip, refused], dense_output=True)
+                nfev += sol.nfev
+                t_stop = float(sol.t[-1])
+                cands = []
+                if sol.t_events[0].size:
+                    cands.append((float(sol.t_events[0][0]), 0))
+                t_dip = _first_down(sol, t_stop, fall_slip_value)
+                if t_dip is not None:
+                    cands.append((t_dip, 0))
+                t_allowed = _first_allowed(sol, t_stop, u_stop, return_dt)
+                if t_allowed is None and sol.t_events[1].size:
+                    t_allowed = _bisect_allowed(sol, t, float(sol.t_events[1][0]), float(sol.t_events[1][0]),
+                                                return_dt)
+                if t_allowed is not None:
+                    cands.append((t_allowed, 1))
+                if not cands:
+                    t = t_stop
+                    y = sol.y[:, -1]
+                    break
+                t_ev, rule = min(cands)
+                if rule == 0:
+                    t = t_ev
+                    y = sol.sol(t_ev)
+                    outcome = int(flight.flight_outcome(y[0], y[1], y[3], y[4], y[5], p))
+                    break
+                t_ret = t_ev
+                y = sol.sol(t_ev)
+            dt = return_dt(t_ret, y)
+            if dt < 0.0:  # cannot happen: t_ret is an allowed time
+                raise RuntimeError("reference: the located return is refused")
+            switches += 1
+            if switches > max_switches:
+                t = t_ret
+                break
+            y = out[:5].copy()
+            t = t_ret + dt
+            slip_time += t - t_slip0
+            phase_slipping = False
+
+    if phase_slipping:
+        slip_time += t - t_slip0
+        E1 = slipping.energy(y[0], y[1], y[2], y[3], y[4], y[5], p)
+    else:
+        E1 = rolling.energy(y[0], y[1], y[2], y[3], p)
+    return {"outcome": int(outcome), "t_end": float(t), "half_period": half_period, "nfev": int(nfev),
+            "slip_phases": slip_phases, "slip_time": float(slip_time), "energy_drift": _energy_drift(E0, E1, p),
+            "switches": switches, "y_end": np.asarray(y, float)}
+
+
+def _bisect_allowed(sol, t_lo, t_refused, t_allowed, return_dt):
+    """First allowed return time in (t_refused, t_allowed] by bisection (t_allowed allowed).
+
+    If t_refused == t_allowed, the bracket is first widened downwards to a refused time >= t_lo.
+    """
+    def allowed(t):
+        return return_dt(t, sol.sol(t)) >= 0.0
+
+    if not allowed(t_allowed):  # scipy's root may sit on the refused side of the jump: step across
+        step = RETURN_XTOL_EPS * _EPS * max(abs(t_allowed), 1e-300)
+        for _ in range(64):
+            t_allowed += step
+            step *= 2.0
+            if allowed(t_allowed):
+                break
+        else:
+            return None
+    if t_refused >= t_allowed:
+        step = RETURN_XTOL_EPS * _EPS * max(abs(t_allowed), 1e-300)
+        t_refused = t_allowed
+        while t_refused > t_lo:
+            t_refused = max(t_lo, t_allowed - step)
+            if not allowed(t_refused):
+                break
+            t_allowed = t_refused
+            step *= 2.0
+        else:
+            return t_lo
+    while t_allowed - t_refused > RETURN_XTOL_EPS * _EPS * max(abs(t_allowed), abs(t_refused)):
+        mid = 0.5 * (t_refused + t_allowed)
+        if not (t_refused < mid < t_allowed):
+            break
+        if allowed(mid):
+            t_allowed = mid
+        else:
+            t_refused = mid
+    return t_allowed
+
+
+def _first_allowed(sol, t_end, u_stop, return_dt):
+    """Earliest time on the dense output in [t0, t_end] where the return is allowed (sampled + bisected)."""
+    ts = np.asarray(sol.t)
+    frac = np.linspace(0.0, 1.0, GRAZE_SAMPLES + 1)
+    n = len(ts) - 1
+    t_prev = None
+    for lo in range(0, n, _SAMPLE_CHUNK):
+        hi = min(n, lo + _SAMPLE_CHUNK)
+        a = ts[lo:hi]
+        b = np.minimum(ts[lo + 1:hi + 1], t_end)
+        if a[0] > t_end:
+            return None
+        T = (a[:, None] + (b - a)[:, None] * frac[None, :]).ravel()
+        Y = sol.sol(T)
+        near = np.hypot(Y[4], Y[5]) <= u_stop
+        for i in np.flatnonzero(near):
+            if T[i] > t_end:
+                break
+            if return_dt(T[i], Y[:, i]) >= 0.0:
+                j = i - 1
+                t_ref = T[j] if j >= 0 else t_prev
+                if t_ref is None or t_ref >= T[i]:
+                    t_ref = T[i]
+                return _bisect_allowed(sol, ts[0], t_ref, T[i], return_dt)
+        t_prev = T[-1]
+    return None
+
+
+def reference_one(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, method="DOP853"):
+    """Outcome of one rolling initial state by ``solve_ivp`` in any scene.
+
+    Returns dict(outcome, t_end, half_period, nfev, slip_phases, slip_time, energy_drift).
+    """
+    if not params.rolling_only:
+        res = reference_hybrid(state, params, t_max, rtol, atol, method)
+        res.pop("y_end")
+        res.pop("switches")
+        return res
+    res = _reference_rolling(state, params, t_max, rtol, atol, method)
+    y0 = np.asarray(state, float)
+    p = params.as_array()
+    y1 = res.pop("y_end")
+    E0 = rolling.energy(y0[0], y0[1], y0[2], y0[3], p)
+    E1 = rolling.energy(y1[0], y1[1], y1[2], y1[3], p)
+    res.update(slip_phases=0, slip_time=0.0, energy_drift=_energy_drift(E0, E1, p))
+    return res
 
 
 def reference(states, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, method="DOP853"):
-    """``reference_one`` over an array (..., 4) of states: dict of arrays (outcome, t_end, half_period, nfev)."""
+    """``reference_one`` over an array (..., 4) of states: dict of arrays (outcome, t_end, half_period,
+    nfev, slip_phases, slip_time, energy_drift)."""
     x = np.asarray(states, float)
     flat = x.reshape(-1, 4)
     rows = [reference_one(s, params, t_max, rtol, atol, method) for s in flat]
@@ -102,4 +483,7 @@ def reference(states, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, method
         "t_end": np.array([r["t_end"] for r in rows]).reshape(shape),
         "half_period": np.array([r["half_period"] for r in rows]).reshape(shape),
         "nfev": np.array([r["nfev"] for r in rows]).reshape(shape),
+        "slip_phases": np.array([r["slip_phases"] for r in rows], dtype=np.int32).reshape(shape),
+        "slip_time": np.array([r["slip_time"] for r in rows]).reshape(shape),
+        "energy_drift": np.array([r["energy_drift"] for r in rows]).reshape(shape),
     }
