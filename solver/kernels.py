@@ -86,7 +86,6 @@ def _make_trajectory(hybrid, conservative):
     HYBRID = hybrid
     CONSERVATIVE = conservative
 
-    @kernel
     def trajectory(x0, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order, max_steps,
                    max_switches, sw, active, direction, W, K, Q, G, sign, res_f, res_i):
         n_dense = A.shape[0]
@@ -336,7 +335,14 @@ def _make_trajectory(hybrid, conservative):
         res_i[RI_N_STEPS] = n_steps
         res_i[RI_STATUS] = status
 
-    return trajectory
+    # One name per scene: the four closures would otherwise share a qualname (and source line),
+    # so numba's disk cache could file their machine code under one key and load one scene's
+    # code for another (numba issue #10486; seen in the shared checkout, see
+    # tests/test_reference_hybrid.py).
+    name = "trajectory_%s_%s" % ("hybrid" if hybrid else "rolling", "conservative" if conservative else "dissipative")
+    trajectory.__name__ = name
+    trajectory.__qualname__ = name
+    return kernel(trajectory)
 
 
 _trajectory_rolling_conservative = _make_trajectory(False, True)
