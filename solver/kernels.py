@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from solver._compile import kernel
-from solver.events import initial_signs, may_cross, scan, update_signs
+from solver.events import initial_signs, locate, may_cross, scan, update_signs
 from solver.flight import flight_outcome
 from solver.outcomes import (
     MAX_STEPS,
@@ -30,7 +30,8 @@ from solver.outcomes import (
     STEP_SIZE_UNDERFLOW,
     TOO_MANY_SWITCHES,
 )
-from solver.params import P_G, P_M, P_RHO
+from solver.params import P_G, P_J, P_M, P_R_BALL, P_R_RIM, P_RHO
+from solver.rolling import rolling_rhs
 from solver.stepper import (
     MIN_FACTOR,
     dense_eval,
@@ -69,6 +70,27 @@ RF_BETA, RF_OMEGA1, RF_OMEGA2, RF_OMEGA3 = 6, 7, 8, 9
 N_RF = 10
 RI_OUTCOME, RI_SLIP_PHASES, RI_N_STEPS, RI_STATUS = 0, 1, 2, 3
 N_RI = 4
+
+TRANSVERSAL_EPS = 1e3 * np.finfo(np.float64).eps
+"""An omega1 zero counts as a transversal crossing (Prop. 4, DESIGN §4) only if |omega1_dot|
+there exceeds TRANSVERSAL_EPS times the summed magnitudes of the terms of (33): about 1000
+times the round-off of (33) at an exact steady motion (whose omega1 = 0 'crossings' are sign
+flips of round-off noise), and far below any orbit an integration can resolve."""
+
+
+@kernel
+def transversal_omega1_zero(y, p):
+    """Whether an omega1 zero of the rolling state y crosses transversally (see TRANSVERSAL_EPS)."""
+    beta, w1, w2, w3 = y[0], y[1], y[2], y[3]
+    r = p[P_R_BALL]
+    j = p[P_J]
+    c = np.cos(beta)
+    D = p[P_R_RIM] - p[P_RHO] * c
+    scale = (abs(r * w3 * w3 * np.sin(beta) / D) + abs(j * r * w2 * w3 * c / ((1.0 + j) * D))
+             + abs(p[P_G] * c / (r * (1.0 + j))))
+    _, w1_dot, _, _ = rolling_rhs(beta, w1, w2, w3, p)
+    return abs(w1_dot) > TRANSVERSAL_EPS * scale
+
 
 # Scenes.
 SCENE_ROLLING_CONSERVATIVE = 0
@@ -169,7 +191,7 @@ def _make_trajectory(hybrid, conservative):
                 initial_signs(g, dirn, sign)
                 if CONSERVATIVE and phase == ROLLING:
                     n_cross = 0
-                    if y[1] == 0.0:
+                    if y[1] == 0.0 and transversal_omega1_zero(y, p):
                         n_cross = 1
                         t1 = t
                 if t >= t_max:
@@ -240,6 +262,7 @@ def _make_trajectory(hybrid, conservative):
                 update_signs(g_hi, sign, -1)
             theta0 = 0.0
             while scanned:
+                f2_theta0 = g_ev[EV_FALL]
                 ev, theta, fmin = scan(phase, HYBRID, act, dirn, sign, theta0, g_ev, y,
                                        y_new, h, t, Q, n, n_poly, p, sw, y_hi, g_lo, g_hi, tmp, g_tmp)
                 f2_min = min(f2_min, fmin)
@@ -251,6 +274,14 @@ def _make_trajectory(hybrid, conservative):
                 else:
                     dense_eval(theta, y, h, Q, n, n_poly, y_ev)
                 event_values(phase, HYBRID, y_ev, p, sw, g_ev)
+                if ev != EV_FALL and g_ev[EV_FALL] < 0.0 and f2_theta0 >= 0.0:
+                    # F2 went below 0 between the samples before this event: the ball left the
+                    # rim first (at a deadlock the dip is centred on the omega1 zero, by (61))
+                    theta = locate(phase, HYBRID, EV_FALL, theta0, f2_theta0, theta, g_ev[EV_FALL], y, h, t,
+                                   Q, n, n_poly, p, sw, tmp, g_tmp)
+                    dense_eval(theta, y, h, Q, n, n_poly, y_ev)
+                    event_values(phase, HYBRID, y_ev, p, sw, g_ev)
+                    ev = EV_FALL
                 f2_min = min(f2_min, g_ev[EV_FALL])
                 t_ev = t + theta * h
                 if ev == EV_FALL:
@@ -260,7 +291,9 @@ def _make_trajectory(hybrid, conservative):
                         outcome = flight_outcome(y_ev[0], y_ev[1], y_ev[3], y_ev[I_U1], y_ev[I_U3], p)
                     done = True
                 elif ev == EV_OMEGA1:
-                    if n_cross == 0:
+                    if not transversal_omega1_zero(y_ev, p):
+                        pass  # a touching zero (round-off at a steady motion) is no crossing
+                    elif n_cross == 0:
                         n_cross = 1
                         t1 = t_ev
                     else:

@@ -3,8 +3,8 @@ deadlock boundaries, tangential omega1 crossings, slip/roll switching on the fri
 large spin, long dissipative runs and the most unstable monodromy of Fig. 9.
 
 Each case bounds the work (t_max, max_steps) and asserts the behaviour that is correct, not
-merely what the engine does today; where the engine is wrong the case is a strict xfail whose
-reason names the diagnosis.
+merely what the engine does today (two of them first failed and led to engine fixes: the
+transversality of omega1 zeros, and grazing falls hidden between dense-output samples).
 """
 
 from __future__ import annotations
@@ -72,12 +72,6 @@ def test_steady_motion_near_singular_lines_stays_or_falls_at_once(beta0, omega30
         assert r["t_end"][0] < 0.2
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "engine: an exact steady motion (omega1 == 0 for all t) is reported periodic_rolling after ONE "
-    "step with half_period = the length of that step (0.528 s at beta0 = pi/2 - 1e-3, omega30 = 10), "
-    "not on_rim_at_t_max: round-off signs of omega1 ~ 0 count as 'crossings' (events.fires / "
-    "kernels EV_OMEGA1 accept a crossing with no transversality check, DESIGN §4 requires "
-    "transversal crossings)"))
 def test_exact_steady_motion_has_no_transversal_omega1_crossing():
     x = steady.steady_state(np.pi / 2 - 1e-3, 10.0, ROLL)
     r = sim(x, ROLL, t_max=1.0)
@@ -154,15 +148,6 @@ def test_grazing_fall_at_a_deadlock_is_found_consistently_dp5(deadlock_beta):
     _check_deadlock(_deadlock_outcomes(deadlock_beta, "dp5"))
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "engine: DOP853 misses grazing falls next to a deadlock boundary: at beta* + 1e-5..1e-4 rad "
-    "(Fig. 13 section, omega1 = 0.05, omega2 = 105, omega3 = 10, mu = inf) rtol 1e-8 reports "
-    "periodic_rolling with f2_min = -7.5e-5..-6.9e-4 N. F2's dip below 0 is centred on the omega1 = 0 "
-    "crossing (time reversal (61)) and lies between two of the EVENT_SAMPLES = 4 samples of a long "
-    "DOP853 step, so EV_FALL never fires in events.scan; the EV_OMEGA1 root is located inside the "
-    "dip, kernels.run_chunk records F2 < 0 there (f2_min = min(f2_min, g_ev[EV_FALL])) but then "
-    "counts the crossing and declares the orbit periodic. Fix: when a located event state has "
-    "g_ev[EV_FALL] < 0 in rolling, locate the F2 root on [theta_lo, theta_ev] and fall there"))
 def test_grazing_fall_at_a_deadlock_is_found_consistently_dop853(deadlock_beta):
     _check_deadlock(_deadlock_outcomes(deadlock_beta, "dop853"))
 
