@@ -60,6 +60,19 @@ _EPS = np.finfo(float).eps
 _SAMPLE_CHUNK = 512  # steps sampled at once on the dense output
 
 
+def _root(f, a, b):
+    """Zero of f on [a, b] with f(a) > 0 > f(b) (brentq to ~4 eps).
+
+    At a step end the two neighbouring dense-output pieces differ by about the local error, so a
+    bracket found by sampling one piece may not bracket on re-evaluation: then the bracket end
+    where f is already <= 0 (or b) is the zero within that error.
+    """
+    fa, fb = f(a), f(b)
+    if fa > 0 > fb:
+        return brentq(f, a, b, xtol=1e-15, rtol=4 * np.finfo(float).eps)
+    return a if fa <= 0 else b
+
+
 def _first_missed_dip(sol, F2, t_end):
     """Earliest downward zero of F2 on the dense output in (0, t_end), or None."""
     for t0, t1 in zip(sol.t[:-1], sol.t[1:]):
@@ -70,7 +83,7 @@ def _first_missed_dip(sol, F2, t_end):
         down = np.flatnonzero((g[:-1] > 0) & (g[1:] < 0))
         if down.size:
             k = down[0]
-            return brentq(lambda t: F2(sol.sol(t)), ts[k], ts[k + 1], xtol=1e-15, rtol=4 * np.finfo(float).eps)
+            return _root(lambda t: F2(sol.sol(t)), ts[k], ts[k + 1])
     return None
 
 
@@ -163,7 +176,7 @@ def _first_down(sol, t_end, value):
     hit = _sampled_first(sol, t_end, value, _down)
     if hit is None:
         return None
-    return brentq(lambda t: value(sol.sol(t)), hit[0], hit[1], xtol=1e-15, rtol=4 * _EPS)
+    return _root(lambda t: value(sol.sol(t)), hit[0], hit[1])
 
 
 def reference_hybrid(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, method="DOP853", *,

@@ -1,0 +1,48 @@
+"""The work-precision study (DESIGN §7): every method in every scene, errors against the rtol-1e-12 reference.
+
+Only accuracy is asserted; timings are figures of the study, never assertions.
+"""
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from workflows.work_precision import METHODS, speed_ratio
+
+
+@pytest.fixture(scope="module")
+def wp(tmp_path_factory):
+    from study.cli import main
+
+    out = tmp_path_factory.mktemp("wp")
+    args = ["run", "work-precision", "--quick", "--out", str(out), "--no-progress",
+            "--set", "n_states=16", "--set", "n_scipy=2", "--set", "n_scipy_hybrid=1",
+            "--set", "n_rtol=2", "--set", "rtol_max=1e-6", "--set", "rtol_min=1e-8"]
+    assert main(args) == 0
+    return xr.open_dataset(out / "work-precision.nc")
+
+
+def test_every_method_runs_in_every_scene_with_units(wp):
+    assert list(wp["method_name"].values) == list(METHODS)
+    assert wp.sizes == {"scene": 4, "method": len(METHODS), "rtol": 2}
+    assert np.isfinite(wp["seconds_per_trajectory"]).all()  # scipy too, slipping scenes included
+    for name in ("seconds_per_trajectory", "misclassified_fraction", "t_end_error_median", "t_end_error_max"):
+        assert wp[name].attrs["units"] and wp[name].attrs["long_name"]
+
+
+def test_no_method_misclassifies_the_sample_at_these_tolerances(wp):
+    assert (wp["misclassified_fraction"] == 0).all()
+
+
+def test_rimroll_error_shrinks_as_rtol_tightens_and_stays_near_it(wp):
+    for name in ("rimroll_dp5", "rimroll_dop853"):
+        i = METHODS.index(name)
+        err = wp["t_end_error_max"].isel(method=i, scene=0).values  # rtol 1e-6, then 1e-8
+        assert err[1] <= err[0]
+        assert err[1] < 1e-5  # seconds, over runs of at most 5 s
+
+
+def test_speed_ratio_is_computed_on_identical_states(wp):
+    common = wp["seconds_per_trajectory_common"]
+    assert np.isfinite(common.isel(scene=0)).all()
+    assert np.isfinite(speed_ratio(wp)) and speed_ratio(wp) > 0
