@@ -17,6 +17,18 @@ def random_rolling_states(n):
     )
 
 
+def gradient(f, x):
+    """Central finite-difference gradient of a scalar function of a state vector."""
+    grad = np.empty(len(x))
+    for k in range(len(x)):
+        h = 1e-6 * max(1, abs(x[k]))
+        xp, xm = x.copy(), x.copy()
+        xp[k] += h
+        xm[k] -= h
+        grad[k] = (f(xp) - f(xm)) / (2 * h)
+    return grad
+
+
 def rolling_ode(p):
     pa = p.as_array()
     return lambda t, x: np.array(rolling.rolling_rhs(x[0], x[1], x[2], x[3], pa))
@@ -59,13 +71,7 @@ def test_energy_rate_equals_dissipated_power_pointwise(k_r, k_d):
     pa = solver.Params(k_r=k_r, k_d=k_d).as_array()
     for x in random_rolling_states(20):
         rates = np.array(rolling.rolling_rhs(*x, pa))
-        grad = np.empty(4)
-        for k in range(4):
-            h = 1e-6 * max(1, abs(x[k]))
-            xp, xm = x.copy(), x.copy()
-            xp[k] += h
-            xm[k] -= h
-            grad[k] = (rolling.energy(*xp, pa) - rolling.energy(*xm, pa)) / (2 * h)
+        grad = gradient(lambda z: rolling.energy(*z, pa), x)
         assert grad @ rates == pytest.approx(rolling.dissipated_power(x[1], x[2], x[3], pa), abs=1e-6 * np.abs(grad * rates).max())
 
 
@@ -151,13 +157,7 @@ def test_slipping_energy_decays_at_the_friction_power():
     for x in random_rolling_states(10):
         y = np.concatenate([x, RNG.uniform(-0.3, 0.3, 2)])
         rates = np.array(slipping.slipping_rhs(*y, pa))
-        grad = np.empty(6)
-        for k in range(6):
-            h = 1e-6 * max(1, abs(y[k]))
-            yp, ym = y.copy(), y.copy()
-            yp[k] += h
-            ym[k] -= h
-            grad[k] = (slipping.energy(*yp, pa) - slipping.energy(*ym, pa)) / (2 * h)
+        grad = gradient(lambda z: slipping.energy(*z, pa), y)
         F2 = slipping.slipping_normal_force(y[0], y[1], y[3], y[4], y[5], pa)
         power = -p.mu * F2 * np.hypot(y[4], y[5])  # F_C . v_C
         assert grad @ rates == pytest.approx(power, abs=1e-6 * np.abs(grad * rates).max())

@@ -7,10 +7,12 @@ import pytest
 
 import solver
 from solver import flight, rolling
-from solver.outcomes import FALL_IN, FALL_OUT, ON_RIM_AT_T_MAX, PERIODIC_ROLLING
+from solver.outcomes import FALL_IN, FALL_OUT, ON_RIM_AT_T_MAX
 from solver.params import Params
 from solver.reference import reference
 from solver.simulate import simulate
+
+from scipy_agreement import compare_with_scipy
 
 INF = float("inf")
 FIELDS = {
@@ -163,41 +165,22 @@ def test_fall_event_state_has_f2_at_zero():
 # -------------------------------------------------------------------------- against scipy
 
 
-def _compare_with_scipy(x, p, t_max, method="dp5", rtol=1e-8, atol=1e-10):
-    ours = simulate(x, p, t_max=t_max, method=method, rtol=rtol, atol=atol)
-    ref = reference(x, p, t_max=t_max, rtol=1e-11, atol=1e-12)
-    ref9 = reference(x, p, t_max=t_max, rtol=1e-9, atol=1e-10)
-    boundary = ref["outcome"] != ref9["outcome"]
-    keep = ~boundary
-    agree = ours["outcome"] == ref["outcome"]
-    assert agree[keep].mean() >= 0.995, np.flatnonzero(~agree & keep)
-    both = agree & keep & (ref["t_end"] > 0)
-    rel = np.abs(ours["t_end"][both] - ref["t_end"][both]) / ref["t_end"][both]
-    # 1e-6 relative; the global error of long (dissipative) runs grows ~ linearly in time
-    assert np.all(rel < 1e-6 * np.maximum(1.0, ref["t_end"][both] / 1.0))
-    per = both & (ref["outcome"] == PERIODIC_ROLLING)
-    if per.any():
-        np.testing.assert_allclose(ours["half_period"][per], ref["half_period"][per], rtol=1e-6)
-    assert np.all(ours["status"] == 0)
-    return ours, ref
-
-
 @pytest.mark.parametrize("k_r,k_d", [(0.0, 0.0), (0.02, 0.0), (0.0, 0.02)])
 def test_outcomes_match_scipy_dop853(k_r, k_d):
     x = fig11_states(120, seed=11)
-    ours, ref = _compare_with_scipy(x, Params(mu=INF, k_r=k_r, k_d=k_d), t_max=10.0)
+    ours, ref, _ = compare_with_scipy(x, Params(mu=INF, k_r=k_r, k_d=k_d), t_max=10.0)
     assert len(np.unique(ref["outcome"])) >= 2  # the sample is not trivial
 
 
 def test_dop853_method_matches_scipy():
-    _compare_with_scipy(fig11_states(60, seed=5), Params(mu=INF), t_max=10.0, method="dop853", rtol=1e-10,
-                        atol=1e-12)
+    compare_with_scipy(fig11_states(60, seed=5), Params(mu=INF), t_max=10.0, method="dop853", rtol=1e-10,
+                       atol=1e-12)
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("k_r,k_d", [(0.0, 0.0), (0.02, 0.0), (0.0, 0.02)])
 def test_outcomes_match_scipy_dop853_large(k_r, k_d):
-    _compare_with_scipy(fig11_states(1500, seed=12), Params(mu=INF, k_r=k_r, k_d=k_d), t_max=20.0)
+    compare_with_scipy(fig11_states(1500, seed=12), Params(mu=INF, k_r=k_r, k_d=k_d), t_max=20.0)
 
 
 def test_physical_grazing_dip_missed_by_step_end_checks(monkeypatch):
