@@ -184,7 +184,10 @@ def reference_hybrid(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, 
     """One rolling initial state in a hybrid scene (finite mu) by ``solve_ivp``, phase by phase.
 
     Returns dict(outcome, t_end, half_period, nfev, slip_phases, slip_time, energy_drift,
-    switches, y_end) with y_end the state at t_end in the layout of its phase.
+    switches, y_end, steps_rolling, steps_slipping) with y_end the state at t_end in the layout
+    of its phase, and steps_* the accepted ``solve_ivp`` steps taken in each kind of phase up to
+    the phase's end (the cost a method needs for the accuracy asked, without the engine's
+    overheads: ``tests/benchmark_slipping.py`` compares them across methods).
     """
     if params.rolling_only:
         raise ValueError("reference_hybrid needs a finite mu (a hybrid scene)")
@@ -265,6 +268,7 @@ def reference_hybrid(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, 
     outcome = ON_RIM_AT_T_MAX
     half_period = np.nan
     nfev = 0
+    steps = [0, 0]  # accepted steps in rolling, slipping phases
     switches = 0
     slip_phases = 0
     slip_time = 0.0
@@ -314,11 +318,12 @@ def reference_hybrid(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, 
             t_dip = _first_down(sol, t_stop, margin_value)
             if t_dip is not None:
                 cands.append((t_dip, 1))
+            t_ev, rule = min(cands) if cands else (t_stop, -1)
+            steps[0] += _steps_before(sol, t_ev)
             if not cands:
                 t = t_stop
                 y = sol.y[:, -1]
                 break
-            t_ev, rule = min(cands)
             t = t_ev
             y = sol.sol(t_ev)
             if rule == 0:
@@ -363,11 +368,12 @@ def reference_hybrid(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, 
                                                 return_dt)
                 if t_allowed is not None:
                     cands.append((t_allowed, 1))
+                t_ev, rule = min(cands) if cands else (t_stop, -1)
+                steps[1] += _steps_before(sol, t_ev)
                 if not cands:
                     t = t_stop
                     y = sol.y[:, -1]
                     break
-                t_ev, rule = min(cands)
                 if rule == 0:
                     t = t_ev
                     y = sol.sol(t_ev)
@@ -394,7 +400,13 @@ def reference_hybrid(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, 
         E1 = rolling.energy(y[0], y[1], y[2], y[3], p)
     return {"outcome": int(outcome), "t_end": float(t), "half_period": half_period, "nfev": int(nfev),
             "slip_phases": slip_phases, "slip_time": float(slip_time), "energy_drift": _energy_drift(E0, E1, p),
-            "switches": switches, "y_end": np.asarray(y, float)}
+            "switches": switches, "y_end": np.asarray(y, float), "steps_rolling": steps[0],
+            "steps_slipping": steps[1]}
+
+
+def _steps_before(sol, t_end):
+    """Accepted steps of a ``solve_ivp`` solution that start before t_end (the step holding t_end included)."""
+    return int(np.searchsorted(sol.t, t_end, side="left"))
 
 
 def _bisect_allowed(sol, t_lo, t_refused, t_allowed, return_dt):

@@ -146,3 +146,36 @@ def test_each_hybrid_scene_kernel_runs_its_own_code():
         slips = {name: int(simulate(x, Params(**kw), t_max=1.0, method=method, workers=1)["slip_phases"][0])
                  for name, kw in {"conservative": dict(mu=1.0), "dissipative": dict(mu=1.0, k_d=1e-9)}.items()}
         assert slips == {"conservative": 1, "dissipative": 1}, (method, slips)
+
+
+def test_reference_counts_the_steps_of_each_phase():
+    """steps_rolling / steps_slipping (used by tests/benchmark_slipping.py) count solve_ivp's own steps.
+
+    A Fig. 11 state that slips once and falls while slipping: its rolling phase is a plain
+    solve_ivp run up to the slip onset (39), whose step count is computed here independently.
+    """
+    from scipy.integrate import solve_ivp
+
+    from solver.kinematics import angle_rates
+
+    p = Params(mu=1.0)
+    pa = p.as_array()
+    x = np.array([0.8 + 193 / 239, -20.0 + 40.0 * 154 / 359, 35.0, 10.0])
+    ref = reference_hybrid(x, p, t_max=20.0, rtol=1e-8, atol=1e-10, method="RK45")
+    assert ref["slip_phases"] == 1 and len(ref["y_end"]) == 7  # one slip phase, ended by the fall
+
+    def onset(t, y):
+        return rolling.friction_margin(y[0], y[1], y[2], y[3], pa)
+
+    def fall(t, y):
+        return rolling.normal_force(y[0], y[1], y[3], pa)
+
+    onset.terminal = fall.terminal = True
+    onset.direction = fall.direction = -1
+    def rates(t, y):  # the rolling equations and alpha_dot (19), which enters scipy's error norm
+        return [*rolling.rolling_rhs(y[0], y[1], y[2], y[3], pa), angle_rates(y[0], y[1], y[3], 0.0, 0.0, pa)[0]]
+
+    sol = solve_ivp(rates, (0.0, 20.0), [*x, 0.0], method="RK45", rtol=1e-8, atol=1e-10, events=[fall, onset])
+    assert sol.t_events[1].size == 1
+    assert ref["steps_rolling"] == len(sol.t) - 1
+    assert ref["steps_slipping"] > 0
