@@ -87,6 +87,21 @@ def _first_missed_dip(sol, F2, t_end):
     return None
 
 
+def _event(value, terminal, direction):
+    """A ``solve_ivp`` event function (t, y) -> value(y), with its terminal and direction attributes."""
+    def event(t, y):
+        return value(y)
+
+    event.terminal = terminal
+    event.direction = direction
+    return event
+
+
+def _omega1_zero():
+    """omega1 = 0 either way; the run stops at the second zero (Prop. 4: periodic)."""
+    return _event(lambda y: y[1], terminal=2, direction=0)
+
+
 def _energy_drift(E0, E1, p):
     return abs(E1 - E0) / max(abs(E0), p[P_M] * p[P_G] * p[P_RHO])
 
@@ -102,17 +117,8 @@ def _reference_rolling(state, params: Params, t_max, rtol, atol, method):
         alpha_dot, _ = kinematics.angle_rates.py_func(y[0], y[1], y[3], 0.0, 0.0, p)
         return [b, w1, w2, w3, alpha_dot]
 
-    def fall(t, y):
-        return F2(y[0], y[1], y[3], p)
-
-    fall.terminal = True
-    fall.direction = -1
-
-    def omega1_zero(t, y):
-        return y[1]
-
-    omega1_zero.terminal = 2
-    omega1_zero.direction = 0
+    fall = _event(lambda y: F2(y[0], y[1], y[3], p), terminal=True, direction=-1)
+    omega1_zero = _omega1_zero()
 
     y0 = np.array([*np.asarray(state, float), 0.0])
     if fall(0.0, y0) < 0:
@@ -229,31 +235,12 @@ def reference_hybrid(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, 
         yy = np.ascontiguousarray(y, dtype=float)
         return switching.try_return(yy, p, sw, t_max - t, out)
 
-    def fall_roll(t, y):
-        return fall_roll_value(y)
+    fall_roll = _event(fall_roll_value, terminal=True, direction=-1)
+    slip_onset = _event(margin_value, terminal=True, direction=-1)
+    omega1_zero = _omega1_zero()
+    fall_slip = _event(fall_slip_value, terminal=True, direction=-1)
 
-    fall_roll.terminal = True
-    fall_roll.direction = -1
-
-    def slip_onset(t, y):
-        return margin_value(y)
-
-    slip_onset.terminal = True
-    slip_onset.direction = -1
-
-    def omega1_zero(t, y):
-        return y[1]
-
-    omega1_zero.terminal = 2
-    omega1_zero.direction = 0
-
-    def fall_slip(t, y):
-        return fall_slip_value(y)
-
-    fall_slip.terminal = True
-    fall_slip.direction = -1
-
-    def refused(t, y):
+    def refused(t, y):  # depends on t too (the time left caps the return)
         if np.hypot(y[4], y[5]) > u_stop:
             return 1.0
         return 1.0 if return_dt(t, y) < 0.0 else -1.0
