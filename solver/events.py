@@ -1,33 +1,43 @@
-"""Event location on the dense output: the one place where crossings are found.
+"""Event location on the dense output of an accepted step: the one place where events are found.
 
-Rules (shared by every phase and scene; the event table itself is in ``solver.system``):
+The locator knows no physics: it is handed the event function of a phase as a compiled function
+``events(y, f, p, aux, hybrid, g, gr)`` (values of every event at state y into g, their time
+derivatives along the rates f into gr, NaN where not available) and the phase's event table
+(``direction``, ``track_min``, ``active`` arrays; see ``solver.system``).
 
-* Each event keeps the sign of its last nonzero value. It *fires* when a sample has the
-  opposite nonzero sign and that direction counts (direction -1: + to -, +1: - to +, 0: both).
-  A value that touches exactly 0 and returns does not fire; a value that starts a phase at 0
-  counts as being on the side it must leave (downward events: +), or as unknown (either-way
-  events: the first nonzero value sets the sign).
-* Signs are compared not only at the two ends of a step but at EVENT_SAMPLES equally spaced
-  points of its dense output (theta = k / EVENT_SAMPLES, k = 1..EVENT_SAMPLES; the last is the
-  step end itself). This is the guard against a sign change that appears and vanishes inside
-  one step (F2 dipping below 0 and back between the step ends), which an end-point check misses.
-  The same samples give the running minimum of F2.
-* The samples cost a dense-output evaluation and the event functions each; most steps cannot
-  contain a crossing, so :func:`may_cross` first decides, from the event values *and their time
-  derivatives* at the two step ends (cheap: the slopes are the FSAL stages), whether a sign
-  change or a new minimum of F2 is possible at all. It bounds each event function over the step
-  by its cubic Hermite interpolant H (values and slopes at both ends) widened by a margin
-  GATE_MARGIN_CUBIC |a3| + GATE_MARGIN_SLOPE (|h g'(t)| + |h g'(t + h)|), a3 the cubic
-  coefficient of H in theta: the interpolant reproduces a smoothly varying event function up to
-  its quartic Taylor term, which over an accepted step is a small fraction of |a3|. Only if
-  the widened band reaches zero (or, for F2, an interior trough of H reaches below the running
-  minimum of F2) is the step scanned by samples as above; otherwise its end values are taken
-  as they are. An event whose slope is not available (NaN) always asks for the scan.
-* In the first sub-interval where some events fire, each is located by the Illinois method
-  (a safeguarded regula falsi) on the dense output, to a bracket of ROOT_XTOL_EPS machine
-  epsilons relative in t; the earliest root wins (ties: lower event index). The returned point
-  is the bracket end on the far side of the crossing (or an exact zero), so the event state
-  already satisfies the post-event condition and re-detection is impossible.
+Rules, shared by every phase and scene:
+
+* Each event keeps the sign of its last nonzero value. It *fires* when a value has the opposite
+  nonzero sign and that direction counts (direction -1: + to -, +1: - to +, 0: both). A value
+  that touches exactly 0 and returns does not fire; a value that starts a phase at 0 counts as
+  being on the side it must leave (downward events: +), or as unknown (either-way events: the
+  first nonzero value sets the sign).
+* **Sign changes at the step end** are located by the Illinois method (a safeguarded regula
+  falsi) on the dense output, to a bracket of ROOT_XTOL_EPS machine epsilons relative in t.
+  The returned point is the bracket end on the far side of the crossing (or an exact zero), so
+  the event state already satisfies the post-event condition and re-detection is impossible.
+* **Tracked minima** (``track_min``: F2). A dip below zero that is over before the step ends
+  leaves both ends positive. So the event is decided at the *minimum* of the event function
+  inside the step: whenever the gate below says a trough below zero (or below the running
+  minimum) is possible, the minimum is located on the dense output (Brent's method, started at
+  the critical point of the Hermite cubic, to MIN_XTOL in theta); if the value there is <= 0
+  the event fires, at the first zero before the minimum.
+* **The gate** (:func:`trough_possible`) costs nothing extra: the cubic Hermite interpolant H of
+  the event function g on the step (values and slopes at both ends: the slopes come from the
+  first-same-as-last stage) differs from g by g''''(xi) h^4 theta^2 (1 - theta)^2 / 24, at
+  most h^4 max|g''''| / 384. max|g''''| is estimated by the divided difference of the constant
+  third derivatives of H on this step and on the previous one, |g'''_k - g'''_{k-1}| /
+  ((h_k + h_{k-1}) / 2), times GATE_SAFETY for its variation across the two steps; the dense
+  output's own error adds rtol (|g(t)| + |g(t + h)|). If H minus that bound stays positive
+  (and above the running minimum), no zero and no new minimum is possible and the step is not
+  searched. On the first step of a phase (no previous cubic) the remainder is measured instead:
+  g is evaluated on the dense output at the midpoint, where the remainder of a constant fourth
+  derivative peaks, and GATE_SAFETY times |g - H| there is the bound.
+* A step whose end value already fires, with H monotone over the step (no interior trough), is
+  not searched for a minimum: the crossing is located directly.
+* **Events without a derivative** (the friction margin (39)) cannot be gated: their sign is
+  compared at EVENT_SAMPLES equally spaced points of every step's dense output.
+* The earliest event of the step wins (ties: lower event index).
 """
 
 from __future__ import annotations
@@ -35,21 +45,22 @@ from __future__ import annotations
 import numpy as np
 
 from solver._compile import kernel
-from solver.stepper import dense_eval
-from solver.system import N_EVENTS, event_values
+from solver.stepper import dense_eval, dense_slope
 
-EVENT_SAMPLES = 4  # sign comparisons per step on the dense output (the guard against grazing)
+EVENT_SAMPLES = 4  # sign comparisons per step for events without a derivative
 ROOT_XTOL_EPS = 4.0  # root bracket width, in machine epsilons relative to |t|
 ROOT_MAX_ITER = 200  # cap on root-finder iterations (never reached in practice)
-GATE_MARGIN_CUBIC = 2.0  # margin of the grazing gate, in units of the Hermite cubic's theta^3 coefficient
-GATE_MARGIN_SLOPE = 0.05  # ... plus this fraction of the step's slope terms |h g'| at both ends
+MIN_XTOL = 1e-9  # the minimum of a tracked event is located to this width in theta
+MIN_MAX_ITER = 100  # cap on Brent iterations
+GATE_SAFETY = 2.0  # factor on the estimated max|g''''| (its variation over two steps)
 _EPS = np.finfo(np.float64).eps
+_GOLDEN = 0.3819660112501051  # (3 - sqrt(5)) / 2
 
 
 @kernel
 def initial_signs(g, direction, sign):
     """Signs of the event values at the start of a phase (see the module rules)."""
-    for e in range(N_EVENTS):
+    for e in range(g.shape[0]):
         if g[e] > 0.0:
             sign[e] = 1
         elif g[e] < 0.0:
@@ -61,7 +72,7 @@ def initial_signs(g, direction, sign):
 @kernel
 def update_signs(g, sign, skip):
     """Record the sign of every nonzero event value except event ``skip``."""
-    for e in range(N_EVENTS):
+    for e in range(g.shape[0]):
         if e != skip:
             if g[e] > 0.0:
                 sign[e] = 1
@@ -69,66 +80,9 @@ def update_signs(g, sign, skip):
                 sign[e] = -1
 
 
-@kernel(inline=True)
-def _hermite_min(a, b, da, db):
-    """Minimum over theta in [0, 1] of the cubic Hermite interpolant of values a, b and theta-slopes da, db.
-
-    Returns (minimum over [0, 1], minimum over interior critical points or +inf, margin of the gate).
-    """
-    a2 = 3.0 * (b - a) - 2.0 * da - db
-    a3 = 2.0 * (a - b) + da + db
-    lo = min(a, b)
-    interior = np.inf
-    # critical points: da + 2 a2 theta + 3 a3 theta^2 = 0
-    if a3 == 0.0:
-        if a2 != 0.0:
-            th = -da / (2.0 * a2)
-            if 0.0 < th < 1.0:
-                interior = a + th * (da + th * a2)
-    else:
-        disc = a2 * a2 - 3.0 * a3 * da
-        if disc >= 0.0:
-            sq = np.sqrt(disc)
-            for th in ((-a2 - sq) / (3.0 * a3), (-a2 + sq) / (3.0 * a3)):
-                if 0.0 < th < 1.0:
-                    interior = min(interior, a + th * (da + th * (a2 + th * a3)))
-    margin = GATE_MARGIN_CUBIC * abs(a3) + GATE_MARGIN_SLOPE * (abs(da) + abs(db))
-    return min(lo, interior), interior, margin
-
-
-@kernel(inline=True)
-def may_cross(active, sign, g0, r0, g1, r1, h, f2_min):
-    """Whether an accepted step [t, t + h] needs the sampled scan (see the module rules).
-
-    g0, r0: event values and their time derivatives at t; g1, r1: at t + h. True when some
-    active event may change sign inside the step or at its end, when a slope is not finite, or
-    when F2 (event 0) may have an interior trough below ``f2_min``.
-    """
-    for e in range(N_EVENTS):
-        if not active[e]:
-            continue
-        s = sign[e]
-        if s == 0:
-            return True
-        a = s * g0[e]
-        b = s * g1[e]
-        if not (a > 0.0 and b > 0.0):
-            return True
-        da = s * h * r0[e]
-        db = s * h * r1[e]
-        if not (np.isfinite(da) and np.isfinite(db)):
-            return True
-        lo, interior, margin = _hermite_min(a, b, da, db)
-        if not (lo - margin > 0.0):
-            return True
-        if e == 0 and s > 0 and interior - margin < f2_min:
-            return True
-    return False
-
-
 @kernel
 def fires(e, sign, value, active, direction):
-    """Whether event e fires at a sample with the given value."""
+    """Whether event e fires at a state where its value is ``value``."""
     if not active[e] or sign[e] == 0 or not (value > 0.0 or value < 0.0):
         return False
     s = 1 if value > 0.0 else -1
@@ -137,8 +91,89 @@ def fires(e, sign, value, active, direction):
     return direction[e] == 0 or direction[e] == s
 
 
+@kernel(inline=True)
+def hermite(a, b, da, db):
+    """The cubic Hermite interpolant on theta in [0, 1] of values a, b and theta-slopes da, db.
+
+    Returns (its minimum over [0, 1], the theta of that minimum, its cubic coefficient a3).
+    """
+    a2 = 3.0 * (b - a) - 2.0 * da - db
+    a3 = 2.0 * (a - b) + da + db
+    lo = a
+    th_lo = 0.0
+    if b < lo:
+        lo = b
+        th_lo = 1.0
+    # critical points: da + 2 a2 theta + 3 a3 theta^2 = 0
+    if a3 == 0.0:
+        if a2 != 0.0:
+            th = -da / (2.0 * a2)
+            if 0.0 < th < 1.0:
+                v = a + th * (da + th * a2)
+                if v < lo:
+                    lo = v
+                    th_lo = th
+    else:
+        disc = a2 * a2 - 3.0 * a3 * da
+        if disc >= 0.0:
+            sq = np.sqrt(disc)
+            for th in ((-a2 - sq) / (3.0 * a3), (-a2 + sq) / (3.0 * a3)):
+                if 0.0 < th < 1.0:
+                    v = a + th * (da + th * (a2 + th * a3))
+                    if v < lo:
+                        lo = v
+                        th_lo = th
+    return lo, th_lo, a3
+
+
+@kernel(inline=True)
+def trough_possible(g0, r0, g1, r1, h, h_prev, third_prev, mid_err, rtol):
+    """The gate of a tracked event on a step of length h [s] (see the module rules).
+
+    g0, r0: value and time derivative at the step start; g1, r1: at its end; h_prev, third_prev:
+    the previous step's length and the third derivative of its Hermite cubic (NaN: none, the
+    first step of a phase); mid_err: |g - H| at the step's midpoint on the dense output, used
+    only when there is no previous step (then the remainder, which peaks at the midpoint for a
+    constant fourth derivative, is bounded by GATE_SAFETY * mid_err).
+    Returns (search, lowest value of the Hermite cubic H on the step, the theta where H is
+    lowest, the third derivative of H [units/s^3]). ``search`` is True when the event function
+    may reach <= 0 inside the step (H minus the error bound) or a derivative is not finite.
+    """
+    if not (np.isfinite(r0) and np.isfinite(r1)):
+        return True, min(g0, g1), 0.5, np.nan
+    lo, th_lo, a3 = hermite(g0, g1, h * r0, h * r1)
+    third = 6.0 * a3 / (h * h * h)
+    if np.isfinite(third_prev):
+        m4 = GATE_SAFETY * abs(third - third_prev) / (0.5 * (h + h_prev))
+        bound = h * h * h * h * m4 / 384.0
+    else:
+        bound = GATE_SAFETY * mid_err
+    margin = bound + rtol * (abs(g0) + abs(g1))
+    return not (lo - margin > 0.0), lo, th_lo, third
+
+
 @kernel
-def locate(phase, hybrid, e, a, ga, b, gb, y, h, t0, Q, n, n_poly, p, sw, tmp, gtmp):
+def hermite_at(g0, r0, g1, r1, h, theta):
+    """The cubic Hermite interpolant of values g0, g1 and time derivatives r0, r1 on a step of
+    length h [s], at theta in [0, 1]."""
+    da = h * r0
+    db = h * r1
+    a2 = 3.0 * (g1 - g0) - 2.0 * da - db
+    a3 = 2.0 * (g0 - g1) + da + db
+    return g0 + theta * (da + theta * (a2 + theta * a3))
+
+
+@kernel
+def value_at(events, e, theta, y, h, Q, n, n_poly, p, aux, hybrid, tmp, slope, gtmp, grtmp):
+    """Value of event e on the dense output at theta (the state into tmp, its slope into slope)."""
+    dense_eval(theta, y, h, Q, n, n_poly, tmp)
+    dense_slope(theta, Q, n, n_poly, slope)
+    events(tmp, slope, p, aux, hybrid, gtmp, grtmp)
+    return gtmp[e]
+
+
+@kernel
+def locate(events, e, a, ga, b, gb, y, h, t0, Q, n, n_poly, p, aux, hybrid, tmp, slope, gtmp, grtmp):
     """Root of event e on the dense output in theta in [a, b], ga pre-crossing (or 0), gb post.
 
     Illinois method; returns the post-crossing bracket end (or an exact zero) once the bracket
@@ -156,9 +191,7 @@ def locate(phase, hybrid, e, a, ga, b, gb, y, h, t0, Q, n, n_poly, p, sw, tmp, g
             c = 0.5 * (a + b)
             if not (c > a and c < b):
                 break
-        dense_eval(c, y, h, Q, n, n_poly, tmp)
-        event_values(phase, hybrid, tmp, p, sw, gtmp)
-        gc = gtmp[e]
+        gc = value_at(events, e, c, y, h, Q, n, n_poly, p, aux, hybrid, tmp, slope, gtmp, grtmp)
         if gc == 0.0:
             return c
         if (gc > 0.0) == (gb > 0.0):
@@ -177,43 +210,159 @@ def locate(phase, hybrid, e, a, ga, b, gb, y, h, t0, Q, n, n_poly, p, sw, tmp, g
 
 
 @kernel
-def scan(phase, hybrid, active, direction, sign, theta0, g0, y, y_new, h, t0, Q, n, n_poly, p, sw,
-         y_hi, g_lo, g_hi, tmp, gtmp):
-    """Earliest event on the dense output of an accepted step, in theta in (theta0, 1].
+def minimum(events, e, a, b, start, sgn, y, h, Q, n, n_poly, p, aux, hybrid, tmp, slope, gtmp, grtmp):
+    """Local minimum of sgn * (event e) on the dense output over theta in [a, b], from ``start``.
 
-    g0: the event values at theta0. Returns (event index or -1, theta of the event or 1.0,
-    minimum of F2 (event 0) over the samples before the event). Signs are updated for the stretch scanned
-    without an event; with no event, g_hi holds the values at the step end.
+    Brent's method (golden section with parabolic steps; Brent, Algorithms for Minimization
+    without Derivatives, 1973, ch. 5), to MIN_XTOL in theta. Returns (theta, sgn * value there);
+    the end values are compared too, so a minimum at an end of [a, b] is found as well.
     """
-    f2min = np.inf
-    theta_lo = theta0
-    for e in range(N_EVENTS):
-        g_lo[e] = g0[e]
-        g_hi[e] = g0[e]
-    for k in range(1, EVENT_SAMPLES + 1):
-        theta_hi = k / EVENT_SAMPLES
-        if theta_hi <= theta_lo:
-            continue
-        if k == EVENT_SAMPLES:
-            for i in range(n):
-                y_hi[i] = y_new[i]
+    x = min(max(start, a), b)
+    fx = sgn * value_at(events, e, x, y, h, Q, n, n_poly, p, aux, hybrid, tmp, slope, gtmp, grtmp)
+    w = x
+    v = x
+    fw = fx
+    fv = fx
+    d = 0.0
+    step = 0.0
+    lo = a
+    hi = b
+    for _ in range(MIN_MAX_ITER):
+        mid = 0.5 * (lo + hi)
+        tol1 = MIN_XTOL * 0.5 + _EPS * abs(x)
+        tol2 = 2.0 * tol1
+        if abs(x - mid) <= tol2 - 0.5 * (hi - lo):
+            break
+        parabolic = False
+        if abs(step) > tol1:
+            rr = (x - w) * (fx - fv)
+            qq = (x - v) * (fx - fw)
+            pp = (x - v) * qq - (x - w) * rr
+            qq = 2.0 * (qq - rr)
+            if qq > 0.0:
+                pp = -pp
+            qq = abs(qq)
+            if abs(pp) < abs(0.5 * qq * step) and pp > qq * (lo - x) and pp < qq * (hi - x):
+                step = d
+                d = pp / qq
+                u = x + d
+                if u - lo < tol2 or hi - u < tol2:
+                    d = tol1 if mid >= x else -tol1
+                parabolic = True
+        if not parabolic:
+            step = (lo - x) if x >= mid else (hi - x)
+            d = _GOLDEN * step
+        u = x + d if abs(d) >= tol1 else x + (tol1 if d > 0.0 else -tol1)
+        fu = sgn * value_at(events, e, u, y, h, Q, n, n_poly, p, aux, hybrid, tmp, slope, gtmp, grtmp)
+        if fu <= fx:
+            if u >= x:
+                lo = x
+            else:
+                hi = x
+            v = w
+            fv = fw
+            w = x
+            fw = fx
+            x = u
+            fx = fu
         else:
-            dense_eval(theta_hi, y, h, Q, n, n_poly, y_hi)
-        event_values(phase, hybrid, y_hi, p, sw, g_hi)
-        best = -1
-        best_theta = 2.0
-        for e in range(N_EVENTS):
-            if fires(e, sign, g_hi[e], active, direction):
-                th = locate(phase, hybrid, e, theta_lo, g_lo[e], theta_hi, g_hi[e], y, h, t0, Q, n, n_poly,
-                            p, sw, tmp, gtmp)
-                if th < best_theta:
-                    best = e
-                    best_theta = th
-        if best >= 0:
-            return best, best_theta, f2min
-        f2min = min(f2min, g_hi[0])
-        update_signs(g_hi, sign, -1)
-        for e in range(N_EVENTS):
-            g_lo[e] = g_hi[e]
-        theta_lo = theta_hi
-    return -1, 1.0, f2min
+            if u < x:
+                lo = u
+            else:
+                hi = u
+            if fu <= fw or w == x:
+                v = w
+                fv = fw
+                w = u
+                fw = fu
+            elif fu <= fv or v == x or v == w:
+                v = u
+                fv = fu
+    for th in (a, b):
+        f_end = sgn * value_at(events, e, th, y, h, Q, n, n_poly, p, aux, hybrid, tmp, slope, gtmp, grtmp)
+        if f_end < fx:
+            x = th
+            fx = f_end
+    return x, fx
+
+
+@kernel
+def next_event(events, active, direction, track_min, sign, search, th_min, theta0, g0, g1, gr1, y, h, t0, Q, n,
+               n_poly, p, aux, hybrid, tmp, slope, g_lo, g_hi, gtmp, grtmp, mins):
+    """Earliest event of an accepted step in theta in (theta0, 1] (see the module rules).
+
+    g0: event values at theta0; g1, gr1: values and derivatives at the step end (theta = 1).
+    search[e]: the gate asks for the minimum of tracked event e; th_min[e]: where to start
+    looking. ``mins[e]`` is lowered to a minimum found that does not fire. Returns (event index
+    or -1, theta of the event, or 1.0). With no event, the signs are updated to the step end.
+    """
+    best = -1
+    best_theta = 2.0
+    n_ev = g0.shape[0]
+    # tracked minima: the event is decided at the minimum
+    for e in range(n_ev):
+        if not (active[e] and track_min[e] and search[e]):
+            continue
+        sgn = -1.0 if sign[e] < 0 else 1.0
+        th, val = minimum(events, e, theta0, 1.0, max(th_min[e], theta0), sgn, y, h, Q, n, n_poly, p, aux, hybrid,
+                          tmp, slope, gtmp, grtmp)
+        gm = sgn * val
+        if fires(e, sign, gm, active, direction):
+            root = theta0
+            if th > theta0:
+                root = locate(events, e, theta0, g0[e], th, gm, y, h, t0, Q, n, n_poly, p, aux, hybrid, tmp, slope,
+                              gtmp, grtmp)
+            if root < best_theta:
+                best = e
+                best_theta = root
+        elif sign[e] > 0 and gm < mins[e]:
+            mins[e] = gm
+    # sign changes at the step end
+    for e in range(n_ev):
+        if fires(e, sign, g1[e], active, direction):
+            root = locate(events, e, theta0, g0[e], 1.0, g1[e], y, h, t0, Q, n, n_poly, p, aux, hybrid, tmp, slope,
+                          gtmp, grtmp)
+            if root < best_theta or (root == best_theta and e < best):
+                best = e
+                best_theta = root
+    # events without a derivative (not gated): sign comparisons at samples inside the step
+    sampled = False
+    for e in range(n_ev):
+        if active[e] and not np.isfinite(gr1[e]):
+            sampled = True
+    if sampled:
+        for e in range(n_ev):
+            g_lo[e] = g0[e]
+        th_lo = theta0
+        for k in range(1, EVENT_SAMPLES):
+            th_hi = k / EVENT_SAMPLES
+            if th_hi <= th_lo:
+                continue
+            if th_hi >= best_theta:
+                break
+            dense_eval(th_hi, y, h, Q, n, n_poly, tmp)
+            dense_slope(th_hi, Q, n, n_poly, slope)
+            events(tmp, slope, p, aux, hybrid, g_hi, grtmp)
+            hit = False
+            for e in range(n_ev):
+                if active[e] and not np.isfinite(gr1[e]) and fires(e, sign, g_hi[e], active, direction):
+                    root = locate(events, e, th_lo, g_lo[e], th_hi, g_hi[e], y, h, t0, Q, n, n_poly, p, aux, hybrid,
+                                  tmp, slope, gtmp, grtmp)
+                    if root < best_theta:
+                        best = e
+                        best_theta = root
+                        hit = True
+            if hit:
+                break
+            for e in range(n_ev):
+                if active[e] and not np.isfinite(gr1[e]):
+                    g_lo[e] = g_hi[e]
+                    if g_hi[e] > 0.0:
+                        sign[e] = 1
+                    elif g_hi[e] < 0.0:
+                        sign[e] = -1
+            th_lo = th_hi
+    if best < 0:
+        update_signs(g1, sign, -1)
+        return -1, 1.0
+    return best, best_theta

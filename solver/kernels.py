@@ -1,96 +1,68 @@
-"""Per-trajectory scene kernels: one compiled function per scene, and the chunk driver.
+"""Per-trajectory scene kernels and the chunk driver of ``solver.simulate``.
 
-A scene (DESIGN §3) is fixed at compile time by two flags closed over by
-:func:`_make_trajectory`: ``hybrid`` (finite mu: rolling/slipping switching of Sect. 5.2.2) and
-``conservative`` (k_r = k_d = 0: periodic detection, Prop. 4). numba freezes closure variables
-as constants, so each scene's kernel carries only its own branches.
+A scene (docs/outcome-engine.md) is fixed by two flags, ``hybrid`` (finite mu:
+rolling/slipping switching of Sect. 5.2.2) and ``conservative`` (k_r = k_d = 0: periodic
+detection, Prop. 4). Each scene has its own named kernel (``trajectory_rolling_conservative``,
+...) that calls the one inlined body :func:`trajectory` with its flags as literals. The step
+loop of a phase, :func:`run_phase`, is compiled once per phase system (rolling, slipping) and
+shared by the scenes, with the flags as run-time arguments: a per-scene copy of it would
+multiply the first compile by four for a saving of a few predictable branches per step.
 
-A run is a loop over phases (rolling or slipping). A phase starts with its checks (F2 < 0:
-fall now; rolling outside the friction cone: slip now), takes accepted steps of the generic RK
-stepper, and scans each step's dense output for events (``solver.events``). The transitions are
-the pure maps of ``solver.switching`` applied between phases; the stepper restarts (new initial
-step, new first stage) after each. Every failure is recorded in ``status``; nothing raises.
+A trajectory is a loop over phases and reads as the rules do (``solver.rules``):
 
-Results go to one row of ``res_f`` (float64, ``RF_*`` columns) and ``res_i`` (int64, ``RI_*``).
+1. phase-start checks (F2 < 0: fall now; rolling outside the friction cone: slip now; the
+   initial state on a steady motion: ``steady_motion``);
+2. run one phase (:func:`run_phase`) to its terminal event: steps of the generic stepper
+   (``solver.stepper.attempt``), each searched for events on its dense output
+   (``solver.events``) when the gate asks for it;
+3. apply the event's action from the phase's event table (``solver.system``): fall (free
+   flight), periodic orbit, switch to slipping (``switching.enter_slipping``) or back to
+   rolling (``switching.try_return``).
+
+Every failure is recorded in ``status``; nothing raises. Results go to one row of ``res_f``
+(float64, ``RF_*`` columns) and ``res_i`` (int64, ``RI_*``).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from solver import rolling, rules, slipping, system
 from solver._compile import kernel
-from solver.events import initial_signs, locate, may_cross, scan, update_signs
-from solver.flight import flight_outcome
+from solver.events import fires, hermite_at, initial_signs, next_event, trough_possible, update_signs, value_at
 from solver.outcomes import (
     MAX_STEPS,
     NON_FINITE,
-    ON_RIM_AT_T_MAX,
     OK,
+    ON_RIM_AT_T_MAX,
     PERIODIC_ROLLING,
+    STEADY_MOTION,
     STEP_SIZE_UNDERFLOW,
     TOO_MANY_SWITCHES,
 )
-from solver.params import P_G, P_J, P_M, P_R_BALL, P_R_RIM, P_RHO
-from solver.rolling import rolling_rhs
-from solver.stepper import (
-    MIN_FACTOR,
-    dense_eval,
-    dense_prepare,
-    error_norm,
-    initial_step,
-    min_step,
-    rk_step,
-    step_factor,
-)
+from solver.params import P_G, P_M, P_RHO
+from solver.stepper import ACCEPTED, BUDGET_SPENT, UNDERFLOW, attempt, dense_eval, dense_prepare, initial_step
 from solver.switching import enter_slipping, try_return
 from solver.system import (
+    ACT_FALL,
+    ACT_OMEGA1,
+    ACT_RETURN,
+    ACT_SLIP,
     EV_FALL,
-    EV_OMEGA1,
-    EV_SWITCH,
     I_U1,
     I_U3,
     N_EVENTS,
     N_MAX,
     N_ROLLING,
     N_SLIPPING,
-    ROLLING,
-    ROLLING_DIRECTION,
-    SLIPPING,
-    SLIPPING_DIRECTION,
-    event_rates,
-    event_values,
-    event_values_rates,
-    rhs,
-    state_energy,
 )
 
 # Result columns.
 RF_T_END, RF_F2_MIN, RF_HALF_PERIOD, RF_REVOLUTIONS, RF_SLIP_TIME, RF_ENERGY_DRIFT = 0, 1, 2, 3, 4, 5
 RF_BETA, RF_OMEGA1, RF_OMEGA2, RF_OMEGA3 = 6, 7, 8, 9
 N_RF = 10
-RI_OUTCOME, RI_SLIP_PHASES, RI_N_STEPS, RI_STATUS = 0, 1, 2, 3
-N_RI = 4
-
-TRANSVERSAL_EPS = 1e3 * np.finfo(np.float64).eps
-"""An omega1 zero counts as a transversal crossing (Prop. 4, DESIGN §4) only if |omega1_dot|
-there exceeds TRANSVERSAL_EPS times the summed magnitudes of the terms of (33): about 1000
-times the round-off of (33) at an exact steady motion (whose omega1 = 0 'crossings' are sign
-flips of round-off noise), and far below any orbit an integration can resolve."""
-
-
-@kernel
-def transversal_omega1_zero(y, p):
-    """Whether an omega1 zero of the rolling state y crosses transversally (see TRANSVERSAL_EPS)."""
-    beta, w1, w2, w3 = y[0], y[1], y[2], y[3]
-    r = p[P_R_BALL]
-    j = p[P_J]
-    c = np.cos(beta)
-    D = p[P_R_RIM] - p[P_RHO] * c
-    scale = (abs(r * w3 * w3 * np.sin(beta) / D) + abs(j * r * w2 * w3 * c / ((1.0 + j) * D))
-             + abs(p[P_G] * c / (r * (1.0 + j))))
-    _, w1_dot, _, _ = rolling_rhs(beta, w1, w2, w3, p)
-    return abs(w1_dot) > TRANSVERSAL_EPS * scale
-
+RI_OUTCOME, RI_SLIP_PHASES, RI_N_STEPS, RI_STATUS, RI_N_SEARCHED = 0, 1, 2, 3, 4
+N_RI = 5
 
 # Scenes.
 SCENE_ROLLING_CONSERVATIVE = 0
@@ -98,174 +70,135 @@ SCENE_ROLLING_DISSIPATIVE = 1
 SCENE_HYBRID_CONSERVATIVE = 2
 SCENE_HYBRID_DISSIPATIVE = 3
 
-MAX_NONFINITE_RETRIES = 30  # consecutive non-finite trial steps (each cutting h by MIN_FACTOR)
+# How a phase ends (run_phase).
+END_T_MAX = 0
+END_FALL = 1
+END_PERIODIC = 2
+END_SWITCH = 3
+END_FAILED = 4
 
-_W_ROWS = 7  # work vectors: y, y_new, f, tmp, y_ev, f1, y_hi
-_G_ROWS = 7  # event vectors: g (step start), g_lo, g_hi, g_ev, g_tmp, gr (rates at start), gr_hi (at end)
+# Work rows.
+W_Y, W_Y_NEW, W_F, W_TMP, W_Y_EV, W_SLOPE, W_Y_RET, W_F_NEW, W_ATOL_ROLL, W_ATOL_SLIP = range(10)
+N_W = 10
+G_G, G_GR, G_G1, G_GR1, G_EV, G_LO, G_HI, G_TMP, G_RTMP, G_MIN, G_TH, G_THIRD = range(12)
+N_G = 12
 
 
-def _make_trajectory(hybrid, conservative):
-    HYBRID = hybrid
-    CONSERVATIVE = conservative
+@kernel
+def run_phase(rhs, events, rolling_phase, hybrid, conservative, direction, track_min, action, active, n, p, sw,
+              t_max, rtol, atol_vec, A, E, P, n_stages, err_mode, error_order, max_steps, W, K, Q, G, sign, search,
+              res_f, res_i):
+    """Run one phase from the state W[W_Y] at time res_f[RF_T_END] to its terminal event.
 
-    def trajectory(x0, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order, max_steps,
-                   max_switches, sw, active, direction, W, K, Q, G, sign, res_f, res_i):
-        n_dense = A.shape[0]
-        n_poly = P.shape[1]
-        exponent = -1.0 / (error_order + 1.0)
-        y = W[0]
-        y_new = W[1]
-        f = W[2]
-        tmp = W[3]
-        y_ev = W[4]
-        f1 = W[5]
-        y_hi = W[6]
-        g = G[0]
-        g_lo = G[1]
-        g_hi = G[2]
-        g_ev = G[3]
-        g_tmp = G[4]
-        gr = G[5]
-        gr_hi = G[6]
+    rhs, events: the phase's right-hand side and event function (``solver.system``);
+    direction, track_min, action, active: its event table; atol_vec: its absolute tolerance per
+    component (``system.*_atol``). Returns (how the phase ends: END_*,
+    the time of a return to rolling [s] or -1). On END_SWITCH of a slipping phase W[W_Y_RET]
+    holds the rolling state of the return; on END_FALL res_i[RI_OUTCOME] is set; on END_PERIODIC
+    res_f[RF_HALF_PERIOD]; on END_FAILED res_i[RI_STATUS].
+    """
+    n_dense = A.shape[0]
+    n_poly = P.shape[1]
+    exponent = -1.0 / (error_order + 1.0)
+    y = W[W_Y]
+    y_new = W[W_Y_NEW]
+    f = W[W_F]
+    tmp = W[W_TMP]
+    y_ev = W[W_Y_EV]
+    slope = W[W_SLOPE]  # scratch: slopes of the dense output
+    f_new = W[W_F_NEW]
+    y_ret = W[W_Y_RET]
+    g = G[G_G]
+    gr = G[G_GR]
+    g1 = G[G_G1]
+    gr1 = G[G_GR1]
+    g_ev = G[G_EV]
+    mins = G[G_MIN]
+    th_min = G[G_TH]
+    third_prev = G[G_THIRD]
+    t = res_f[RF_T_END]
+    n_steps = res_i[RI_N_STEPS]
+    n_searched = res_i[RI_N_SEARCHED]
 
-        for i in range(4):
-            y[i] = x0[i]
-        y[4] = 0.0
-        phase = ROLLING
-        n = N_ROLLING
-        t = 0.0
-        E0 = state_energy(ROLLING, y, p)
-        f2_min = np.inf
-        status = OK
-        outcome = ON_RIM_AT_T_MAX
-        n_steps = 0
-        switches = 0
-        slip_phases = 0
-        slip_time = 0.0
-        t_slip0 = 0.0
-        half_period = np.nan
-        n_cross = 0
-        t1 = 0.0
-        fresh = True
-        h = 0.0
-        after_reject = False
-        n_bad = 0
-        dt_return = -1.0
-        act = active[ROLLING]  # the active events and directions of the phase (set at its start)
-        dirn = direction[ROLLING]
+    rhs(y, p, K, 0)
+    for i in range(n):
+        f[i] = K[0, i]
+        if not np.isfinite(f[i]):
+            res_i[RI_STATUS] = NON_FINITE
+            return END_FAILED, -1.0
+    events(y, f, p, sw, hybrid, g, gr)
+    initial_signs(g, direction, sign)
+    for e in range(N_EVENTS):
+        third_prev[e] = np.nan
+    n_cross = 0
+    t1 = 0.0
+    if conservative and rolling_phase and y[1] == 0.0 and rules.transversal_omega1_zero(y[0], y[1], y[2], y[3], p,
+                                                                                          rtol):
+        n_cross = 1
+        t1 = t
+    h = initial_step(rhs, y, f, n, n - 1, error_order, rtol, atol_vec, t_max - t, tmp, K, p)
+    h_prev = h
+    after_reject = False
+    end = END_T_MAX
+    dt_return = -1.0
+    while t < t_max:
+        code, h, h_next, attempts, last = attempt(rhs, t, t_max, y, f, h, after_reject, n, n - 1, A, E, n_stages,
+                                                  err_mode, exponent, rtol, atol_vec, max_steps - n_steps, K, y_new,
+                                                  tmp, p)
+        n_steps += attempts
+        if code != ACCEPTED:
+            res_i[RI_STATUS] = MAX_STEPS if code == BUDGET_SPENT else (
+                STEP_SIZE_UNDERFLOW if code == UNDERFLOW else NON_FINITE)
+            end = END_FAILED
+            break
+        for i in range(n):  # the FSAL slope of y_new (the slope of y is in K[0])
+            f_new[i] = K[n_stages, i]
+        events(y_new, f_new, p, sw, hybrid, g1, gr1)
 
-        while True:
-            # ---------------- start of a phase ----------------
-            if fresh:
-                event_values(phase, HYBRID, y, p, sw, g)
-                finite = True
-                for i in range(n):
-                    if not np.isfinite(y[i]):
-                        finite = False
-                for e in range(N_EVENTS):
-                    if not np.isfinite(g[e]):
-                        finite = False
-                if not finite:
-                    status = NON_FINITE
-                    break
-                f2_min = min(f2_min, g[EV_FALL])
-                if g[EV_FALL] < 0.0:
-                    if phase == ROLLING:
-                        outcome = flight_outcome(y[0], y[1], y[3], 0.0, 0.0, p)
-                    else:
-                        outcome = flight_outcome(y[0], y[1], y[3], y[I_U1], y[I_U3], p)
-                    break
-                if HYBRID and phase == ROLLING and g[EV_SWITCH] < 0.0:
-                    switches += 1
-                    if switches > max_switches:
-                        status = TOO_MANY_SWITCHES
-                        break
-                    enter_slipping(y, p, sw)
-                    phase = SLIPPING
-                    n = N_SLIPPING
-                    slip_phases += 1
-                    t_slip0 = t
-                    continue
-                act = active[phase]
-                dirn = direction[phase]
-                initial_signs(g, dirn, sign)
-                if CONSERVATIVE and phase == ROLLING:
-                    n_cross = 0
-                    if y[1] == 0.0 and transversal_omega1_zero(y, p):
-                        n_cross = 1
-                        t1 = t
-                if t >= t_max:
-                    break
-                rhs(phase, y, p, f)
-                for i in range(n):
-                    if not np.isfinite(f[i]):
-                        finite = False
-                if not finite:
-                    status = NON_FINITE
-                    break
-                event_rates(phase, HYBRID, y, f, p, sw, gr)
-                h = initial_step(phase, y, f, n, n - 1, error_order, rtol, atol, t_max - t, tmp, f1, p)
-                after_reject = False
-                n_bad = 0
-                fresh = False
-
-            # ---------------- one step ----------------
-            if t >= t_max:
-                break
-            if n_steps >= max_steps:
-                status = MAX_STEPS
-                break
-            last = False
-            if h >= t_max - t:
-                h = t_max - t
-                last = True
-            if not (h >= min_step(t)):
-                status = STEP_SIZE_UNDERFLOW
-                break
-            n_steps += 1
-            rk_step(phase, t, y, f, h, n, A, n_stages, K, y_new, tmp, p)
-            err = error_norm(K, E, err_mode, n_stages, h, y, y_new, n - 1, rtol, atol)
-            finite = np.isfinite(err)
-            for i in range(n):
-                if not np.isfinite(y_new[i]) or not np.isfinite(K[n_stages, i]):
-                    finite = False
-            if not finite:
-                n_bad += 1
-                if n_bad > MAX_NONFINITE_RETRIES:
-                    status = NON_FINITE
-                    break
-                h *= MIN_FACTOR
-                after_reject = True
+        # the gate: does the step need its dense output searched?
+        searched = False
+        prepared = False
+        for e in range(N_EVENTS):
+            search[e] = False
+            if not active[e]:
                 continue
-            n_bad = 0
-            if err > 1.0:
-                h *= step_factor(err, exponent, after_reject)
-                after_reject = True
-                continue
-            h_next = h * step_factor(err, exponent, after_reject)
-            after_reject = False
-            for i in range(n):  # the FSAL slope of y_new (the slope of y is in K[0])
-                f[i] = K[n_stages, i]
+            at_end = fires(e, sign, g1[e], active, direction)
+            if at_end or not np.isfinite(gr1[e]):
+                searched = True
+            if track_min[e]:
+                mid_err = 0.0
+                if not np.isfinite(third_prev[e]):  # first step of the phase: measure the remainder
+                    if not prepared:
+                        dense_prepare(rhs, y, h, n, A, n_stages, n_dense, P, n_poly, K, Q, tmp, p)
+                        prepared = True
+                    g_mid = value_at(events, e, 0.5, y, h, Q, n, n_poly, p, sw, hybrid, tmp, slope, G[G_TMP],
+                                     G[G_RTMP])
+                    mid_err = abs(g_mid - hermite_at(g[e], gr[e], g1[e], gr1[e], h, 0.5))
+                want, lo, th_lo, third = trough_possible(g[e], gr[e], g1[e], gr1[e], h, h_prev, third_prev[e],
+                                                         mid_err, rtol)
+                third_prev[e] = third
+                th_min[e] = th_lo
+                # a crossing at the end with no interior trough of H: locate it directly
+                search[e] = want and not (at_end and not (0.0 < th_lo < 1.0))
+                if want:
+                    searched = True
+                elif sign[e] > 0 and lo < mins[e]:
+                    mins[e] = lo
+        h_prev = h
+        if searched:
+            n_searched += 1
 
-            # ---------------- events on the dense output ----------------
-            # the end values and slopes first: most steps cannot hold an event (events.may_cross)
-            event_values_rates(phase, HYBRID, y_new, f, p, sw, g_hi, gr_hi)
-            done = False  # the run ends at the event
-            switch = False  # the phase ends at the event
-            scanned = may_cross(act, sign, g, gr, g_hi, gr_hi, h, f2_min)
-            if scanned:
-                dense_prepare(phase, y, h, n, A, n_stages, n_dense, P, n_poly, K, Q, tmp, p)
-                for e in range(N_EVENTS):
-                    g_ev[e] = g[e]
-            else:
-                f2_min = min(f2_min, g_hi[EV_FALL])
-                update_signs(g_hi, sign, -1)
+        switch = False
+        if searched:
+            if not prepared:
+                dense_prepare(rhs, y, h, n, A, n_stages, n_dense, P, n_poly, K, Q, tmp, p)
             theta0 = 0.0
-            while scanned:
-                f2_theta0 = g_ev[EV_FALL]
-                ev, theta, fmin = scan(phase, HYBRID, act, dirn, sign, theta0, g_ev, y,
-                                       y_new, h, t, Q, n, n_poly, p, sw, y_hi, g_lo, g_hi, tmp, g_tmp)
-                f2_min = min(f2_min, fmin)
+            for e in range(N_EVENTS):
+                g_ev[e] = g[e]
+            while True:
+                ev, theta = next_event(events, active, direction, track_min, sign, search, th_min, theta0, g_ev, g1,
+                                       gr1, y, h, t, Q, n, n_poly, p, sw, hybrid, tmp, slope, G[G_LO], G[G_HI],
+                                       G[G_TMP], G[G_RTMP], mins)
                 if ev < 0:
                     break
                 if theta >= 1.0:
@@ -273,151 +206,253 @@ def _make_trajectory(hybrid, conservative):
                         y_ev[i] = y_new[i]
                 else:
                     dense_eval(theta, y, h, Q, n, n_poly, y_ev)
-                event_values(phase, HYBRID, y_ev, p, sw, g_ev)
-                if ev != EV_FALL and g_ev[EV_FALL] < 0.0 and f2_theta0 >= 0.0:
-                    # F2 went below 0 between the samples before this event: the ball left the
-                    # rim first (at a deadlock the dip is centred on the omega1 zero, by (61))
-                    theta = locate(phase, HYBRID, EV_FALL, theta0, f2_theta0, theta, g_ev[EV_FALL], y, h, t,
-                                   Q, n, n_poly, p, sw, tmp, g_tmp)
-                    dense_eval(theta, y, h, Q, n, n_poly, y_ev)
-                    event_values(phase, HYBRID, y_ev, p, sw, g_ev)
-                    ev = EV_FALL
-                f2_min = min(f2_min, g_ev[EV_FALL])
+                events(y_ev, slope, p, sw, hybrid, g_ev, G[G_RTMP])
                 t_ev = t + theta * h
-                if ev == EV_FALL:
-                    if phase == ROLLING:
-                        outcome = flight_outcome(y_ev[0], y_ev[1], y_ev[3], 0.0, 0.0, p)
+                act = action[ev]
+                stop = False
+                if act == ACT_FALL:
+                    if g_ev[EV_FALL] < mins[EV_FALL]:
+                        mins[EV_FALL] = g_ev[EV_FALL]
+                    if rolling_phase:
+                        res_i[RI_OUTCOME] = rules.fall_outcome(y_ev[0], y_ev[1], y_ev[3], 0.0, 0.0, p)
                     else:
-                        outcome = flight_outcome(y_ev[0], y_ev[1], y_ev[3], y_ev[I_U1], y_ev[I_U3], p)
-                    done = True
-                elif ev == EV_OMEGA1:
-                    if not transversal_omega1_zero(y_ev, p):
-                        pass  # a touching zero (round-off at a steady motion) is no crossing
-                    elif n_cross == 0:
-                        n_cross = 1
-                        t1 = t_ev
-                    else:
-                        outcome = PERIODIC_ROLLING
-                        half_period = t_ev - t1
-                        done = True
-                elif phase == ROLLING:  # EV_SWITCH: the friction cone is left
-                    switch = True
-                else:  # EV_SWITCH: the slip speed reached u_stop
-                    dt_return = try_return(y_ev, p, sw, t_max - t_ev, y_hi)
-                    switch = dt_return >= 0.0
-                if done or switch:
+                        res_i[RI_OUTCOME] = rules.fall_outcome(y_ev[0], y_ev[1], y_ev[3], y_ev[I_U1], y_ev[I_U3], p)
+                    end = END_FALL
+                    stop = True
+                elif act == ACT_SLIP:
+                    end = END_SWITCH
+                    stop = True
+                elif act == ACT_RETURN:
+                    dt_return = try_return(y_ev, p, sw, t_max - t_ev, y_ret)
+                    if dt_return >= 0.0:
+                        end = END_SWITCH
+                        stop = True
+                elif act == ACT_OMEGA1:
+                    if rules.transversal_omega1_zero(y_ev[0], y_ev[1], y_ev[2], y_ev[3], p, rtol):
+                        n_cross += 1
+                        if n_cross == 1:
+                            t1 = t_ev
+                        else:
+                            res_f[RF_HALF_PERIOD] = t_ev - t1
+                            end = END_PERIODIC
+                            stop = True
+                if stop:
                     for i in range(n):
                         y[i] = y_ev[i]
                     t = t_ev
+                    switch = True
                     break
                 sign[ev] = -sign[ev]
                 update_signs(g_ev, sign, ev)
-                theta0 = theta
-            if done:
-                break
-
-            if not switch:
-                # the step is taken in full
-                t = t_max if last else t + h
-                for i in range(n):
-                    y[i] = y_new[i]
                 for e in range(N_EVENTS):
-                    g[e] = g_hi[e]
-                    gr[e] = gr_hi[e]
-                h = h_next
-                if phase == SLIPPING:
-                    dt_return = try_return(y, p, sw, t_max - t, y_hi)
-                    switch = dt_return >= 0.0
-            if switch:
-                switches += 1
-                if switches > max_switches:
-                    status = TOO_MANY_SWITCHES
-                    break
-                if phase == ROLLING:
-                    enter_slipping(y, p, sw)
-                    phase = SLIPPING
-                    n = N_SLIPPING
-                    slip_phases += 1
-                    t_slip0 = t
-                else:  # y_hi holds the rolling state of the return
-                    for i in range(N_ROLLING):
-                        y[i] = y_hi[i]
-                    t += dt_return
-                    slip_time += t - t_slip0
-                    phase = ROLLING
-                    n = N_ROLLING
-                fresh = True
-
-        # ---------------- record ----------------
-        if phase == SLIPPING:
-            slip_time += t - t_slip0
-        E1 = state_energy(phase, y, p)
-        scale = max(abs(E0), p[P_M] * p[P_G] * p[P_RHO])
-        res_f[RF_T_END] = t
-        res_f[RF_F2_MIN] = f2_min
-        res_f[RF_HALF_PERIOD] = half_period
-        res_f[RF_REVOLUTIONS] = y[n - 1] / (2.0 * np.pi)
-        res_f[RF_SLIP_TIME] = slip_time
-        res_f[RF_ENERGY_DRIFT] = abs(E1 - E0) / scale
-        res_f[RF_BETA] = y[0]
-        res_f[RF_OMEGA1] = y[1]
-        res_f[RF_OMEGA2] = y[2]
-        res_f[RF_OMEGA3] = y[3]
-        res_i[RI_OUTCOME] = outcome
-        res_i[RI_SLIP_PHASES] = slip_phases
-        res_i[RI_N_STEPS] = n_steps
-        res_i[RI_STATUS] = status
-
-    # One name per scene: the four closures would otherwise share a qualname (and source line),
-    # so numba's disk cache could file their machine code under one key and load one scene's
-    # code for another (numba issue #10486; seen in the shared checkout, see
-    # tests/test_reference_hybrid.py).
-    name = "trajectory_%s_%s" % ("hybrid" if hybrid else "rolling", "conservative" if conservative else "dissipative")
-    trajectory.__name__ = name
-    trajectory.__qualname__ = name
-    return kernel(trajectory)
+                    search[e] = search[e] and theta < 1.0
+                theta0 = theta
+        else:
+            update_signs(g1, sign, -1)
+        if switch:
+            break
+        # the step is taken in full
+        t = t_max if last else t + h
+        for i in range(n):
+            y[i] = y_new[i]
+            f[i] = f_new[i]
+        for e in range(N_EVENTS):
+            g[e] = g1[e]
+            gr[e] = gr1[e]
+        if sign[EV_FALL] > 0 and g1[EV_FALL] < mins[EV_FALL]:
+            mins[EV_FALL] = g1[EV_FALL]
+        h = h_next
+        after_reject = False
+        if not rolling_phase:  # the return rule is checked at every slipping step end too
+            dt_return = try_return(y, p, sw, t_max - t, y_ret)
+            if dt_return >= 0.0:
+                end = END_SWITCH
+                break
+    res_f[RF_T_END] = t
+    res_i[RI_N_STEPS] = n_steps
+    res_i[RI_N_SEARCHED] = n_searched
+    return end, dt_return
 
 
-_trajectory_rolling_conservative = _make_trajectory(False, True)
-_trajectory_rolling_dissipative = _make_trajectory(False, False)
-_trajectory_hybrid_conservative = _make_trajectory(True, True)
-_trajectory_hybrid_dissipative = _make_trajectory(True, False)
+@kernel(inline=True)
+def trajectory(hybrid, conservative, x0, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order, max_steps,
+               max_switches, sw, W, K, Q, G, sign, search, active_roll, active_slip, res_f, res_i):
+    """One trajectory from the rolling initial state x0 in the scene (hybrid, conservative)."""
+    y = W[W_Y]
+    for i in range(4):
+        y[i] = x0[i]
+    y[4] = 0.0
+    system.rolling_active(hybrid, conservative, active_roll)
+    system.slipping_active(hybrid, conservative, active_slip)
+    atol_roll = W[W_ATOL_ROLL]
+    atol_slip = W[W_ATOL_SLIP]
+    system.rolling_atol(atol, sw, atol_roll)
+    system.slipping_atol(atol, sw, atol_slip)
+    mins = G[G_MIN]
+    for e in range(N_EVENTS):
+        mins[e] = np.inf
+    res_f[RF_T_END] = 0.0
+    res_f[RF_HALF_PERIOD] = np.nan
+    res_i[RI_OUTCOME] = ON_RIM_AT_T_MAX
+    res_i[RI_STATUS] = OK
+    res_i[RI_N_STEPS] = 0
+    res_i[RI_N_SEARCHED] = 0
+    E0 = system.rolling_energy(y, p)
+    rolling_phase = True
+    first = True
+    switches = 0
+    slip_phases = 0
+    slip_time = 0.0
+    t_slip0 = 0.0
+    while True:
+        # ---------------- phase-start checks (solver.rules) ----------------
+        n = N_ROLLING if rolling_phase else N_SLIPPING
+        finite = True
+        for i in range(n):
+            if not np.isfinite(y[i]):
+                finite = False
+        if rolling_phase:
+            f2 = rolling.normal_force(y[0], y[1], y[3], p)
+            margin = rolling.friction_margin(y[0], y[1], y[2], y[3], p) if hybrid else 1.0
+            steady = first and rules.on_steady_motion(y[0], y[1], y[2], y[3], p)
+        else:
+            f2 = slipping.slipping_normal_force(y[0], y[1], y[3], y[I_U1], y[I_U3], p)
+            margin = 1.0
+            steady = False
+        if not (finite and np.isfinite(f2) and np.isfinite(margin)):
+            res_i[RI_STATUS] = NON_FINITE
+            break
+        if f2 < mins[EV_FALL]:
+            mins[EV_FALL] = f2
+        start = rules.phase_start_action(rolling_phase, hybrid, first, f2, margin, steady)
+        first = False
+        if start == rules.FALL:
+            if rolling_phase:
+                res_i[RI_OUTCOME] = rules.fall_outcome(y[0], y[1], y[3], 0.0, 0.0, p)
+            else:
+                res_i[RI_OUTCOME] = rules.fall_outcome(y[0], y[1], y[3], y[I_U1], y[I_U3], p)
+            break
+        if start == rules.STEADY:
+            res_i[RI_OUTCOME] = STEADY_MOTION
+            break
+        if start == rules.RUN:
+            if res_f[RF_T_END] >= t_max:
+                break
+            # ---------------- one phase to its terminal event ----------------
+            if rolling_phase:
+                end, dt_return = run_phase(system.rolling_rhs, system.rolling_events, True, hybrid, conservative,
+                                           system.ROLLING_DIRECTION, system.ROLLING_TRACK_MIN, system.ROLLING_ACTION,
+                                           active_roll, N_ROLLING, p, sw, t_max, rtol, atol_roll, A, E, P, n_stages,
+                                           err_mode, error_order, max_steps, W, K, Q, G, sign, search, res_f, res_i)
+            else:
+                end, dt_return = run_phase(system.slipping_rhs, system.slipping_events, False, hybrid, conservative,
+                                           system.SLIPPING_DIRECTION, system.SLIPPING_TRACK_MIN,
+                                           system.SLIPPING_ACTION, active_slip, N_SLIPPING, p, sw, t_max, rtol, atol_slip,
+                                           A, E, P, n_stages, err_mode, error_order, max_steps, W, K, Q, G, sign,
+                                           search, res_f, res_i)
+            if end == END_PERIODIC:
+                res_i[RI_OUTCOME] = PERIODIC_ROLLING
+                break
+            if end != END_SWITCH:
+                break
+        # ---------------- the switch: start == SLIP, or a phase ended at END_SWITCH ----------------
+        switches += 1
+        if switches > max_switches:
+            res_i[RI_STATUS] = TOO_MANY_SWITCHES
+            break
+        if rolling_phase:
+            enter_slipping(y, p, sw)
+            rolling_phase = False
+            slip_phases += 1
+            t_slip0 = res_f[RF_T_END]
+        else:
+            y_ret = W[W_Y_RET]
+            for i in range(N_ROLLING):
+                y[i] = y_ret[i]
+            res_f[RF_T_END] += dt_return
+            slip_time += res_f[RF_T_END] - t_slip0
+            rolling_phase = True
+
+    # ---------------- record ----------------
+    t = res_f[RF_T_END]
+    if rolling_phase:
+        E1 = system.rolling_energy(y, p)
+        n = N_ROLLING
+    else:
+        slip_time += t - t_slip0
+        E1 = system.slipping_energy(y, p)
+        n = N_SLIPPING
+    scale = max(abs(E0), p[P_M] * p[P_G] * p[P_RHO])
+    res_f[RF_F2_MIN] = mins[EV_FALL]
+    res_f[RF_REVOLUTIONS] = y[n - 1] / (2.0 * np.pi)
+    res_f[RF_SLIP_TIME] = slip_time
+    res_f[RF_ENERGY_DRIFT] = abs(E1 - E0) / scale
+    res_f[RF_BETA] = y[0]
+    res_f[RF_OMEGA1] = y[1]
+    res_f[RF_OMEGA2] = y[2]
+    res_f[RF_OMEGA3] = y[3]
+    res_i[RI_SLIP_PHASES] = slip_phases
+
+
+@kernel
+def trajectory_rolling_conservative(x0, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order, max_steps,
+                                    max_switches, sw, W, K, Q, G, sign, search, act_r, act_s, res_f, res_i):
+    """Scene mu = inf, k_r = k_d = 0 (see :func:`trajectory`)."""
+    trajectory(False, True, x0, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order, max_steps,
+               max_switches, sw, W, K, Q, G, sign, search, act_r, act_s, res_f, res_i)
+
+
+@kernel
+def trajectory_rolling_dissipative(x0, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order, max_steps,
+                                   max_switches, sw, W, K, Q, G, sign, search, act_r, act_s, res_f, res_i):
+    """Scene mu = inf, k_r or k_d > 0 (see :func:`trajectory`)."""
+    trajectory(False, False, x0, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order, max_steps,
+               max_switches, sw, W, K, Q, G, sign, search, act_r, act_s, res_f, res_i)
+
+
+@kernel
+def trajectory_hybrid_conservative(x0, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order, max_steps,
+                                   max_switches, sw, W, K, Q, G, sign, search, act_r, act_s, res_f, res_i):
+    """Scene finite mu, k_r = k_d = 0 (see :func:`trajectory`)."""
+    trajectory(True, True, x0, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order, max_steps,
+               max_switches, sw, W, K, Q, G, sign, search, act_r, act_s, res_f, res_i)
+
+
+@kernel
+def trajectory_hybrid_dissipative(x0, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order, max_steps,
+                                  max_switches, sw, W, K, Q, G, sign, search, act_r, act_s, res_f, res_i):
+    """Scene finite mu, k_r or k_d > 0 (see :func:`trajectory`)."""
+    trajectory(True, False, x0, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order, max_steps,
+               max_switches, sw, W, K, Q, G, sign, search, act_r, act_s, res_f, res_i)
 
 
 @kernel
 def run_chunk(scene, states, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order, max_steps,
               max_switches, sw, res_f, res_i):
     """Simulate every row of ``states`` (m, 4) in the given scene; results into rows of res_f, res_i."""
-    hybrid = scene == SCENE_HYBRID_CONSERVATIVE or scene == SCENE_HYBRID_DISSIPATIVE
-    conservative = scene == SCENE_ROLLING_CONSERVATIVE or scene == SCENE_HYBRID_CONSERVATIVE
-    W = np.zeros((_W_ROWS, N_MAX))
+    W = np.zeros((N_W, N_MAX))
     K = np.zeros((A.shape[0], N_MAX))
     Q = np.zeros((N_MAX, P.shape[1]))
-    G = np.zeros((_G_ROWS, N_EVENTS))
+    G = np.zeros((N_G, N_EVENTS))
     sign = np.zeros(N_EVENTS, dtype=np.int64)
-    direction = np.empty((2, N_EVENTS), dtype=np.int64)
-    active = np.ones((2, N_EVENTS), dtype=np.bool_)
-    for e in range(N_EVENTS):
-        direction[ROLLING, e] = ROLLING_DIRECTION[e]
-        direction[SLIPPING, e] = SLIPPING_DIRECTION[e]
-    active[ROLLING, EV_SWITCH] = hybrid
-    active[ROLLING, EV_OMEGA1] = conservative
-    active[SLIPPING, EV_OMEGA1] = False
+    search = np.zeros(N_EVENTS, dtype=np.bool_)
+    act_r = np.ones(N_EVENTS, dtype=np.bool_)
+    act_s = np.ones(N_EVENTS, dtype=np.bool_)
     for k in range(states.shape[0]):
         x0 = states[k]
         if scene == SCENE_ROLLING_CONSERVATIVE:
-            _trajectory_rolling_conservative(x0, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order,
-                                             max_steps, max_switches, sw, active, direction, W, K, Q, G, sign,
-                                             res_f[k], res_i[k])
+            trajectory_rolling_conservative(x0, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order,
+                                            max_steps, max_switches, sw, W, K, Q, G, sign, search, act_r, act_s,
+                                            res_f[k], res_i[k])
         elif scene == SCENE_ROLLING_DISSIPATIVE:
-            _trajectory_rolling_dissipative(x0, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order,
-                                            max_steps, max_switches, sw, active, direction, W, K, Q, G, sign,
-                                            res_f[k], res_i[k])
-        elif scene == SCENE_HYBRID_CONSERVATIVE:
-            _trajectory_hybrid_conservative(x0, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order,
-                                            max_steps, max_switches, sw, active, direction, W, K, Q, G, sign,
-                                            res_f[k], res_i[k])
-        else:
-            _trajectory_hybrid_dissipative(x0, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order,
-                                           max_steps, max_switches, sw, active, direction, W, K, Q, G, sign,
+            trajectory_rolling_dissipative(x0, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order,
+                                           max_steps, max_switches, sw, W, K, Q, G, sign, search, act_r, act_s,
                                            res_f[k], res_i[k])
+        elif scene == SCENE_HYBRID_CONSERVATIVE:
+            trajectory_hybrid_conservative(x0, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order,
+                                           max_steps, max_switches, sw, W, K, Q, G, sign, search, act_r, act_s,
+                                           res_f[k], res_i[k])
+        else:
+            trajectory_hybrid_dissipative(x0, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order,
+                                          max_steps, max_switches, sw, W, K, Q, G, sign, search, act_r, act_s,
+                                          res_f[k], res_i[k])

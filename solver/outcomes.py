@@ -6,12 +6,15 @@ FALL_IN = 0
 FALL_OUT = 1
 PERIODIC_ROLLING = 2
 ON_RIM_AT_T_MAX = 3
+STEADY_MOTION = 4
 
 OUTCOME_MEANINGS = {
     FALL_IN: "fall_in: the ball left the rim and its centre came down inside the rim (a score)",
     FALL_OUT: "fall_out: the ball left the rim and its centre came down outside the rim",
     PERIODIC_ROLLING: "periodic_rolling: omega1 vanished twice in one rolling stretch; the orbit repeats forever (61)",
     ON_RIM_AT_T_MAX: "on_rim_at_t_max: still on the rim when the run stopped (at t_max, or earlier if status != 0)",
+    STEADY_MOTION: "steady_motion: the initial state is a steady motion (47)-(48) or (46) to within the tolerance; "
+                   "it never moves (steady_h of (54): < 0 stable, > 0 unstable)",
 }
 OUTCOME_FLAG_VALUES = tuple(OUTCOME_MEANINGS)
 OUTCOME_FLAG_MEANINGS = " ".join(m.split(":")[0] for m in OUTCOME_MEANINGS.values())

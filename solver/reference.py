@@ -32,10 +32,14 @@ Hybrid scenes (finite mu; the rules of ``solver.switching`` and ``solver.kernels
   time by at most one of its (short, slip-limited) steps.
 
 scipy looks for sign changes only at step ends, so an F2 dip below zero inside one step is
-missed (scipy issue #9228). The reference therefore also samples the downward events (F2, and
-the friction margin) on the dense output, GRAZE_SAMPLES points per step, and takes the first
-downward crossing found there (located by ``brentq``) if it comes before the event scipy
-reported.
+missed (scipy issue #9228). The reference therefore locates every interior minimum of F2 with a
+non-terminal event dF2/dt = 0 (upward) and checks F2 there: the first minimum with F2 < 0 is
+a fall, at the zero before it (``brentq``), if it comes before the event scipy reported. The
+friction margin (39) has no cheap derivative: its downward crossings are also sampled on the
+dense output, GRAZE_SAMPLES points per step.
+
+Rules that are not integration — the steady-motion test at t = 0, what counts as a transversal
+omega1 zero, the free flight — are ``solver.rules``, the same functions the engine calls.
 
 Results per state: outcome, t_end, half_period, nfev (right-hand-side evaluations), slip_phases,
 slip_time [s] (0 in rolling-only scenes) and energy_drift, |E(t_end) - E(0)| / max(|E(0)|,
@@ -50,8 +54,8 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
-from solver import flight, kinematics, rolling, slipping, switching
-from solver.outcomes import ON_RIM_AT_T_MAX, PERIODIC_ROLLING
+from solver import kinematics, rolling, rules, slipping, switching
+from solver.outcomes import ON_RIM_AT_T_MAX, PERIODIC_ROLLING, STEADY_MOTION
 from solver.params import P_G, P_M, P_RHO, Params
 
 GRAZE_SAMPLES = 32
@@ -73,17 +77,20 @@ def _root(f, a, b):
     return a if fa <= 0 else b
 
 
-def _first_missed_dip(sol, F2, t_end):
-    """Earliest downward zero of F2 on the dense output in (0, t_end), or None."""
-    for t0, t1 in zip(sol.t[:-1], sol.t[1:]):
-        if t0 >= t_end:
+def _first_dip(sol, F2, t_mins, t_end):
+    """First zero of F2 before the first located minimum of F2 in (t0, t_end) where F2 < 0, or None.
+
+    ``t_mins``: the times of the interior minima of F2 (a non-terminal dF2/dt = 0 event, upward).
+    F2 > 0 at the phase start and at every earlier minimum, so exactly one downward zero lies
+    between the last of those and the first negative minimum.
+    """
+    t_lo = float(sol.t[0])
+    for tm in t_mins:
+        if tm >= t_end:
             break
-        ts = np.linspace(t0, min(t1, t_end), GRAZE_SAMPLES + 1)
-        g = np.array([F2(sol.sol(t)) for t in ts])
-        down = np.flatnonzero((g[:-1] > 0) & (g[1:] < 0))
-        if down.size:
-            k = down[0]
-            return _root(lambda t: F2(sol.sol(t)), ts[k], ts[k + 1])
+        if F2(sol.sol(tm)) < 0.0:
+            return _root(lambda t: F2(sol.sol(t)), t_lo, float(tm))
+        t_lo = float(tm)
     return None
 
 
@@ -102,6 +109,25 @@ def _omega1_zero():
     return _event(lambda y: y[1], terminal=2, direction=0)
 
 
+def _transversal_pair(t_w1, y_w1, p, rtol, t_start=None):
+    """Times of the first two transversal omega1 zeros (``solver.rules``) among scipy's, or None.
+
+    ``t_start``: the phase starts on omega1 = 0 with a transversal slope (a first crossing at t).
+    """
+    times = [] if t_start is None else [t_start]
+    for t, y in zip(t_w1, y_w1):
+        if rules.transversal_omega1_zero(y[0], y[1], y[2], y[3], p, rtol):
+            times.append(float(t))
+        if len(times) == 2:
+            return times
+    return None
+
+
+def _starts_crossing(y, p, rtol):
+    """Whether a rolling phase starts on omega1 = 0 with a transversal slope (a first crossing)."""
+    return y[1] == 0.0 and bool(rules.transversal_omega1_zero(y[0], y[1], y[2], y[3], p, rtol))
+
+
 def _energy_drift(E0, E1, p):
     return abs(E1 - E0) / max(abs(E0), p[P_M] * p[P_G] * p[P_RHO])
 
@@ -111,6 +137,7 @@ def _reference_rolling(state, params: Params, t_max, rtol, atol, method):
     p = params.as_array()
     rhs = rolling.rolling_rhs.py_func
     F2 = rolling.normal_force.py_func
+    F2_rate = rolling.normal_force_rate.py_func
 
     def fun(t, y):
         b, w1, w2, w3 = rhs(y[0], y[1], y[2], y[3], p)
@@ -120,26 +147,47 @@ def _reference_rolling(state, params: Params, t_max, rtol, atol, method):
     fall = _event(lambda y: F2(y[0], y[1], y[3], p), terminal=True, direction=-1)
     omega1_zero = _omega1_zero()
 
+    def f2_rate(t, y):
+        b, w1, _, w3 = rhs(y[0], y[1], y[2], y[3], p)
+        return F2_rate(y[0], y[1], y[3], b, w1, w3, p)
+
+    f2_rate.terminal = False
+    f2_rate.direction = 1  # dF2/dt crosses 0 upward: an interior minimum of F2
+
     y0 = np.array([*np.asarray(state, float), 0.0])
     if fall(0.0, y0) < 0:
-        return {"outcome": int(flight.flight_outcome.py_func(y0[0], y0[1], y0[3], 0.0, 0.0, p)),
+        return {"outcome": int(rules.fall_outcome.py_func(y0[0], y0[1], y0[3], 0.0, 0.0, p)),
                 "t_end": 0.0, "half_period": np.nan, "nfev": 0, "y_end": y0}
-    events = [fall] if params.dissipative else [fall, omega1_zero]
+    if rules.on_steady_motion(y0[0], y0[1], y0[2], y0[3], p):
+        return {"outcome": STEADY_MOTION, "t_end": 0.0, "half_period": np.nan, "nfev": 0, "y_end": y0}
+    events = [fall, f2_rate] if params.dissipative else [fall, f2_rate, omega1_zero]
+    t_start = 0.0 if _starts_crossing(y0, p, rtol) else None
+    if t_start is not None:
+        omega1_zero.terminal = 1  # scipy does not report a zero at the initial point
     sol = solve_ivp(fun, (0.0, t_max), y0, method=method, rtol=rtol, atol=atol, events=events, dense_output=True)
+    pair = None
+    if len(events) > 2:
+        pair = _transversal_pair(sol.t_events[2], sol.y_events[2], p, rtol, t_start)
+        if pair is None and sol.status == 1 and not sol.t_events[0].size:
+            # a touching zero stopped the run: go on to t_max without stopping at omega1 zeros
+            omega1_zero.terminal = False
+            sol = solve_ivp(fun, (0.0, t_max), y0, method=method, rtol=rtol, atol=atol, events=events,
+                            dense_output=True)
+            pair = _transversal_pair(sol.t_events[2], sol.y_events[2], p, rtol, t_start)
     t_fall = sol.t_events[0]
-    t_w1 = sol.t_events[1] if len(events) > 1 else np.empty(0)
-    t_dip = _first_missed_dip(sol, lambda y: fall(0.0, y), float(sol.t[-1]))
+    t_w1 = np.array(pair if pair is not None else [])
+    t_dip = _first_dip(sol, lambda y: fall(0.0, y), sol.t_events[1], float(sol.t[-1]))
     if t_dip is not None and not (t_fall.size and t_fall[0] <= t_dip):
         y = sol.sol(t_dip)
-        outcome = int(flight.flight_outcome.py_func(y[0], y[1], y[3], 0.0, 0.0, p))
+        outcome = int(rules.fall_outcome.py_func(y[0], y[1], y[3], 0.0, 0.0, p))
         return {"outcome": outcome, "t_end": float(t_dip), "half_period": np.nan, "nfev": sol.nfev, "y_end": y}
     if t_fall.size and (t_w1.size < 2 or t_fall[0] <= t_w1[1]):
         y = sol.y_events[0][0]
-        outcome = int(flight.flight_outcome.py_func(y[0], y[1], y[3], 0.0, 0.0, p))
+        outcome = int(rules.fall_outcome.py_func(y[0], y[1], y[3], 0.0, 0.0, p))
         return {"outcome": outcome, "t_end": float(t_fall[0]), "half_period": np.nan, "nfev": sol.nfev, "y_end": y}
     if t_w1.size >= 2:
         return {"outcome": PERIODIC_ROLLING, "t_end": float(t_w1[1]), "half_period": float(t_w1[1] - t_w1[0]),
-                "nfev": sol.nfev, "y_end": sol.y_events[1][1]}
+                "nfev": sol.nfev, "y_end": sol.sol(t_w1[1])}
     return {"outcome": ON_RIM_AT_T_MAX, "t_end": float(sol.t[-1]), "half_period": np.nan, "nfev": sol.nfev,
             "y_end": sol.y[:, -1]}
 
@@ -240,6 +288,18 @@ def reference_hybrid(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, 
     omega1_zero = _omega1_zero()
     fall_slip = _event(fall_slip_value, terminal=True, direction=-1)
 
+    def f2_min_roll(t, y):  # dF2/dt = 0 upward: an interior minimum of F2 (31)
+        b, w1, _, w3 = rolling_rhs(y[0], y[1], y[2], y[3], p)
+        return rolling.normal_force_rate(y[0], y[1], y[3], b, w1, w3, p)
+
+    def f2_min_slip(t, y):  # the same for F2 (41)
+        b, w1, _, w3, du1, du3 = slipping_rhs(y[0], y[1], y[2], y[3], y[4], y[5], p)
+        return slipping.slipping_normal_force_rate(y[0], y[1], y[3], y[4], y[5], b, w1, w3, du1, du3, p)
+
+    for minimum in (f2_min_roll, f2_min_slip):
+        minimum.terminal = False
+        minimum.direction = 1
+
     def refused(t, y):  # depends on t too (the time left caps the return)
         if np.hypot(y[4], y[5]) > u_stop:
             return 1.0
@@ -272,7 +332,7 @@ def reference_hybrid(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, 
         if not phase_slipping:
             # ---------------- rolling phase ----------------
             if fall_roll_value(y) < 0.0:
-                outcome = int(flight.flight_outcome(y[0], y[1], y[3], 0.0, 0.0, p))
+                outcome = int(rules.fall_outcome(y[0], y[1], y[3], 0.0, 0.0, p))
                 break
             if margin_value(y) < 0.0:
                 switches += 1
@@ -283,9 +343,14 @@ def reference_hybrid(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, 
                 slip_phases += 1
                 t_slip0 = t
                 continue
+            if t == 0.0 and rules.on_steady_motion(y[0], y[1], y[2], y[3], p):
+                outcome = STEADY_MOTION
+                break
             if t >= t_max:
                 break
-            events = [fall_roll, slip_onset] + ([omega1_zero] if conservative else [])
+            t_start = t if conservative and _starts_crossing(y, p, rtol) else None
+            omega1_zero.terminal = 1 if t_start is not None else 2
+            events = [fall_roll, slip_onset, f2_min_roll] + ([omega1_zero] if conservative else [])
             sol = solve_ivp(fun_roll, (t, t_max), y, method=method, rtol=rtol, atol=atol, events=events,
                             dense_output=True)
             nfev += sol.nfev
@@ -296,10 +361,11 @@ def reference_hybrid(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, 
                 cands.append((float(sol.t_events[0][0]), 0))
             if sol.t_events[1].size:
                 cands.append((float(sol.t_events[1][0]), 1))
-            t_w1 = sol.t_events[2] if conservative else np.empty(0)
-            if t_w1.size >= 2:
+            pair = _transversal_pair(sol.t_events[3], sol.y_events[3], p, rtol, t_start) if conservative else None
+            if pair is not None:
+                t_w1 = np.array(pair)
                 cands.append((float(t_w1[1]), 2))
-            t_dip = _first_down(sol, t_stop, fall_roll_value)
+            t_dip = _first_dip(sol, fall_roll_value, sol.t_events[2], t_stop)
             if t_dip is not None:
                 cands.append((t_dip, 0))
             t_dip = _first_down(sol, t_stop, margin_value)
@@ -314,7 +380,7 @@ def reference_hybrid(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, 
             t = t_ev
             y = sol.sol(t_ev)
             if rule == 0:
-                outcome = int(flight.flight_outcome(y[0], y[1], y[3], 0.0, 0.0, p))
+                outcome = int(rules.fall_outcome(y[0], y[1], y[3], 0.0, 0.0, p))
                 break
             if rule == 2:
                 outcome = PERIODIC_ROLLING
@@ -330,7 +396,7 @@ def reference_hybrid(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, 
         else:
             # ---------------- slipping phase ----------------
             if fall_slip_value(y) < 0.0:
-                outcome = int(flight.flight_outcome(y[0], y[1], y[3], y[4], y[5], p))
+                outcome = int(rules.fall_outcome(y[0], y[1], y[3], y[4], y[5], p))
                 break
             if t >= t_max:
                 break
@@ -340,13 +406,13 @@ def reference_hybrid(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, 
                 sol = None
             else:
                 sol = solve_ivp(fun_slip, (t, t_max), y, method=method, rtol=rtol, atol=atol,
-                                events=[fall_slip, refused], dense_output=True)
+                                events=[fall_slip, refused, f2_min_slip], dense_output=True)
                 nfev += sol.nfev
                 t_stop = float(sol.t[-1])
                 cands = []
                 if sol.t_events[0].size:
                     cands.append((float(sol.t_events[0][0]), 0))
-                t_dip = _first_down(sol, t_stop, fall_slip_value)
+                t_dip = _first_dip(sol, fall_slip_value, sol.t_events[2], t_stop)
                 if t_dip is not None:
                     cands.append((t_dip, 0))
                 t_allowed = _first_allowed(sol, t_stop, u_stop, return_dt)
@@ -364,7 +430,7 @@ def reference_hybrid(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, 
                 if rule == 0:
                     t = t_ev
                     y = sol.sol(t_ev)
-                    outcome = int(flight.flight_outcome(y[0], y[1], y[3], y[4], y[5], p))
+                    outcome = int(rules.fall_outcome(y[0], y[1], y[3], y[4], y[5], p))
                     break
                 t_ret = t_ev
                 y = sol.sol(t_ev)

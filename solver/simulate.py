@@ -10,12 +10,15 @@ from __future__ import annotations
 
 import math
 import os
+import sys
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from solver import kernels
+from solver import _jit, kernels
+from solver.outcomes import STEADY_MOTION
 from solver.params import Params
+from solver.steady import stability
 from solver.switching import default_tolerances
 from solver.tableaus import TABLEAUS
 
@@ -35,12 +38,41 @@ INT_FIELDS = {  # name: (column, dtype)
     "outcome": (kernels.RI_OUTCOME, np.int8),
     "slip_phases": (kernels.RI_SLIP_PHASES, np.int32),
     "n_steps": (kernels.RI_N_STEPS, np.int64),
+    "n_searched": (kernels.RI_N_SEARCHED, np.int64),
     "status": (kernels.RI_STATUS, np.int8),
 }
+
+RTOL_RANGE = (1e-14, 1e-2)
+"""Relative tolerances for which the error control means something: below 1e-14 the steps
+drown in round-off, above 1e-2 an accepted step can miss the dynamics entirely (at rtol = 1 a
+periodic state 'falls in')."""
+ATOL_MAX = 1.0
+"""Largest absolute tolerance (the state's components are O(1e-2..1e2) in SI units)."""
 
 DEFAULT_MAX_STEPS = 1_000_000
 DEFAULT_MAX_SWITCHES = 10_000
 _CHUNKS_PER_WORKER = 8  # chunks per thread: balances fast falls against long periodic runs
+
+
+COLD_COMPILE_S = 90
+"""Measured first compile of the four scene kernels on 2 cores [s] (printed, not enforced)."""
+_announced = False
+
+
+def kernels_cached() -> bool:
+    """Whether the simulation kernels are compiled in this process or cached on disk."""
+    return bool(kernels.run_chunk.signatures) or any(_jit.cache_dir().glob("kernels.run_chunk-*.nbi"))
+
+
+def _announce_compile():
+    """One line on stderr before the first compile in this environment: a long silence otherwise."""
+    global _announced
+    if _announced or _jit._DISABLE or kernels_cached():
+        return
+    _announced = True
+    sys.stderr.write(f"rimroll: compiling the simulation kernels, first run only: about {COLD_COMPILE_S} s "
+                     f"on 2 cores (cached in {_jit.cache_dir()})\n")
+    sys.stderr.flush()
 
 
 def scene_of(params: Params) -> int:
@@ -64,7 +96,9 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
     t_max : float [s]
         End of the run for states that stay on the rim (> 0).
     rtol, atol : float
-        Relative and absolute tolerances (both > 0) of the embedded error estimate.
+        Relative tolerance (1e-14 <= rtol <= 1e-2) and absolute tolerance (0 < atol <= 1, in the
+        units of each state component) of the embedded error estimate. rtol also sets what
+        counts as a steady motion and as a transversal omega1 zero (``solver.rules``).
     method : {"dp5", "dop853"}
         Dormand-Prince 5(4) with 4th-order dense output, or DOP853 with 7th-order dense output.
     max_steps : int
@@ -80,12 +114,14 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
     Returns
     -------
     dict of numpy arrays of shape ``states.shape[:-1]``: ``outcome`` (int8, see
-    ``OUTCOME_MEANINGS``), ``t_end`` [s], ``f2_min`` [N], ``half_period`` [s] (NaN unless
+    ``OUTCOME_MEANINGS``), ``t_end`` [s] (0 for ``steady_motion``), ``f2_min`` [N], ``half_period`` [s] (NaN unless
     periodic), ``revolutions`` (signed alpha travelled / 2 pi), ``slip_phases``, ``slip_time``
     [s], ``energy_drift`` (|E(t_end) - E(0)| / max(|E(0)|, m g rho): the integration drift in
-    conservative rolling, the energy lost otherwise), ``n_steps`` (attempted steps),
+    conservative rolling, the energy lost otherwise), ``n_steps`` (attempted steps), ``n_searched`` (accepted steps whose dense output was searched
+    for events: the cost of the grazing check, docs/outcome-engine.md),
     ``beta_end``, ``omega1_end``, ``omega2_end``, ``omega3_end`` (the state at t_end, before
-    any free flight) and ``status`` (int8, see ``STATUS_MEANINGS``). A failing lane is
+    any free flight), ``steady_h`` [1/s^2] (h of (54) for ``steady_motion`` lanes: < 0 stable,
+    > 0 unstable; NaN elsewhere) and ``status`` (int8, see ``STATUS_MEANINGS``). A failing lane is
     recorded in ``status`` and never raises.
 
     Raises
@@ -101,8 +137,13 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
     if not np.all(np.isfinite(x)):
         raise ValueError("`states` must be finite; got inf or NaN")
     t_max = _positive("t_max", t_max)
-    rtol = _positive("rtol", rtol)
+    rtol = _real("rtol", rtol)
+    if not RTOL_RANGE[0] <= rtol <= RTOL_RANGE[1]:
+        raise ValueError(f"`rtol` must be in [{RTOL_RANGE[0]:g}, {RTOL_RANGE[1]:g}], where the error control "
+                         f"means something; got {rtol!r}")
     atol = _positive("atol", atol)
+    if atol > ATOL_MAX:
+        raise ValueError(f"`atol` must be in (0, {ATOL_MAX:g}]; got {atol!r}")
     if method not in TABLEAUS:
         raise ValueError(f"`method` must be one of {sorted(TABLEAUS)}; got {method!r}")
     max_steps = _count("max_steps", max_steps)
@@ -121,6 +162,8 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
     p = params.as_array()
     scene = scene_of(params)
 
+    _announce_compile()
+
     def run(lo, hi):
         kernels.run_chunk(scene, flat[lo:hi], p, t_max, rtol, atol, tab.A, tab.E, tab.P, tab.n_stages,
                           tab.err_mode, tab.error_order, max_steps, max_switches, sw, res_f[lo:hi], res_i[lo:hi])
@@ -138,7 +181,17 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
     out = {name: res_f[:, col].reshape(shape).copy() for name, col in FLOAT_FIELDS.items()}
     for name, (col, dtype) in INT_FIELDS.items():
         out[name] = res_i[:, col].astype(dtype).reshape(shape)
+    out["steady_h"] = _steady_h(flat, out["outcome"].reshape(-1), params).reshape(shape)
     return out
+
+
+def _steady_h(flat, outcome, params):
+    """h of (54) [1/s^2] for the lanes on a steady motion (NaN elsewhere): < 0 stable, > 0 unstable."""
+    h = np.full(flat.shape[0], np.nan)
+    on = outcome == STEADY_MOTION
+    if on.any():
+        h[on] = stability(flat[on, 0], flat[on, 3], params)
+    return h
 
 
 def _real(name, value):

@@ -18,17 +18,18 @@ Codes (int8; CF ``flag_values`` / ``flag_meanings`` in files):
                             Fig. 9 only), the separatrix E = m g rho of the pendulum, a slow
                             periodic orbit, or a failed integration
 
-"Within a tolerance" (``eq_tol``, relative): omega-like quantities are compared with
-S = max(|omega1|, |omega2|, |omega3|, sqrt(g/rho)); the rate omega1_dot with
-g/(r(1+j)) + r (omega2^2 + omega3^2)/(R - rho) (the size of the terms of (33)).
-A zero of omega1 is transversal when |omega1_dot| there exceeds eq_tol times that scale.
+"Within a tolerance" (``eq_tol``, relative) uses the scales of ``solver.rules`` (the one
+definition shared with the outcome engine): an equilibrium has ``rules.steady_residual`` <=
+eq_tol, a trivial one also |omega3| <= eq_tol S with S = ``rules.omega_scale``; the pendulum
+tests compare omega2, omega3 with eq_tol S. A zero of omega1 is transversal by
+``rules.transversal_omega1_zero`` at the integration's rtol.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from solver import rolling, trajectory
+from solver import rolling, rules, trajectory
 from solver._jit import vectorised
 from solver.params import Params
 
@@ -51,8 +52,9 @@ TYPE_FLAG_MEANINGS = " ".join(m.split(":")[0] for m in TYPE_MEANINGS.values())
 DEFAULT_T_MAX = 20.0
 DEFAULT_EQ_TOL = 1e-9
 
-_rhs = vectorised(rolling.rolling_rhs)
 _energy = vectorised(rolling.energy)
+_omega_scale = vectorised(rules.omega_scale)
+_steady_residual = vectorised(rules.steady_residual)
 
 
 def _check(states, p: Params):
@@ -65,26 +67,17 @@ def _check(states, p: Params):
     return states
 
 
-def _scales(states, p: Params):
-    """(omega scale S [1/s], omega1_dot scale [1/s^2]) of each state."""
-    w = np.abs(states[..., 1:])
-    s_omega = np.maximum(w.max(axis=-1), np.sqrt(p.g / p.rho))
-    s_rate = p.g / (p.r * (1.0 + p.j)) + p.r * (states[..., 2] ** 2 + states[..., 3] ** 2) / (p.R - p.rho)
-    return s_omega, s_rate
-
-
 def equilibrium_kind(states, p: Params, eq_tol: float = DEFAULT_EQ_TOL):
     """Code per state: TRIVIAL_EQUILIBRIUM, NONTRIVIAL_EQUILIBRIUM, or -1 (not an equilibrium) (int8).
 
-    An equilibrium has f(x) = 0 within eq_tol: |omega1| <= eq_tol S and |omega1_dot| <= eq_tol
-    times its scale (omega2_dot, omega3_dot and beta_dot are proportional to omega1).
+    An equilibrium has ``rules.steady_residual`` <= eq_tol (omega1 and every rate vanish
+    relative to their scales); a trivial one also has |omega3| <= eq_tol S.
     """
     states = _check(states, p)
-    s_omega, s_rate = _scales(states, p)
     beta, w1, w2, w3 = np.moveaxis(states, -1, 0)
-    _, w1_dot, _, _ = _rhs(beta, w1, w2, w3, p.as_array())
-    eq = (np.abs(w1) <= eq_tol * s_omega) & (np.abs(w1_dot) <= eq_tol * s_rate)
-    trivial = eq & (np.abs(w3) <= eq_tol * s_omega)
+    pa = p.as_array()
+    eq = _steady_residual(beta, w1, w2, w3, pa) <= eq_tol
+    trivial = eq & (np.abs(w3) <= eq_tol * _omega_scale(w1, w2, w3, pa))
     out = np.full(states.shape[:-1], -1, dtype=np.int8)
     out[eq] = NONTRIVIAL_EQUILIBRIUM
     out[trivial] = TRIVIAL_EQUILIBRIUM
@@ -109,8 +102,9 @@ def classify(states, p: Params, t_max: float = DEFAULT_T_MAX, rtol: float = traj
     first = np.full(flat.shape[0], np.nan)
 
     eq = equilibrium_kind(flat, p, eq_tol)
-    s_omega, s_rate = _scales(flat, p)
     beta, w1, w2, w3 = flat.T
+    pa = p.as_array()
+    s_omega = _omega_scale(w1, w2, w3, pa)
     E = _energy(beta, w1, w2, w3, p.as_array())
     e_top = p.m * p.g * p.rho  # energy of the ball resting on top of the rim (x0+ with omega2 = 0)
     pendulum = (np.abs(w2) <= eq_tol * s_omega) & (np.abs(w3) <= eq_tol * s_omega)
@@ -131,8 +125,9 @@ def classify(states, p: Params, t_max: float = DEFAULT_T_MAX, rtol: float = traj
             continue
         starts_on_plane = w1[i] == 0.0  # then t = 0 is a transversal zero (not an equilibrium)
         need = 1 if starts_on_plane else 2
-        times, rates, status = trajectory.omega1_zeros(flat[i], p, t_max, n_zeros=need, rtol=rtol, atol=atol)
-        transversal = np.abs(rates) > eq_tol * s_rate[i]
+        times, _, status, at = trajectory.omega1_zeros(flat[i], p, t_max, n_zeros=need, rtol=rtol, atol=atol,
+                                                       with_states=True)
+        transversal = np.array([bool(rules.transversal_omega1_zero(*x, pa, rtol)) for x in at], dtype=bool)
         if starts_on_plane:
             times, transversal = np.concatenate([[0.0], times]), np.concatenate([[True], transversal])
         if times.size:

@@ -1,11 +1,16 @@
 """One generic embedded Runge-Kutta step, its error norm, step-size control and dense output.
 
 Everything here reads a method from the arrays of a :class:`solver.tableaus.Tableau` (``A``,
-``C``, ``E``, ``P`` and a few integers) and the right-hand side from
-:func:`solver.system.rhs` (selected by the integer ``phase``), so DP5 and DOP853 share every
-line. State vectors are rows of preallocated float64 work arrays; ``n`` is the number of live
-components and the first ``n_err`` of them enter the error norm (the quadrature of alpha,
-stored last, does not steer the step size).
+``C``, ``E``, ``P`` and a few integers), so DP5 and DOP853 share every line, and knows no
+physics: the right-hand side is a compiled function ``rhs(y, p, K, s)`` passed in (it writes
+the rates of y into row s of the 2-D array K; ``p`` is whatever parameter vector it needs).
+State vectors are preallocated float64 arrays; ``n`` is the number of live components and the
+first ``n_err`` of them enter the error norm (a quadrature stored last, like the cyclic angle
+of the ball, does not steer the step size).
+
+:func:`attempt` is the step attempt: it tries steps from (t, y) until one is accepted,
+rejecting on the error norm and cutting the step after a non-finite trial, and reports a step
+budget spent or a step-size underflow instead of looping.
 
 Step-size control is the classic one of Hairer, Norsett & Wanner (Solving ODEs I, II.4), as in
 ``scipy.integrate.RK45``: ``h_new = h * clip(SAFETY * err^(-1/(q+1)), MIN_FACTOR, MAX_FACTOR)``
@@ -17,20 +22,26 @@ from __future__ import annotations
 import numpy as np
 
 from solver._compile import kernel
-from solver.system import rhs, rhs_row
 
 SAFETY = 0.9  # fraction of the optimal step actually taken
 MIN_FACTOR = 0.2  # largest decrease of h in one rejection (also the cut after a non-finite trial)
 MAX_FACTOR = 10.0  # largest increase of h after an accepted step
 MIN_STEP_ULPS = 10.0  # h below this many ulps of t is a step-size underflow (as scipy)
+MAX_NONFINITE_RETRIES = 30  # consecutive non-finite trial steps (each cutting h by MIN_FACTOR)
+
+# Results of attempt().
+ACCEPTED = 0
+BUDGET_SPENT = 1
+UNDERFLOW = 2
+NON_FINITE = 3
 
 
 @kernel(inline=True)
-def rk_step(phase, t, y, f, h, n, A, n_stages, K, y_new, tmp, p):
-    """One explicit RK step from (t, y) with slope f = rhs(y): fills K[0..n_stages] and y_new.
+def rk_step(rhs, y, f, h, n, A, n_stages, K, y_new, tmp, p):
+    """One explicit RK step from y with slope f = rhs(y): fills K[0..n_stages] and y_new.
 
     K[n_stages] is the first-same-as-last stage f(y_new), reused by the next step, the error
-    estimate and the dense output. (t does not enter: the system is autonomous.)
+    estimate and the dense output. (No time argument: the systems are autonomous.)
     """
     for i in range(n):
         K[0, i] = f[i]
@@ -43,14 +54,15 @@ def rk_step(phase, t, y, f, h, n, A, n_stages, K, y_new, tmp, p):
         if s == n_stages:
             for i in range(n):
                 y_new[i] = tmp[i]
-        rhs_row(phase, tmp, p, K, s)
+        rhs(tmp, p, K, s)
 
 
 @kernel(inline=True)
 def error_norm(K, E, err_mode, n_stages, h, y, y_new, n_err, rtol, atol):
     """Scaled norm of the local error estimate; the step is accepted when it is <= 1.
 
-    The scale of component i is atol + rtol * max(|y_i|, |y_new_i|). err_mode 0: RMS of
+    The scale of component i is atol[i] + rtol * max(|y_i|, |y_new_i|) (atol: one absolute
+    tolerance per component, in its units). err_mode 0: RMS of
     h K^T E[0] / scale; err_mode 1: the DOP853 combination of its two estimators.
     """
     if err_mode == 0:
@@ -59,7 +71,7 @@ def error_norm(K, E, err_mode, n_stages, h, y, y_new, n_err, rtol, atol):
             e = 0.0
             for k in range(n_stages + 1):
                 e += K[k, i] * E[0, k]
-            sc = atol + rtol * max(abs(y[i]), abs(y_new[i]))
+            sc = atol[i] + rtol * max(abs(y[i]), abs(y_new[i]))
             e = h * e / sc
             acc += e * e
         return np.sqrt(acc / n_err)
@@ -71,7 +83,7 @@ def error_norm(K, E, err_mode, n_stages, h, y, y_new, n_err, rtol, atol):
         for k in range(n_stages + 1):
             e5 += K[k, i] * E[0, k]
             e3 += K[k, i] * E[1, k]
-        sc = atol + rtol * max(abs(y[i]), abs(y_new[i]))
+        sc = atol[i] + rtol * max(abs(y[i]), abs(y_new[i]))
         n5 += (e5 / sc) ** 2
         n3 += (e3 / sc) ** 2
     if n5 == 0.0 and n3 == 0.0:
@@ -101,15 +113,16 @@ def min_step(t):
 
 
 @kernel
-def initial_step(phase, y, f, n, n_err, error_order, rtol, atol, span, tmp, f1, p):
+def initial_step(rhs, y, f, n, n_err, error_order, rtol, atol, span, tmp, F1, p):
     """Hairer's starting step (Solving ODEs I, II.4; scipy ``select_initial_step``) [s].
 
-    Uses one extra evaluation of the right-hand side; bounded by ``span`` (time left).
+    Uses one extra evaluation of the right-hand side (into row 0 of the scratch array F1);
+    bounded by ``span`` (time left). atol: per component, as in :func:`error_norm`.
     """
     d0 = 0.0
     d1 = 0.0
     for i in range(n_err):
-        sc = atol + rtol * abs(y[i])
+        sc = atol[i] + rtol * abs(y[i])
         d0 += (y[i] / sc) ** 2
         d1 += (f[i] / sc) ** 2
     d0 = np.sqrt(d0 / n_err)
@@ -121,11 +134,11 @@ def initial_step(phase, y, f, n, n_err, error_order, rtol, atol, span, tmp, f1, 
     h0 = min(h0, span)
     for i in range(n):
         tmp[i] = y[i] + h0 * f[i]
-    rhs(phase, tmp, p, f1)
+    rhs(tmp, p, F1, 0)
     d2 = 0.0
     for i in range(n_err):
-        sc = atol + rtol * abs(y[i])
-        d2 += ((f1[i] - f[i]) / sc) ** 2
+        sc = atol[i] + rtol * abs(y[i])
+        d2 += ((F1[0, i] - f[i]) / sc) ** 2
     d2 = np.sqrt(d2 / n_err) / h0
     if not np.isfinite(d2):
         return h0
@@ -137,8 +150,10 @@ def initial_step(phase, y, f, n, n_err, error_order, rtol, atol, span, tmp, f1, 
 
 
 @kernel
-def dense_prepare(phase, y, h, n, A, n_stages, n_dense, P, n_poly, K, Q, tmp, p):
+def dense_prepare(rhs, y, h, n, A, n_stages, n_dense, P, n_poly, K, Q, tmp, p):
     """Dense output of the last step: extra stages (if the method has any), then Q = K^T P.
+
+    ``dense_eval`` and ``dense_slope`` then give the interpolant and its time derivative.
 
     Afterwards ``dense_eval(theta, y, h, Q, ...)`` gives the interpolant on [t, t + h].
     """
@@ -148,7 +163,7 @@ def dense_prepare(phase, y, h, n, A, n_stages, n_dense, P, n_poly, K, Q, tmp, p)
             for j in range(s):
                 acc += A[s, j] * K[j, i]
             tmp[i] = y[i] + h * acc
-        rhs_row(phase, tmp, p, K, s)
+        rhs(tmp, p, K, s)
     for i in range(n):
         for q in range(n_poly):
             acc = 0.0
@@ -165,3 +180,61 @@ def dense_eval(theta, y, h, Q, n, n_poly, out):
         for q in range(n_poly - 1, -1, -1):
             acc = (acc + Q[i, q]) * theta
         out[i] = y[i] + h * acc
+
+
+@kernel
+def dense_slope(theta, Q, n, n_poly, out):
+    """Time derivative of the dense output at t + theta h into ``out[:n]`` [units of y per s].
+
+    y(theta) = y + h sum_q Q[:, q] theta^(q+1), so dy/dt = sum_q (q + 1) Q[:, q] theta^q.
+    """
+    for i in range(n):
+        acc = 0.0
+        for q in range(n_poly - 1, 0, -1):
+            acc = (acc + (q + 1) * Q[i, q]) * theta
+        out[i] = acc + Q[i, 0]
+
+
+@kernel(inline=True)
+def attempt(rhs, t, t_end, y, f, h, after_reject, n, n_err, A, E, n_stages, err_mode, exponent, rtol, atol,
+            budget, K, y_new, tmp, p):
+    """Try steps from (t, y), slope f = rhs(y), first trial step h [s], until one is accepted.
+
+    A trial is rejected when its error norm exceeds 1 (the step shrinks by ``step_factor``) or
+    when anything in it is not finite (the step shrinks by MIN_FACTOR, at most
+    MAX_NONFINITE_RETRIES times in a row). The step never passes t_end. Returns
+    (code, h_taken, h_next, attempts, last): code ACCEPTED (y_new, K hold the step; K[n_stages]
+    is f(y_new)), BUDGET_SPENT (``budget`` attempts made), UNDERFLOW (h below ``min_step(t)``)
+    or NON_FINITE; ``last`` says the step ends at t_end.
+    """
+    attempts = 0
+    n_bad = 0
+    while True:
+        if attempts >= budget:
+            return BUDGET_SPENT, h, h, attempts, False
+        last = False
+        if h >= t_end - t:
+            h = t_end - t
+            last = True
+        if not (h >= min_step(t)):
+            return UNDERFLOW, h, h, attempts, False
+        attempts += 1
+        rk_step(rhs, y, f, h, n, A, n_stages, K, y_new, tmp, p)
+        err = error_norm(K, E, err_mode, n_stages, h, y, y_new, n_err, rtol, atol)
+        finite = np.isfinite(err)
+        for i in range(n):
+            if not np.isfinite(y_new[i]) or not np.isfinite(K[n_stages, i]):
+                finite = False
+        if not finite:
+            n_bad += 1
+            if n_bad > MAX_NONFINITE_RETRIES:
+                return NON_FINITE, h, h, attempts, False
+            h *= MIN_FACTOR
+            after_reject = True
+            continue
+        n_bad = 0
+        if err > 1.0:
+            h *= step_factor(err, exponent, after_reject)
+            after_reject = True
+            continue
+        return ACCEPTED, h, h * step_factor(err, exponent, after_reject), attempts, last

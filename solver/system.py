@@ -1,42 +1,50 @@
-"""The integrated systems: state layouts, right-hand sides and event functions of each phase.
+"""The integrated systems of the outcome engine: state layouts, right-hand sides, event tables.
 
-Two phases, selected by an integer so that one compiled stepper serves both:
+Two phases, each a system the generic integrator (``solver.stepper``, ``solver.events``) is
+handed as functions:
 
-* ``ROLLING``:  y = (beta, omega1, omega2, omega3, alpha), n = 5, rates (33)-(36)/(83);
-* ``SLIPPING``: y = (beta, omega1, omega2, omega3, u1, u3, alpha), n = 7, rates (42).
+* rolling:  y = (beta, omega1, omega2, omega3, alpha), n = 5, rates (33)-(36)/(83);
+* slipping: y = (beta, omega1, omega2, omega3, u1, u3, alpha), n = 7, rates (42).
 
-alpha, the cyclic angle (19), is stored last and only integrated to report revolutions; it
-never feeds back and is left out of the error norm.
+alpha, the cyclic angle (19), is stored last and only integrated to report revolutions; it never
+feeds back and is left out of the error norm. Its rate, like every rate of the contact angles,
+comes from ``solver.kinematics.angle_rates`` (19)-(20).
 
-Events are data (one table per phase): ``event_values`` fills g[0..N_EVENTS-1], and the arrays
-``ROLLING_DIRECTION`` / ``SLIPPING_DIRECTION`` give the crossing direction that counts (-1:
-downward, +1: upward, 0: either). What each index means:
+Per phase, ``*_rhs(y, p, K, s)`` writes the rates of y into row s of the 2-D array K (the one
+right-hand side of the phase), and ``*_events(y, f, p, aux, hybrid, g, gr)`` writes the event
+values into g and their time derivatives (along the rates f) into gr; a derivative that is not
+available cheaply is NaN. ``aux`` is the switching-tolerance vector of ``solver.switching``.
 
-=====  ==========================================  ==========================================
-index  ROLLING                                     SLIPPING
-=====  ==========================================  ==========================================
-0      F2 (31), down: the ball separates (FALL)    F2 (41), down: the ball separates (FALL)
-1      friction margin (39), down: START_SLIP      |u| - u_stop (switching), down: NEAR_ROLL
-2      omega1, either way: OMEGA1_ZERO             unused
-=====  ==========================================  ==========================================
+The event tables (declared data, read by the engine and the locator):
 
-A third phase, ``OSCILLATOR``, is a test problem with a closed-form solution (the harmonic
-oscillator x'' = -x and the quadrature q' = x; events x, v, x - 1/2) that lets the tests drive
-the very same compiled stepper and event code.
+=====  ==================================  =====  =========  ==========================
+index  rolling                             dir.   min        action
+=====  ==================================  =====  =========  ==========================
+0      F2 (31)                             down   tracked    FALL (free flight)
+1      friction margin (39) (finite mu)    down   -          SLIP (enter slipping)
+2      omega1 (conservative scenes)        both   -          OMEGA1 (count a crossing)
+=====  ==================================  =====  =========  ==========================
+
+=====  ==================================  =====  =========  ==========================
+index  slipping                            dir.   min        action
+=====  ==================================  =====  =========  ==========================
+0      F2 (41)                             down   tracked    FALL (free flight)
+1      |u| - u_stop                        down   -          RETURN (try to roll again)
+2      (unused)                            -      -          NONE
+=====  ==================================  =====  =========  ==========================
+
+"dir." is the crossing direction that fires (-1 down, +1 up, 0 both); "min" marks the event
+whose minimum over each step the locator tracks (``solver.events``: a dip of F2 below zero
+inside a step is a fall even if F2 is positive at both step ends).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from solver import rolling, slipping
+from solver import kinematics, rolling, slipping
 from solver._compile import kernel
-from solver.params import P_R_BALL, P_R_RIM, P_RHO
-from solver.switching import SW_U_STOP
-
-ROLLING = 0
-SLIPPING = 1
-OSCILLATOR = 2  # test problem for the integrator: y = (x, v, q), x' = v, v' = -x, q' = x (n = 3)
+from solver.switching import SW_DELTA, SW_U_STOP
 
 N_ROLLING = 5  # beta, omega1, omega2, omega3, alpha
 N_SLIPPING = 7  # beta, omega1, omega2, omega3, u1, u3, alpha
@@ -44,153 +52,137 @@ N_MAX = 7
 I_U1 = 4  # slipping layout
 I_U3 = 5
 
+# Event indices and actions.
 N_EVENTS = 3
 EV_FALL = 0
-EV_SWITCH = 1  # START_SLIP while rolling, NEAR_ROLL while slipping
+EV_SWITCH = 1  # slip onset while rolling, |u| = u_stop while slipping
 EV_OMEGA1 = 2
+ACT_NONE, ACT_FALL, ACT_SLIP, ACT_RETURN, ACT_OMEGA1 = 0, 1, 2, 3, 4
+
 ROLLING_DIRECTION = np.array([-1, -1, 0], dtype=np.int64)
+ROLLING_TRACK_MIN = np.array([True, False, False])
+ROLLING_ACTION = np.array([ACT_FALL, ACT_SLIP, ACT_OMEGA1], dtype=np.int64)
 SLIPPING_DIRECTION = np.array([-1, -1, 0], dtype=np.int64)
+SLIPPING_TRACK_MIN = np.array([True, False, False])
+SLIPPING_ACTION = np.array([ACT_FALL, ACT_RETURN, ACT_NONE], dtype=np.int64)
 
+
+U_ATOL_FRACTION = 1e-3
+"""Absolute tolerance of the slip velocity u1, u3, as a fraction of the slip launch speed delta
+[m/s]: the error control must resolve u on the scale on which the return rule reads it (u_stop
+= delta, the slip angle to 1e-2 rad). With the user's atol instead (1e-6 m/s at rtol 1e-4), u is
+known to 10% of delta, its angle is noise, the return rule is not met and the slip goes on at
+the stability limit of the stiff slipping equations: rtol 1e-4 cost 6x rtol 1e-6."""
 
 
 @kernel
-def rhs(phase, y, p, out):
-    """Rates of the phase's state y into ``out`` (alpha_dot last)."""
-    if phase == ROLLING:
-        beta = y[0]
-        w3 = y[3]
-        b, d1, d2, d3 = rolling.rolling_rhs(beta, y[1], y[2], w3, p)
-        out[0] = b
-        out[1] = d1
-        out[2] = d2
-        out[3] = d3
-        out[4] = -p[P_R_BALL] * w3 / (p[P_R_RIM] - p[P_RHO] * np.cos(beta))
-    elif phase == SLIPPING:
-        beta = y[0]
-        w3 = y[3]
-        u1 = y[I_U1]
-        u3 = y[I_U3]
-        b, d1, d2, d3, du1, du3 = slipping.slipping_rhs(beta, y[1], y[2], w3, u1, u3, p)
-        out[0] = b
-        out[1] = d1
-        out[2] = d2
-        out[3] = d3
-        out[4] = du1
-        out[5] = du3
-        out[6] = (u1 - p[P_R_BALL] * w3) / (p[P_R_RIM] - p[P_RHO] * np.cos(beta))
-    else:
-        out[0] = y[1]
-        out[1] = -y[0]
-        out[2] = y[0]
+def rolling_atol(atol, sw, out):
+    """Absolute tolerances of the rolling components into ``out``: atol for each [their units]."""
+    for i in range(N_ROLLING):
+        out[i] = atol
+
+
+@kernel
+def slipping_atol(atol, sw, out):
+    """Absolute tolerances of the slipping components into ``out``: atol, and for u1, u3
+    min(atol, U_ATOL_FRACTION * delta) [m/s]."""
+    for i in range(N_SLIPPING):
+        out[i] = atol
+    u_atol = min(atol, U_ATOL_FRACTION * sw[SW_DELTA])
+    out[I_U1] = u_atol
+    out[I_U3] = u_atol
+
+
+@kernel
+def rolling_active(hybrid, conservative, out):
+    """Active rolling events of a scene into the bool array ``out`` (N_EVENTS)."""
+    out[EV_FALL] = True
+    out[EV_SWITCH] = hybrid
+    out[EV_OMEGA1] = conservative
+
+
+@kernel
+def slipping_active(hybrid, conservative, out):
+    """Active slipping events of a scene into the bool array ``out`` (N_EVENTS)."""
+    out[EV_FALL] = True
+    out[EV_SWITCH] = True
+    out[EV_OMEGA1] = False
 
 
 @kernel(inline=True)
-def rhs_row(phase, y, p, K, s):
-    """As :func:`rhs`, into row s of the 2-D array K (no array view is made: the hot path)."""
-    if phase == ROLLING:
-        beta = y[0]
-        w3 = y[3]
-        b, d1, d2, d3 = rolling.rolling_rhs(beta, y[1], y[2], w3, p)
-        K[s, 0] = b
-        K[s, 1] = d1
-        K[s, 2] = d2
-        K[s, 3] = d3
-        K[s, 4] = -p[P_R_BALL] * w3 / (p[P_R_RIM] - p[P_RHO] * np.cos(beta))
-    elif phase == SLIPPING:
-        beta = y[0]
-        w3 = y[3]
-        u1 = y[I_U1]
-        u3 = y[I_U3]
-        b, d1, d2, d3, du1, du3 = slipping.slipping_rhs(beta, y[1], y[2], w3, u1, u3, p)
-        K[s, 0] = b
-        K[s, 1] = d1
-        K[s, 2] = d2
-        K[s, 3] = d3
-        K[s, 4] = du1
-        K[s, 5] = du3
-        K[s, 6] = (u1 - p[P_R_BALL] * w3) / (p[P_R_RIM] - p[P_RHO] * np.cos(beta))
-    else:
-        K[s, 0] = y[1]
-        K[s, 1] = -y[0]
-        K[s, 2] = y[0]
-
-
-@kernel
-def event_values(phase, hybrid, y, p, sw, g):
-    """Event functions of the phase at state y into g (see the module table).
-
-    ``sw`` is the switching-tolerance vector of ``solver.switching`` (u_stop = sw[SW_U_STOP]).
-    """
-    if phase == ROLLING:
-        g[EV_FALL] = rolling.normal_force(y[0], y[1], y[3], p)
-        if hybrid:
-            g[EV_SWITCH] = rolling.friction_margin(y[0], y[1], y[2], y[3], p)
-        else:
-            g[EV_SWITCH] = 1.0
-        g[EV_OMEGA1] = y[1]
-    elif phase == SLIPPING:
-        g[EV_FALL] = slipping.slipping_normal_force(y[0], y[1], y[3], y[I_U1], y[I_U3], p)
-        g[EV_SWITCH] = np.hypot(y[I_U1], y[I_U3]) - sw[SW_U_STOP]
-        g[EV_OMEGA1] = 0.0
-    else:  # OSCILLATOR: x, v, and x - 0.5
-        g[0] = y[0]
-        g[1] = y[1]
-        g[2] = y[0] - 0.5
-
-
-@kernel
-def event_rates(phase, hybrid, y, f, p, sw, gr):
-    """Time derivatives of the event functions at state y with rates f = rhs(y), into gr.
-
-    They feed the grazing gate of ``solver.events.may_cross`` (a cubic Hermite model of each
-    event function over a step). A rate that is not available cheaply is NaN, which makes the
-    gate always ask for the full scan (the friction margin (39) of a hybrid rolling phase).
-    """
-    if phase == ROLLING:
-        gr[EV_FALL] = rolling.normal_force_rate(y[0], y[1], y[3], f[0], f[1], f[3], p)
-        if hybrid:
-            gr[EV_SWITCH] = np.nan
-        else:
-            gr[EV_SWITCH] = 0.0
-        gr[EV_OMEGA1] = f[1]
-    elif phase == SLIPPING:
-        u1 = y[I_U1]
-        u3 = y[I_U3]
-        gr[EV_FALL] = slipping.slipping_normal_force_rate(y[0], y[1], y[3], u1, u3, f[0], f[1], f[3], f[I_U1],
-                                                          f[I_U3], p)
-        gr[EV_SWITCH] = (u1 * f[I_U1] + u3 * f[I_U3]) / np.hypot(u1, u3)
-        gr[EV_OMEGA1] = 0.0
-    else:  # OSCILLATOR
-        gr[0] = f[0]
-        gr[1] = f[1]
-        gr[2] = f[0]
+def rolling_rhs(y, p, K, s):
+    """Rates of the rolling state y, (33)-(36)/(83) and alpha_dot (19), into row s of K."""
+    beta = y[0]
+    w1 = y[1]
+    w3 = y[3]
+    b, d1, d2, d3 = rolling.rolling_rhs(beta, w1, y[2], w3, p)
+    alpha_dot, _ = kinematics.angle_rates(beta, w1, w3, 0.0, 0.0, p)
+    K[s, 0] = b
+    K[s, 1] = d1
+    K[s, 2] = d2
+    K[s, 3] = d3
+    K[s, 4] = alpha_dot
 
 
 @kernel(inline=True)
-def event_values_rates(phase, hybrid, y, f, p, sw, g, gr):
-    """:func:`event_values` and :func:`event_rates` at once (one sin/cos of beta: the step end)."""
-    if phase == ROLLING:
-        beta = y[0]
-        w1 = y[1]
-        w3 = y[3]
-        g[EV_FALL] = rolling.normal_force(beta, w1, w3, p)
-        gr[EV_FALL] = rolling.normal_force_rate(beta, w1, w3, f[0], f[1], f[3], p)
-        if hybrid:
-            g[EV_SWITCH] = rolling.friction_margin(beta, w1, y[2], w3, p)
-            gr[EV_SWITCH] = np.nan
-        else:
-            g[EV_SWITCH] = 1.0
-            gr[EV_SWITCH] = 0.0
-        g[EV_OMEGA1] = w1
-        gr[EV_OMEGA1] = f[1]
+def slipping_rhs(y, p, K, s):
+    """Rates of the slipping state y, (42) and alpha_dot (19), into row s of K."""
+    beta = y[0]
+    w1 = y[1]
+    w3 = y[3]
+    u1 = y[I_U1]
+    u3 = y[I_U3]
+    b, d1, d2, d3, du1, du3 = slipping.slipping_rhs(beta, w1, y[2], w3, u1, u3, p)
+    alpha_dot, _ = kinematics.angle_rates(beta, w1, w3, u1, u3, p)
+    K[s, 0] = b
+    K[s, 1] = d1
+    K[s, 2] = d2
+    K[s, 3] = d3
+    K[s, 4] = du1
+    K[s, 5] = du3
+    K[s, 6] = alpha_dot
+
+
+@kernel(inline=True)
+def rolling_events(y, f, p, aux, hybrid, g, gr):
+    """Rolling event values into g, their time derivatives along the rates f into gr (see the table)."""
+    beta = y[0]
+    w1 = y[1]
+    w3 = y[3]
+    g[EV_FALL] = rolling.normal_force(beta, w1, w3, p)
+    gr[EV_FALL] = rolling.normal_force_rate(beta, w1, w3, f[0], f[1], f[3], p)
+    if hybrid:
+        g[EV_SWITCH] = rolling.friction_margin(beta, w1, y[2], w3, p)
+        gr[EV_SWITCH] = np.nan
     else:
-        event_values(phase, hybrid, y, p, sw, g)
-        event_rates(phase, hybrid, y, f, p, sw, gr)
+        g[EV_SWITCH] = 1.0
+        gr[EV_SWITCH] = 0.0
+    g[EV_OMEGA1] = w1
+    gr[EV_OMEGA1] = f[1]
+
+
+@kernel(inline=True)
+def slipping_events(y, f, p, aux, hybrid, g, gr):
+    """Slipping event values into g, their time derivatives along the rates f into gr (see the table)."""
+    u1 = y[I_U1]
+    u3 = y[I_U3]
+    g[EV_FALL] = slipping.slipping_normal_force(y[0], y[1], y[3], u1, u3, p)
+    gr[EV_FALL] = slipping.slipping_normal_force_rate(y[0], y[1], y[3], u1, u3, f[0], f[1], f[3], f[I_U1],
+                                                      f[I_U3], p)
+    u = np.hypot(u1, u3)
+    g[EV_SWITCH] = u - aux[SW_U_STOP]
+    gr[EV_SWITCH] = (u1 * f[I_U1] + u3 * f[I_U3]) / u
+    g[EV_OMEGA1] = 0.0
+    gr[EV_OMEGA1] = 0.0
 
 
 @kernel
-def state_energy(phase, y, p):
-    """Mechanical energy of the state [J]: (60) with m g rho sin(beta), or its slipping form."""
-    if phase == ROLLING:
-        return rolling.energy(y[0], y[1], y[2], y[3], p)
+def rolling_energy(y, p):
+    """Mechanical energy of the rolling state [J]: (60) with m g rho sin(beta)."""
+    return rolling.energy(y[0], y[1], y[2], y[3], p)
+
+
+@kernel
+def slipping_energy(y, p):
+    """Mechanical energy of the slipping state [J] (equals (60) at u = 0)."""
     return slipping.energy(y[0], y[1], y[2], y[3], y[I_U1], y[I_U3], p)

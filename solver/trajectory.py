@@ -71,10 +71,11 @@ def rolling_trajectory(x0, p: Params, t_eval, rtol: float = DEFAULT_RTOL, atol: 
 
 
 def omega1_zeros(x0, p: Params, t_max: float, n_zeros: int = 2, rtol: float = DEFAULT_RTOL,
-                 atol: float = DEFAULT_ATOL):
+                 atol: float = DEFAULT_ATOL, *, with_states: bool = False):
     """The first ``n_zeros`` zeros of omega1(t) in (0, t_max] along the rolling solution through x0.
 
-    Returns (times [s], omega1_dot at those times [1/s^2], status): times ascending, located on
+    Returns (times [s], omega1_dot at those times [1/s^2], status), and the states at the zeros
+    (shape (k, 4)) as a fourth item if ``with_states``: times ascending, located on
     DOP853's dense output (scipy event, to ~rtol); status 0 when the integration reached the
     n-th zero or t_max, -1 when it failed (then the zeros found so far are returned).
     A zero at t = 0 itself (omega1(0) = 0) is not reported: the caller knows it.
@@ -95,4 +96,7 @@ def omega1_zeros(x0, p: Params, t_max: float, n_zeros: int = 2, rtol: float = DE
     keep = times > (1e-12 * max(1.0, float(t_max)) if at_zero else 0.0)
     times, states = times[keep][:n_zeros], states[keep][:n_zeros]
     rates = np.array([rolling.rolling_rhs(*s, p_array)[1] for s in states])
-    return times, rates, (0 if sol.status >= 0 else -1)
+    status = 0 if sol.status >= 0 else -1
+    if with_states:
+        return times, rates, status, states
+    return times, rates, status

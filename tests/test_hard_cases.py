@@ -52,8 +52,9 @@ SINGULAR = [  # (beta0 [rad], omega30 [1/s]): omega20 of (48) is ~1e4 1/s at eac
 @pytest.mark.parametrize("beta0,omega30", SINGULAR)
 def test_steady_motion_near_singular_lines_stays_or_falls_at_once(beta0, omega30, mu):
     """A steady motion (47) next to beta0 = +-pi/2 or omega30 = 0 (|omega20| ~ 1e4 1/s): if it
-    stays on the rim (F2 > 0 and, with finite mu, inside the friction cone) the state must be
-    unchanged to round-off, else it must leave at once; never NaN, status ok, a handful of steps."""
+    stays on the rim (F2 > 0 and, with finite mu, inside the friction cone) it is reported as
+    ``steady_motion`` at t = 0 with its h of (54), else it must leave at once; never NaN,
+    status ok."""
     p = P.replace(mu=mu)
     x = steady.steady_state(beta0, omega30, p)
     assert abs(x[2]) > 5e3
@@ -63,19 +64,21 @@ def test_steady_motion_near_singular_lines_stays_or_falls_at_once(beta0, omega30
     on_rim = bool(steady.stays_on_rim(beta0, omega30, p)) and (
         np.isinf(mu) or bool(steady.rolls_without_slipping(beta0, omega30, p, mu)))
     if on_rim:
-        assert r["outcome"][0] in (outcomes.ON_RIM_AT_T_MAX, outcomes.PERIODIC_ROLLING)
+        assert r["outcome"][0] == outcomes.STEADY_MOTION
         end = np.array([r[k][0] for k in ("beta_end", "omega1_end", "omega2_end", "omega3_end")])
-        assert np.allclose(end, x, rtol=1e-9, atol=1e-9)
-        assert r["slip_phases"][0] == 0 and r["n_steps"][0] < 100
+        np.testing.assert_array_equal(end, x)
+        assert r["t_end"][0] == 0.0 and r["slip_phases"][0] == 0 and r["n_steps"][0] == 0
+        assert r["steady_h"][0] == pytest.approx(float(steady.stability(beta0, omega30, p)), rel=1e-12)
     else:
         assert r["outcome"][0] in (outcomes.FALL_IN, outcomes.FALL_OUT)
         assert r["t_end"][0] < 0.2
 
 
-def test_exact_steady_motion_has_no_transversal_omega1_crossing():
+def test_exact_steady_motion_is_a_steady_motion_not_a_periodic_orbit():
     x = steady.steady_state(np.pi / 2 - 1e-3, 10.0, ROLL)
-    r = sim(x, ROLL, t_max=1.0)
-    assert r["outcome"][0] == outcomes.ON_RIM_AT_T_MAX
+    for t_max in (1.0, 5.0):
+        r = sim(x, ROLL, t_max=t_max)
+        assert r["outcome"][0] == outcomes.STEADY_MOTION and np.isnan(r["half_period"][0])
 
 
 # ------------------------------------------------------------------ separatrix boundary

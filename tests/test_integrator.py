@@ -1,7 +1,8 @@
 """The generic embedded RK stepper, its tableaus, dense output and event location.
 
-Driven on the OSCILLATOR test phase of ``solver.system`` (x' = v, v' = -x, q' = x; exact
-solution x = cos(t + t0) ...), so the very same compiled code as the physics runs is checked.
+Driven on the oscillator test system of ``tests/oscillator.py`` (x' = v, v' = -x, q' = x;
+exact solution x = cos(t + t0) ...), handed to the very same compiled stepper and locator as
+the physics systems.
 """
 
 import math
@@ -9,38 +10,16 @@ import math
 import numpy as np
 import pytest
 
+from oscillator import AUX, N, N_EVENTS, P, events as osc_events, exact, pad, rhs, values
+from oscillator import one_step as _one_step
 from solver import events, stepper
-from solver.switching import default_tolerances
-from solver.system import N_EVENTS, OSCILLATOR, event_values, rhs
 from solver.tableaus import TABLEAUS
 
-P = np.zeros(10)  # the oscillator ignores the parameters
-SW = default_tolerances()
 METHODS = sorted(TABLEAUS)
 
 
-def exact(t, t0=0.0):
-    """Oscillator state at t starting from (cos t0, -sin t0, sin t0) at t = 0."""
-    return np.array([math.cos(t + t0), -math.sin(t + t0), math.sin(t + t0)])
-
-
 def one_step(tab, y, h):
-    n = 3
-    f = np.zeros(7)
-    rhs(OSCILLATOR, y, P, f)
-    K = np.zeros((tab.n_dense, 7))
-    y_new = np.zeros(7)
-    tmp = np.zeros(7)
-    stepper.rk_step(OSCILLATOR, 0.0, y, f, h, n, tab.A, tab.n_stages, K, y_new, tmp, P)
-    Q = np.zeros((7, tab.n_poly))
-    stepper.dense_prepare(OSCILLATOR, y, h, n, tab.A, tab.n_stages, tab.n_dense, tab.P, tab.n_poly, K, Q, tmp, P)
-    return y_new, K, Q
-
-
-def pad(v):
-    out = np.zeros(7)
-    out[: len(v)] = v
-    return out
+    return _one_step(stepper, tab, y, h)
 
 
 @pytest.mark.parametrize("name", METHODS)
@@ -79,7 +58,7 @@ def test_error_estimate_bounds_true_error(name):
     y_new, K, _ = one_step(tab, y, h)
     true = np.abs(y_new[:3] - exact(h))
     rtol, atol = 1e-12, 1e-14
-    err = stepper.error_norm(K, tab.E, tab.err_mode, tab.n_stages, h, y, y_new, 3, rtol, atol)
+    err = stepper.error_norm(K, tab.E, tab.err_mode, tab.n_stages, h, y, y_new, 3, rtol, np.full(7, atol))
     scale = atol + rtol * np.maximum(np.abs(y[:3]), np.abs(y_new[:3]))
     assert np.sqrt(np.mean((true / scale) ** 2)) < err
 
@@ -102,16 +81,19 @@ def test_dense_output_reproduces_ends_and_interpolates(name):
         assert np.abs(out[:3] - exact(theta * h)).max() < bound
 
 
-def scan_step(tab, y, h, t, sign, direction, active):
-    """Step once with fixed h and scan the dense output for events. Returns (y_new, event, theta)."""
-    y_new, _, Q = one_step(tab, y, h)
-    g0 = np.zeros(N_EVENTS)
-    event_values(OSCILLATOR, False, y, P, SW, g0)
+def search_step(tab, y, h, t, sign, direction, active, track_min, search):
+    """Step once with fixed h and search its dense output for events. Returns (y_new, Q, event, theta, mins)."""
+    y_new, K, Q = one_step(tab, y, h)
+    g0, _ = values(y)
+    g1, gr1 = values(y_new, K[tab.n_stages])
+    th_min = np.full(N_EVENTS, 0.5)
+    mins = np.full(N_EVENTS, np.inf)
     w = [np.zeros(7) for _ in range(2)]
-    gs = [np.zeros(N_EVENTS) for _ in range(3)]
-    ev, theta, _ = events.scan(OSCILLATOR, False, active, direction, sign, 0.0, g0, y, y_new, h, t, Q, 3,
-                               tab.n_poly, P, SW, w[0], gs[0], gs[1], w[1], gs[2])
-    return y_new, Q, ev, theta
+    gs = [np.zeros(N_EVENTS) for _ in range(4)]
+    ev, theta = events.next_event(osc_events, active, direction, track_min, sign, search, th_min, 0.0, g0, g1, gr1,
+                                  y, h, t, Q, N, tab.n_poly, P, AUX, False, w[0], w[1], gs[0], gs[1], gs[2], gs[3],
+                                  mins)
+    return y_new, Q, ev, theta, mins
 
 
 @pytest.mark.parametrize("name", METHODS)
@@ -120,27 +102,26 @@ def test_events_located_against_closed_form(name):
     tab = TABLEAUS[name]
     direction = np.array([-1, 1, -1])
     active = np.ones(3, dtype=np.bool_)
+    no_min = np.zeros(3, dtype=np.bool_)
     y = pad(exact(0.0))
-    g = np.zeros(3)
-    event_values(OSCILLATOR, False, y, P, SW, g)
+    g, _ = values(y)
     sign = np.zeros(3, dtype=np.int64)
     events.initial_signs(g, direction, sign)  # v = 0 at t = 0 counts as below (upward event)
     h = 0.01
     t = 0.0
     found = {}
     while t < 4.0 and len(found) < 3:
-        y_new, Q, ev, theta = scan_step(tab, y, h, t, sign, direction, active)
+        y_new, Q, ev, theta, _ = search_step(tab, y, h, t, sign, direction, active, no_min, no_min)
         if ev >= 0:
             found[ev] = t + theta * h
             # the point returned lies on the far side of the crossing, within ~4 eps of it
             out = np.zeros(7)
             stepper.dense_eval(theta, y, h, Q, 3, tab.n_poly, out)
-            gv = np.zeros(3)
-            event_values(OSCILLATOR, False, out, P, SW, gv)
+            gv, _ = values(out)
             assert gv[ev] * direction[ev] >= 0.0 and abs(gv[ev]) < 1e-13
             sign[ev] = -sign[ev]
             active[ev] = False  # one crossing of each is enough
-            continue  # rescan the same step for later events (the step is re-taken from y)
+            continue  # search the same step again for later events (the step is re-taken from y)
         y = y_new
         t += h
     tol = {"dp5": 1e-11, "dop853": 1e-13}[name]
@@ -149,22 +130,76 @@ def test_events_located_against_closed_form(name):
     assert abs(found[1] - math.pi) < tol
 
 
-def test_grazing_dip_inside_one_step_is_found():
-    """x = cos t over one step [1.4, 4.9]: positive at both ends, negative in between.
-
-    A check of the signs at the step ends misses the downward crossing of x at pi/2; the samples
-    on the dense output find it.
+@pytest.mark.parametrize("h,depth,tol", [(3.5, 1e-2, None), (0.3, 1e-4, 1e-8), (0.03, 1e-6, 1e-8)])
+def test_grazing_dip_inside_one_step_is_decided_at_its_minimum(h, depth, tol):
+    """x(t) = cos(t) + c over one step, with c chosen so that x is positive at both step ends
+    and dips below zero only inside (the dip around t = pi is narrower than a tenth of the
+    step for the last two cases): the minimum search finds it and the first zero is located.
     """
     tab = TABLEAUS["dop853"]
-    t0, h = 1.4, 3.5
-    y = pad(exact(0.0, t0))
+    # the minimum of cos (at t = pi) lies inside the step
+    t_start = math.pi - 0.5 * h + 0.1 * h
+    # x = cos(t) + (1 - depth) crosses zero where cos(t) = -(1 - depth)
+    c = 1.0 - depth
     direction = np.array([-1, 1, -1])
     active = np.array([True, False, False])
-    g = np.zeros(3)
-    event_values(OSCILLATOR, False, y, P, SW, g)
-    sign = np.zeros(3, dtype=np.int64)
-    events.initial_signs(g, direction, sign)
-    y_new, Q, ev, theta = scan_step(tab, y, h, t0, sign, direction, active)
-    assert y[0] > 0 and y_new[0] > 0  # a naive end-point check sees no sign change
+    track = np.array([True, False, False])
+    search = np.array([True, False, False])
+    y = pad(exact(0.0, t_start))
+    sign = np.ones(3, dtype=np.int64)
+    # the event "x + c": positive at both ends, below zero in a window of width ~2 sqrt(2 depth)
+    y_new, K, Q = one_step(tab, y, h)
+    g0 = np.array([y[0] + c, y[1], y[0] - 0.5])
+    g1 = np.array([y_new[0] + c, y_new[1], y_new[0] - 0.5])
+    gr1 = np.array([K[tab.n_stages, 0], K[tab.n_stages, 1], K[tab.n_stages, 0]])
+    assert g0[0] > 0 and g1[0] > 0
+    width = 2 * math.sqrt(2 * depth)  # where x + c < 0
+    assert width < 0.1 * h
+    mins = np.full(N_EVENTS, np.inf)
+    w = [np.zeros(7) for _ in range(2)]
+    gs = [np.zeros(N_EVENTS) for _ in range(4)]
+    ev, theta = events.next_event(shifted_events, active, direction, track, sign, search, np.full(3, 0.5), 0.0, g0,
+                                  g1, gr1, y, h, t_start, Q, N, tab.n_poly, np.array([c]), AUX, False, w[0], w[1],
+                                  gs[0], gs[1], gs[2], gs[3], mins)
     assert ev == 0
-    assert abs(t0 + theta * h - math.pi / 2) < 0.05
+    if tol is not None:  # where the dense output is accurate: the exact first zero
+        assert abs(t_start + theta * h - math.acos(-c)) < tol
+
+
+from numba import njit  # noqa: E402
+
+
+@njit(cache=False)
+def shifted_events(y, f, p, aux, hybrid, g, gr):
+    """The oscillator's events with event 0 shifted up by p[0]: x + p[0]."""
+    g[0] = y[0] + p[0]
+    gr[0] = f[0]
+    g[1] = y[1]
+    gr[1] = f[1]
+    g[2] = y[0] - 0.5
+    gr[2] = f[0]
+
+
+def _attempt(tab, t, y, h, budget):
+    K = np.zeros((tab.n_dense, 7))
+    rhs(y, P, K, 0)
+    f = K[0].copy()
+    y_new, tmp = np.zeros(7), np.zeros(7)
+    return stepper.attempt(rhs, t, t + 1.0, y, f, h, False, N, N, tab.A, tab.E, tab.n_stages, tab.err_mode,
+                           -1.0 / (tab.error_order + 1.0), 1e-8, np.full(7, 1e-10), budget, K, y_new, tmp, P)
+
+
+@pytest.mark.parametrize("name", METHODS)
+def test_step_attempt_reports_every_way_it_can_end(name):
+    tab = TABLEAUS[name]
+    y = pad(exact(0.0))
+    code, h, h_next, attempts, last = _attempt(tab, 0.0, y, 2.0, 1000)
+    assert code == stepper.ACCEPTED and attempts > 1 and h < 2.0 and h_next > 0  # 2 s is too long at 1e-8
+    assert _attempt(tab, 0.0, y, 2.0, 1)[0] == stepper.BUDGET_SPENT
+    assert _attempt(tab, 1e16, y, 1e-3, 1000)[0] == stepper.UNDERFLOW  # 1e-3 s is below 10 ulps of 1e16 s
+    bad = y.copy()
+    bad[0] = np.inf
+    code, _, _, attempts, _ = _attempt(tab, 0.0, bad, 0.1, 1000)
+    assert code == stepper.NON_FINITE and attempts == stepper.MAX_NONFINITE_RETRIES + 1
+    code, h, _, _, last = _attempt(tab, 0.0, y, 10.0, 1000)  # a step never passes t_end
+    assert code == stepper.ACCEPTED and h <= 1.0
