@@ -6,15 +6,11 @@ which the kernels turn into a ``status`` code for that lane, instead of raising
 ``ZeroDivisionError`` out of a whole chunk of trajectories. No ``fastmath``: event location and
 energy checks rely on IEEE arithmetic.
 
-numba's disk cache is keyed on the source file of each compiled function only; a kernel that
-calls an edited module (e.g. ``solver.events``) would keep its old machine code.
-``solver._jit`` (imported first) replaces that stamp with a digest of all ``solver/*.py``,
-so any change of any solver source recompiles every kernel.
+The disk cache lives in ``solver._jit.cache_dir()``: per user, and per digest of all
+``solver/*.py``, so any change of any solver source recompiles every kernel.
 """
 
 from __future__ import annotations
-
-import numba
 
 from solver import _jit
 
@@ -33,4 +29,4 @@ def kernel(func=None, *, inline=False):
     if _jit._DISABLE:
         func.py_func = func
         return func
-    return numba.njit(cache=True, nogil=True, error_model="numpy", inline="always" if inline else "never")(func)
+    return _jit.njit_cached(func, nogil=True, error_model="numpy", inline="always" if inline else "never")

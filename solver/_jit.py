@@ -1,10 +1,11 @@
 """The one compilation policy of rimroll's kernels.
 
 ``kernel`` compiles a pure function with numba (``nogil`` so dask threads run kernels in
-parallel, ``cache=True`` so a fresh process loads machine code from disk instead of
-recompiling). The physics functions are written with numpy ufuncs and arithmetic only, so
-the original Python function (``f.py_func``) also broadcasts over numpy arrays: the
-compiled scalar version serves the integrator, ``vectorised(f)`` serves maps and users.
+parallel, cached on disk so a fresh process loads machine code instead of recompiling: in a
+per-user directory keyed on all solver sources, see :func:`cache_dir`). The physics functions
+are written with numpy ufuncs and arithmetic only, so the original Python function
+(``f.py_func``) also broadcasts over numpy arrays: the compiled scalar version serves the
+integrator, ``vectorised(f)`` serves maps and users.
 """
 
 from __future__ import annotations
@@ -32,47 +33,38 @@ def sources_digest() -> str:
 SOURCES_DIGEST = sources_digest()
 
 
-def _install_cache_stamp() -> bool:
-    """Make numba's disk cache of solver kernels depend on ALL solver sources.
+def cache_dir() -> pathlib.Path:
+    """Directory of the on-disk machine code of rimroll's kernels [a path].
 
-    numba stamps each cached function with a hash of its own source file only, so a kernel
-    would keep the old machine code of an edited (or upgraded) module it calls. For functions
-    defined in ``solver/``, numba's usual cache locations are used with the stamp replaced by
-    ``SOURCES_DIGEST``, taken when this process imported the sources: an index written from
-    other sources never matches and is recompiled, and a process still running older sources
-    can only write entries stamped with its own, older digest (no race). Returns False if
-    numba's (private) locator API is not as expected; then numba's own per-file stamp applies.
+    Per user and per solver sources: ``$RIMROLL_CACHE_DIR`` if set, else
+    ``$XDG_CACHE_HOME/rimroll`` (default ``~/.cache/rimroll``), then ``numba-<digest>`` with the
+    first 16 hex digits of ``SOURCES_DIGEST``. numba stamps each cached function with its own
+    source file only; a directory per digest of *all* solver sources means a kernel never loads
+    machine code compiled against another version of a module it calls, and nothing is ever
+    written into the installed package.
     """
+    root = os.environ.get("RIMROLL_CACHE_DIR")
+    if root:
+        base = pathlib.Path(root)
+    else:
+        xdg = os.environ.get("XDG_CACHE_HOME")
+        base = (pathlib.Path(xdg) if xdg else pathlib.Path.home() / ".cache") / "rimroll"
+    return base / f"numba-{SOURCES_DIGEST[:16]}"
+
+
+def njit_cached(func, **options):
+    """``numba.njit(cache=True, **options)(func)`` with its disk cache in :func:`cache_dir`.
+
+    numba chooses a function's cache location when it is decorated, from its public setting
+    ``numba.config.CACHE_DIR``; that setting is pointed at :func:`cache_dir` for the decoration
+    only and restored at once, so other numba code keeps its own cache location.
+    """
+    previous = numba.config.CACHE_DIR
+    numba.config.CACHE_DIR = str(cache_dir())
     try:
-        from numba.core import caching
-
-        bases = (caching.UserProvidedCacheLocator, caching.InTreeCacheLocator, caching.UserWideCacheLocator)
-        impl = getattr(caching, "CacheImpl", None) or caching._CacheImpl  # renamed in numba 0.6x
-        impl_locators = impl._locator_classes
-    except (ImportError, AttributeError):
-        return False
-
-    def solver_locator(base):
-        class Locator(base):
-            def get_source_stamp(self):
-                return SOURCES_DIGEST
-
-            @classmethod
-            def from_function(cls, py_func, py_file):
-                if pathlib.Path(py_file).resolve().parent != _SOURCES:
-                    return None
-                return super().from_function(py_func, py_file)
-
-        Locator.__name__ = Locator.__qualname__ = f"RimrollSources{base.__name__}"
-        return Locator
-
-    if not any(getattr(c, "__name__", "").startswith("RimrollSources") for c in impl_locators):
-        impl_locators[:0] = [solver_locator(base) for base in bases]
-    return True
-
-
-if not _DISABLE:
-    _install_cache_stamp()
+        return numba.njit(cache=True, **options)(func)
+    finally:
+        numba.config.CACHE_DIR = previous
 
 
 def kernel(func):
@@ -84,7 +76,7 @@ def kernel(func):
     if _DISABLE:
         func.py_func = func
         return func
-    return numba.njit(cache=True, nogil=True)(func)
+    return njit_cached(func, nogil=True)
 
 
 def vectorised(func):
