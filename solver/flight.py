@@ -13,9 +13,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from solver import kinematics
 from solver._compile import kernel
 from solver.outcomes import FALL_IN, FALL_OUT
-from solver.params import P_G, P_R_BALL, P_R_RIM, P_RHO
+from solver.params import P_G, P_R_RIM
 
 
 @kernel
@@ -32,15 +33,9 @@ def landing_time(z, v_z, g):
 @kernel
 def landing_distance(beta, omega1, omega3, u1, u3, p):
     """Horizontal distance [m] of the centre from the rim's axis where the flight reaches z = 0."""
-    rho = p[P_RHO]
-    s = np.sin(beta)
-    c = np.cos(beta)
-    d = p[P_R_RIM] - rho * c
-    beta_dot = (u3 + p[P_R_BALL] * omega1) / rho
-    v_rad = beta_dot * rho * s
-    v_z = beta_dot * rho * c
-    v_tan = u1 - p[P_R_BALL] * omega3  # alpha_dot * d
-    tf = landing_time(rho * s, v_z, p[P_G])
+    d, z = kinematics.centre_position(beta, p)
+    v_rad, v_z, v_tan = kinematics.centre_velocity(beta, omega1, omega3, u1, u3, p)
+    tf = landing_time(z, v_z, p[P_G])
     x = d + v_rad * tf
     yt = v_tan * tf
     return np.sqrt(x * x + yt * yt)

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from solver import kinematics
 from solver._jit import kernel
 from solver.params import P_G, P_J, P_K_D, P_K_R, P_M, P_MU, P_R_BALL, P_R_RIM, P_RHO
 
@@ -35,7 +36,7 @@ def rolling_rhs(beta, omega1, omega2, omega3, p):
     s = np.sin(beta)
     c = np.cos(beta)
     D = R - rho * c
-    beta_dot = r / rho * omega1
+    _, beta_dot = kinematics.angle_rates(beta, omega1, omega3, 0.0, 0.0, p)
     omega1_dot = (
         ((1.0 + j) * r * omega3 * omega3 * s - j * r * omega2 * omega3 * c) / ((1.0 + j) * D)
         - g * c / (r * (1.0 + j))

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from solver import kinematics
 from solver._jit import kernel
 from solver.params import P_G, P_J, P_K_D, P_K_R, P_M, P_MU, P_R_BALL, P_R_RIM, P_RHO
 
@@ -32,15 +33,12 @@ def free_rates(beta, omega1, omega2, omega3, u1, u3, p):
     normal force (41) [N].
     """
     r = p[P_R_BALL]
-    rho = p[P_RHO]
     j = p[P_J]
     s = np.sin(beta)
     c = np.cos(beta)
-    D = p[P_R_RIM] - rho * c
     V1 = u1 - r * omega3  # tangential velocity of the centre, n1 [m/s]
     V3 = u3 + r * omega1  # velocity of the centre along n3 [m/s]
-    alpha_dot = V1 / D
-    beta_dot = V3 / rho
+    alpha_dot, beta_dot = kinematics.angle_rates(beta, omega1, omega3, u1, u3, p)
     Om2 = alpha_dot * s  # n2, n3 components of the basis' angular velocity (11)
     Om3 = alpha_dot * c
     a1 = -(Om2 * omega3 - Om3 * omega2) - (1.0 + j) / j * p[P_K_R] * omega1

@@ -29,9 +29,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from solver import rolling, slipping
+from solver import kinematics, rolling, slipping
 from solver._compile import kernel
-from solver.params import P_J, P_M, P_R_BALL, P_R_RIM, P_RHO
+from solver.params import P_J, P_M, P_R_BALL
 
 DELTA = 1e-5
 """Initial slip speed when slipping starts [m/s] (delta of Sect. 5.2.2), set by a contact impulse.
@@ -185,7 +185,7 @@ def leave_slipping(y, p, rate, t_left):
     u3 = y[5]
     dt = min(np.hypot(u1, u3) / (-rate), t_left)
     b, d1, d2, d3, _, _ = slipping.slipping_rhs(y[0], y[1], y[2], y[3], u1, u3, p)
-    alpha_dot = (u1 - p[P_R_BALL] * y[3]) / (p[P_R_RIM] - p[P_RHO] * np.cos(y[0]))
+    alpha_dot, _ = kinematics.angle_rates(y[0], y[1], y[3], u1, u3, p)
     alpha = y[6] + dt * alpha_dot
     y[0] += dt * b
     y[1] += dt * d1
