@@ -56,6 +56,7 @@ FLOAT_VARS = [
     Var("omega1_end", "s-1", "transversal angular velocity at t_end"),
     Var("omega2_end", "s-1", "orthogonal angular velocity at t_end"),
     Var("omega3_end", "s-1", "circular angular velocity at t_end"),
+    Var("steady_h", "s-2", "h of (54) for states on a steady motion (< 0 stable; NaN otherwise)"),
 ]
 VARIABLES = [
     Var("outcome", "1", "outcome of the ball on the rim", dtype="int8",
