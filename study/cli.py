@@ -12,7 +12,7 @@ import pathlib
 import shlex
 import sys
 
-from study import fanout, io, registry
+from study import checks, fanout, io, registry, reuse, runguard
 from study.assemble import assemble
 from study.dataset import global_attrs
 from study.parts import PartStore
@@ -46,7 +46,10 @@ def _parser() -> argparse.ArgumentParser:
                      help="run the chunks on an existing dask.distributed cluster, e.g. tcp://host:8786")
     run.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                      help="show chunks done/total on stderr (default: when stderr is a terminal)")
-    run.add_argument("--force", action="store_true", help="recompute even if the file exists")
+    run.add_argument("--force", action="store_true",
+                     help="recompute and replace the file even if it holds this run or another one")
+    run.add_argument("--timeout", type=float, default=fanout.DEFAULT_TIMEOUT, metavar="SECONDS",
+                     help="bound on waiting for a --scheduler and for workers (default: %(default)g s)")
     plot = sub.add_parser("plot", help="re-draw the PNG of an existing results file")
     plot.add_argument("target", help="a study name (meaning <out>/NAME.nc) or a .nc file")
     plot.add_argument("--out", default="results", help="directory holding NAME.nc (default: results)")
@@ -85,39 +88,59 @@ def _draw(study, nc: pathlib.Path) -> pathlib.Path | None:
 
 def _cmd_run(args, command: str) -> int:
     study = registry.get(args.name)
-    if args.workers is not None and args.workers < 1:
-        raise UserError(f"--workers must be >= 1; got {args.workers}")
+    checks.check_workers(args.workers)
     if args.workers is not None and args.scheduler:
         raise UserError("--workers is for local runs; a --scheduler cluster has its own workers")
+    if not (0 < args.timeout <= 86400):
+        raise UserError(f"--timeout must be > 0 and <= 86400 s; got {args.timeout}")
+    fanout.check_address(args.scheduler)
     plan = make_plan(study, args.quick, args.sets)
     out = pathlib.Path(args.out)
+    runguard.check_out(out)
     nc = out / f"{study.name}.nc"
-    if nc.exists() and not args.force:
-        return _exists(study, nc)
+    swept = tuple(a.name for a in plan.outer)
+    request = dict(global_attrs(study, plan.params, plan.settings, command, swept),
+                   **{reuse.FINGERPRINT_ATTR: plan.fingerprint})
+    sizes = {a.name: a.values.size for a in plan.axes}
+    if not args.force and (found := _reusable(study, nc, plan, request, sizes)) is not None:
+        return found
     progress = sys.stderr.isatty() if args.progress is None else args.progress
     store = PartStore(out, study.name, plan.fingerprint)
-    with fanout.client(args.workers, args.scheduler) as client, store.lock():
-        if nc.exists() and not args.force:  # a run that held the lock just finished it
-            return _exists(study, nc)
+    with store.lock(), runguard.saved_on_stop(store, plan):
+        if not args.force and (found := _reusable(study, nc, plan, request, sizes)) is not None:
+            return found  # a run that held the lock just finished it
+        store.sweep_stale()  # parts of this study's earlier inputs: no live run owns them
         done = store.valid(plan.n_chunks, plan.expected)
         todo = [k for k in range(plan.n_chunks) if k not in done]
+        runguard.announce(plan, len(todo))
         line = ProgressLine(plan.n_chunks, study.name, resumed=len(done), enabled=progress)
-        stats = fanout.run(plan, store, todo, client, line)
-        swept = tuple(a.name for a in plan.outer)
-        assemble(plan, store, nc, global_attrs(study, plan.params, plan.settings, command, swept))
+        with fanout.client(args.workers, args.scheduler, args.timeout) as client:
+            stats = fanout.run(plan, store, todo, client, line, timeout=args.timeout)
+        attrs = dict(global_attrs(study, plan.params, plan.settings, command, swept),
+                     **{reuse.FINGERPRINT_ATTR: plan.fingerprint})
+        assemble(plan, store, nc, attrs)
         store.remove()
     png = _draw(study, nc)
     resumed = f" ({stats.resumed} of {stats.total} chunks resumed)" if stats.resumed else ""
     print(f"wrote {nc}" + (f" and {png}" if png else "") + resumed)
+    warning = runguard.status_summary(nc)
+    if warning:
+        print(warning, file=sys.stderr)
     return 0
 
 
-def _exists(study, nc: pathlib.Path) -> int:
-    png = nc.with_suffix(".png")
-    redrawn = _draw(study, nc) if not png.exists() else None
-    print(f"study: {nc} exists, not recomputing (use --force to recompute)"
-          + (f"; re-drew {redrawn}" if redrawn else ""))
-    return 0
+def _reusable(study, nc: pathlib.Path, plan, request: dict, sizes: dict) -> int | None:
+    """0 after saying that ``nc`` is this very run; None if it must be (re)computed; UserError if it
+    holds another run (the fingerprint rule of ``study.reuse``)."""
+    found = reuse.inspect(nc, plan.fingerprint, request, sizes)
+    if found.state == "same":
+        return _exists(study, nc)
+    if found.state == "different":
+        raise UserError(f"{nc} holds another run of {study.name} ({found.detail}); use --force to replace "
+                        "it (it is kept until the new file is complete), or another --out")
+    if found.state == "unreadable":
+        print(f"study: {nc} is not a readable result ({found.detail}); recomputing it", file=sys.stderr)
+    return None
 
 
 def _cmd_plot(args) -> int:
@@ -206,4 +229,4 @@ def main(argv=None) -> int:
     except UserError as exc:
         message = " ".join(str(exc).split())
         print(f"study: error: {message}", file=sys.stderr)
-        return EXIT_USAGE
+        return getattr(exc, "exit_status", EXIT_USAGE)

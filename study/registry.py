@@ -111,6 +111,8 @@ class Study:
     ``derive(dataset) -> {name: (dims, values, attrs)}``: variables computed once from the whole
     assembled grid (neighbours across chunks), added to the file before it is moved into place
     (``study.derived``).
+    ``ignores``: physical parameters (of :data:`PHYSICAL_KEYS`) that do not change the result, each
+    with the reason; ``--set`` of one is refused rather than recorded as if it mattered.
     """
 
     name: str
@@ -124,6 +126,7 @@ class Study:
     chunks: dict = dataclasses.field(default_factory=dict)
     sweepable: tuple = ()
     derive: Callable | None = None
+    ignores: dict = dataclasses.field(default_factory=dict)  # physical key -> why the study does not use it
 
     def __post_init__(self):
         if not _STUDY_NAME.match(self.name):
@@ -137,6 +140,8 @@ class Study:
         unknown = set(self.quick) - set(self.settings) - set(PHYSICAL_KEYS)
         if unknown:
             raise ValueError(f"study {self.name!r}: quick settings {sorted(unknown)} are not settings")
+        if set(self.ignores) - set(PHYSICAL_KEYS) or set(self.ignores) & set(self.sweepable):
+            raise ValueError(f"study {self.name!r}: ignores {sorted(self.ignores)} must be physical keys, not swept")
         names = [v.name for v in self.variables]
         if not names or len(set(names)) != len(names):
             raise ValueError(f"study {self.name!r}: variable names must be non-empty and unique; got {names}")

@@ -114,6 +114,9 @@ register(Study(
     compute=_fig9_compute,
     plot=_fig9_plot,
     chunks={"rho_over_R": 50},
+    ignores={"mu": "the Floquet problem (62) is about rolling, without friction limits",
+             "k_r": "the Floquet problem (62) is conservative", "k_d": "the Floquet problem (62) is conservative",
+             "j": "j is an axis of the map (give a list or range to change its values)"},
 ))
 
 

@@ -41,8 +41,14 @@ def _axes(s: dict) -> list[Axis]:
 
 
 def _study(name, title, variables, compute, plot, **settings) -> Study:
+    # steady motions of the conservative rolling equations: no dissipation; friction only where declared
+    ignores = {k: "steady motions of the conservative rolling equations do not depend on dissipation"
+               for k in ("k_r", "k_d")}
+    if "mu" not in settings:
+        ignores["mu"] = "this map of the steady rolling motions does not depend on friction"
     return register(Study(name=name, title=title, settings={**GRID, **settings}, quick=QUICK,
-                          axes=_axes, variables=variables, compute=compute, plot=plot, chunks=CHUNKS))
+                          axes=_axes, variables=variables, compute=compute, plot=plot, chunks=CHUNKS,
+                          ignores=ignores))
 
 
 def _flag(name, long_name, meanings):
