@@ -107,7 +107,7 @@ def _cmd_run(args, command: str) -> int:
     progress = sys.stderr.isatty() if args.progress is None else args.progress
     store = PartStore(out, study.name, plan.fingerprint)
     with store.lock(), runguard.saved_on_stop(store, plan):
-        if not args.force and (found := _reusable(study, nc, plan, request, sizes)) is not None:
+        if not args.force and (found := _reusable(study, nc, plan, request, sizes, quiet=True)) is not None:
             return found  # a run that held the lock just finished it
         store.sweep_stale()  # parts of this study's earlier inputs: no live run owns them
         done = store.valid(plan.n_chunks, plan.expected)
@@ -129,7 +129,7 @@ def _cmd_run(args, command: str) -> int:
     return 0
 
 
-def _reusable(study, nc: pathlib.Path, plan, request: dict, sizes: dict) -> int | None:
+def _reusable(study, nc: pathlib.Path, plan, request: dict, sizes: dict, quiet=False) -> int | None:
     """0 after saying that ``nc`` is this very run; None if it must be (re)computed; UserError if it
     holds another run (the fingerprint rule of ``study.reuse``)."""
     found = reuse.inspect(nc, plan.fingerprint, request, sizes)
@@ -138,9 +138,17 @@ def _reusable(study, nc: pathlib.Path, plan, request: dict, sizes: dict) -> int 
     if found.state == "different":
         raise UserError(f"{nc} holds another run of {study.name} ({found.detail}); use --force to replace "
                         "it (it is kept until the new file is complete), or another --out")
-    if found.state == "unreadable":
+    if found.state == "unreadable" and not quiet:
         print(f"study: {nc} is not a readable result ({found.detail}); recomputing it", file=sys.stderr)
     return None
+
+
+def _exists(study, nc: pathlib.Path) -> int:
+    png = nc.with_suffix(".png")
+    redrawn = _draw(study, nc) if not png.exists() else None
+    print(f"study: {nc} exists, not recomputing (use --force to recompute)"
+          + (f"; re-drew {redrawn}" if redrawn else ""))
+    return 0
 
 
 def _cmd_plot(args) -> int:

@@ -188,7 +188,8 @@ def compute_chunk(job: ChunkJob) -> dict[str, np.ndarray]:
             raise KeyError(f"study {study.name!r}: compute returned no {var.name!r}")
         shape = () if var.outer else grid_shape
         values = np.broadcast_to(np.asarray(out[var.name]), shape).astype(var.dtype)
-        result[var.name] = np.ascontiguousarray(values.reshape((1,) * job.n_outer + shape))
+        # np.array, not np.ascontiguousarray: that one turns a 0-d result (no swept axis) into shape (1,)
+        result[var.name] = np.array(values.reshape((1,) * job.n_outer + shape), order="C")
     return result
 
 
