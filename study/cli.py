@@ -58,11 +58,13 @@ def _parser() -> argparse.ArgumentParser:
     verify = sub.add_parser("verify", help="compare a results file with the stored reference slice of its study")
     verify.add_argument("file")
     verify.add_argument("--reference", default=None, metavar="DIR",
-                        help="directory of the reference slices (default: $RIMROLL_REFERENCE_DIR or tests/reference)")
-    ref = sub.add_parser("reference", help="stored reference slices (tests/reference): build them")
+                        help="directory of the reference slices (default: $RIMROLL_REFERENCE_DIR, else the "
+                             "slices shipped with rimroll)")
+    ref = sub.add_parser("reference", help="stored reference slices (study/reference_slices): build them")
     ref.add_argument("--build", action="store_true", required=True,
                      help="compute the slices (outcome sections at rtol 1e-12, DOP853) and write them")
-    ref.add_argument("--out", default=None, help="directory to write (default: the checkout's tests/reference)")
+    ref.add_argument("--out", default=None, help="directory to write (default: a source checkout's study/reference_slices; "
+                                                  "required when rimroll is installed)")
     ref.add_argument("--only", action="append", default=[], metavar="STUDY", help="build only this study's slice")
     ref.add_argument("--workers", type=int, default=None, help="local threads (default: one per core)")
     ref.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None)
