@@ -84,6 +84,10 @@ def _draw(study, nc: pathlib.Path) -> pathlib.Path | None:
     if study.plot is None:
         return None
     with io.open_result(nc, lazy=True) as ds:
+        missing = [v.name for v in study.variables if v.name not in ds.data_vars]
+        if missing:
+            raise UserError(f"cannot plot {nc}: it lacks the variable(s) {', '.join(missing)} of study "
+                            f"{study.name}; recompute it with study run {study.name} --force")
         fig = study.plot(ds)
     return io.write_figure(fig, nc.with_suffix(".png"))
 
@@ -171,8 +175,11 @@ def _cmd_info(args) -> int:
     print("dimensions: " + ", ".join(f"{k}={v}" for k, v in ds.sizes.items()))
     print("coordinates:")
     for name, c in ds.coords.items():
-        print(f"  {name} [{c.attrs.get('units', '?')}] {c.attrs.get('long_name', '')}: "
-              f"{float(c.min()):.4g} .. {float(c.max()):.4g} ({c.size} points)")
+        if c.dtype.kind in "iuf":
+            span = f"{float(c.min()):.4g} .. {float(c.max()):.4g}"
+        else:  # labels (e.g. the integrators of work-precision)
+            span = ", ".join(str(v) for v in c.values.ravel()[:6]) + (", ..." if c.size > 6 else "")
+        print(f"  {name} [{c.attrs.get('units', '?')}] {c.attrs.get('long_name', '')}: {span} ({c.size} points)")
     print("variables:")
     for name, v in ds.data_vars.items():
         line = f"  {name}({', '.join(v.dims)}) {v.dtype} [{v.attrs.get('units', '?')}] {v.attrs.get('long_name', '')}"
@@ -223,6 +230,7 @@ def main(argv=None) -> int:
     """Entry point of ``study`` / ``python -m study``; returns the exit status."""
     words = sys.argv[1:] if argv is None else list(argv)
     command = shlex.join(["study", *words])
+    _ignore_file_size_signal()
     try:
         args = _parser().parse_args(words)
         if args.command == "list":
@@ -240,3 +248,32 @@ def main(argv=None) -> int:
         message = " ".join(str(exc).split())
         print(f"study: error: {message}", file=sys.stderr)
         return getattr(exc, "exit_status", EXIT_USAGE)
+    except KeyboardInterrupt:
+        print("study: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:  # `study info FILE | head`: the reader has what it wanted
+        _quiet_stdout()
+        return 0
+
+
+def _ignore_file_size_signal() -> None:
+    """Beyond ``ulimit -f`` a write then fails with EFBIG (reported in one line) instead of SIGXFSZ
+    killing the process with a core dump."""
+    import signal
+
+    if hasattr(signal, "SIGXFSZ"):
+        try:
+            signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        except ValueError:  # not the main thread
+            pass
+
+
+def _quiet_stdout() -> None:
+    """Point stdout at /dev/null so that the interpreter's final flush raises nothing."""
+    import os
+
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
