@@ -232,18 +232,9 @@ def main(argv=None) -> int:
     command = shlex.join(["study", *words])
     _ignore_file_size_signal()
     try:
-        args = _parser().parse_args(words)
-        if args.command == "list":
-            return _cmd_list(args)
-        if args.command == "run":
-            return _cmd_run(args, command)
-        if args.command == "plot":
-            return _cmd_plot(args)
-        if args.command == "verify":
-            return _cmd_verify(args)
-        if args.command == "reference":
-            return _cmd_reference(args, command)
-        return _cmd_info(args)
+        status = _dispatch(_parser().parse_args(words), command)
+        sys.stdout.flush()  # here, so that a closed pipe is caught below, not at exit
+        return status
     except UserError as exc:
         message = " ".join(str(exc).split())
         print(f"study: error: {message}", file=sys.stderr)
@@ -254,6 +245,20 @@ def main(argv=None) -> int:
     except BrokenPipeError:  # `study info FILE | head`: the reader has what it wanted
         _quiet_stdout()
         return 0
+
+
+def _dispatch(args, command: str) -> int:
+    if args.command == "list":
+        return _cmd_list(args)
+    if args.command == "run":
+        return _cmd_run(args, command)
+    if args.command == "plot":
+        return _cmd_plot(args)
+    if args.command == "verify":
+        return _cmd_verify(args)
+    if args.command == "reference":
+        return _cmd_reference(args, command)
+    return _cmd_info(args)
 
 
 def _ignore_file_size_signal() -> None:

@@ -60,8 +60,7 @@ class PartStore:
     @contextlib.contextmanager
     def lock(self):
         """Hold the exclusive lock of the output file; :class:`UserError` if another run holds it.
-
-        On leaving, a lock file with no parts beside it (nothing to resume) is deleted."""
+        The lock file is deleted on leaving."""
         self.root.mkdir(parents=True, exist_ok=True)
         while True:
             fd = os.open(self.lock_path, os.O_RDWR | os.O_CREAT, 0o644)
@@ -84,12 +83,13 @@ class PartStore:
             os.write(fd, f"{os.getpid()}\n".encode())
             yield self
         finally:
-            if not self.dir.is_dir():
-                with contextlib.suppress(OSError):
-                    self.lock_path.unlink()
-                with contextlib.suppress(OSError):
-                    self.root.rmdir()  # only if empty
-            os.close(fd)  # releases the lock
+            # no stale lock file: deleted while held (a run that opened it meanwhile sees another
+            # inode above and retries), then released
+            with contextlib.suppress(OSError):
+                self.lock_path.unlink()
+            with contextlib.suppress(OSError):
+                self.root.rmdir()  # only if empty
+            os.close(fd)
 
     def save(self, k: int, arrays: dict[str, np.ndarray]) -> pathlib.Path:
         """Write chunk ``k`` atomically (temp file, fsync, rename)."""

@@ -62,6 +62,32 @@ def saved_on_stop(store, plan):
         target = f" ({exc.filename})" if exc.filename else ""
         raise RunStopped(f"cannot write{target}: {what}; {_saved(store, plan)}; "
                          "free space (or raise the limit) and rerun the same command to resume") from None
+    except RuntimeError as exc:
+        if "NetCDF" not in str(exc) and "HDF" not in str(exc):
+            raise
+        # the netCDF library reports a failed write (EFBIG, ENOSPC) without its errno
+        raise RunStopped(f"cannot write {store.target}: the netCDF library failed ({' '.join(str(exc).split())}); "
+                         f"{_space(store.target.parent)}; {_saved(store, plan)}; free space (or raise the limit) "
+                         "and rerun the same command to resume") from None
+
+
+def _space(directory: pathlib.Path) -> str:
+    """Free space of ``directory``'s file system and this process's file size limit, in words."""
+    parts = []
+    try:
+        st = os.statvfs(directory)
+        parts.append(f"{st.f_bavail * st.f_frsize / 2**20:.0f} MiB free")
+    except OSError:
+        pass
+    try:
+        import resource
+
+        soft, _ = resource.getrlimit(resource.RLIMIT_FSIZE)
+        if soft != resource.RLIM_INFINITY:
+            parts.append(f"file size limit (ulimit -f) {soft} bytes")
+    except (ImportError, OSError, ValueError):
+        pass
+    return ", ".join(parts) or "disk full or a file size limit?"
 
 
 def announce(plan, n_todo: int, stream=None) -> None:
