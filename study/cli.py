@@ -140,6 +140,8 @@ def _reusable(study, nc: pathlib.Path, plan, request: dict, sizes: dict, quiet=F
     holds another run (the fingerprint rule of ``study.reuse``)."""
     found = reuse.inspect(nc, plan.fingerprint, request, sizes)
     if found.state == "same":
+        if not quiet:
+            _tidy(PartStore(nc.parent, study.name, plan.fingerprint))
         return _exists(study, nc)
     if found.state == "different":
         raise UserError(f"{nc} holds another run of {study.name} ({found.detail}); use --force to replace "
@@ -147,6 +149,19 @@ def _reusable(study, nc: pathlib.Path, plan, request: dict, sizes: dict, quiet=F
     if found.state == "unreadable" and not quiet:
         print(f"study: {nc} is not a readable result ({found.detail}); recomputing it", file=sys.stderr)
     return None
+
+
+def _tidy(store: PartStore) -> None:
+    """The result is complete: parts of this study left by a run killed during its cleanup, or by
+    killed runs of other inputs, belong to no live run; delete them unless a run holds the lock."""
+    if not store.root.is_dir():
+        return
+    try:
+        with store.lock():
+            store.sweep_stale()
+            store.remove()
+    except UserError:  # another run of this study into this --out is live: leave its parts alone
+        pass
 
 
 def _exists(study, nc: pathlib.Path) -> int:

@@ -131,11 +131,14 @@ def status_summary(nc: pathlib.Path) -> str | None:
         values = [int(v) for v in np.atleast_1d(status.attrs["flag_values"])]
         meanings = str(status.attrs.get("flag_meanings", "")).split()
         counts = {v: int((status == v).sum().compute()) for v in values if v != 0}
+        n_bad = int((status != 0).sum().compute())
         total = int(status.size)
     bad = {v: n for v, n in counts.items() if n}
-    if not bad:
+    if not n_bad:
         return None
     names = dict(zip(values, meanings))
     detail = ", ".join(f"{n} {names.get(v, f'status {v}')}" for v, n in sorted(bad.items()))
-    return (f"study: warning: {sum(bad.values())} of {total} lanes of {nc} did not finish ok ({detail}); "
+    if n_bad > sum(bad.values()):  # codes the file's flag_values do not name
+        detail = ", ".join(filter(None, [detail, f"{n_bad - sum(bad.values())} of unknown status"]))
+    return (f"study: warning: {n_bad} of {total} lanes of {nc} did not finish ok ({detail}); "
             "see the variable 'status'")

@@ -523,3 +523,12 @@ def test_successful_run_removes_parts_of_no_live_run(probe, tmp_path):
     assert _run(tmp_path) == 0
     assert not stale.exists() and other_study.exists()
     assert sorted(p.name for p in (tmp_path / ".parts").iterdir()) == ["fig8-0123456789abcdef"]
+
+
+def test_parts_left_by_a_kill_during_cleanup_are_removed(probe, tmp_path, capsys):
+    assert _run(tmp_path) == 0
+    plan = make_plan(probe)
+    left = PartStore(tmp_path, "fanout-probe", plan.fingerprint)  # as if killed inside store.remove()
+    left.save(0, {"f": np.zeros((1, 1, 4, 3)), "code": np.zeros((1, 1, 4, 3), dtype=np.int8)})
+    assert _run(tmp_path) == 0 and "exists, not recomputing" in capsys.readouterr().out
+    assert not (tmp_path / ".parts").exists()
