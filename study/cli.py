@@ -233,8 +233,7 @@ def _cmd_verify(args) -> int:
 def _cmd_reference(args, command: str) -> int:
     from study import reference
 
-    if args.workers is not None and args.workers < 1:
-        raise UserError(f"--workers must be >= 1; got {args.workers}")
+    checks.check_workers(args.workers)
     progress = sys.stderr.isatty() if args.progress is None else args.progress
     for path in reference.build(args.out, args.only or None, args.workers, command, progress):
         print(f"wrote {path} ({path.stat().st_size / 1024:.0f} KiB)")
