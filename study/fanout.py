@@ -201,7 +201,7 @@ def run(plan: Plan, store: PartStore, todo: list[int], c, progress: ProgressLine
                     inflight.add(nxt)
             if not estimated and stats.computed >= min(threads, len(todo)):
                 estimated = True
-                runguard.estimate(plan, progress, stats.compute_s / stats.computed,
+                runguard.estimate(plan, stats.compute_s / stats.computed,
                                   len(todo) - stats.computed, threads)
     except BaseException:
         for f in inflight:

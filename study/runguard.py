@@ -101,7 +101,7 @@ def announce(plan, n_todo: int, stream=None) -> None:
     stream.flush()
 
 
-def estimate(plan, stats_line, seconds_per_chunk: float, n_left: int, threads: int, stream=None) -> None:
+def estimate(plan, seconds_per_chunk: float, n_left: int, threads: int, stream=None) -> None:
     """One stderr line with the time left, printed once when it exceeds a minute."""
     total = seconds_per_chunk * n_left / max(threads, 1)
     if total < 60:
