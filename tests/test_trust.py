@@ -532,3 +532,16 @@ def test_parts_left_by_a_kill_during_cleanup_are_removed(probe, tmp_path, capsys
     left.save(0, {"f": np.zeros((1, 1, 4, 3)), "code": np.zeros((1, 1, 4, 3), dtype=np.int8)})
     assert _run(tmp_path) == 0 and "exists, not recomputing" in capsys.readouterr().out
     assert not (tmp_path / ".parts").exists()
+
+
+def test_estimate_line_only_for_long_runs(probe):
+    import io as _io
+
+    from study import runguard
+
+    plan = make_plan(probe)
+    quiet, loud = _io.StringIO(), _io.StringIO()
+    runguard.estimate(plan, 0.5, 100, 2, stream=quiet)  # 25 s: nothing to say
+    runguard.estimate(plan, 2.0, 5400, 2, stream=loud)  # 5400 s of work left
+    assert quiet.getvalue() == ""
+    assert loud.getvalue() == "study: fanout-probe: about 1.5 h left for 5400 chunks (2 s per chunk on 2 threads)\n"
