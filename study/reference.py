@@ -95,8 +95,10 @@ def checkout_dir() -> pathlib.Path | None:
 
 
 def default_build_dir() -> pathlib.Path:
-    """Where ``study reference --build`` writes without ``--out``: the checkout's slices, else a
-    :class:`registry.UserError` asking for ``--out``."""
+    """Where ``study reference --build`` writes without ``--out``: ``$RIMROLL_REFERENCE_DIR``, else
+    the checkout's slices, else a :class:`registry.UserError` asking for ``--out``."""
+    if os.environ.get(ENV_DIR):
+        return pathlib.Path(os.environ[ENV_DIR])
     target = checkout_dir()
     if target is None:
         raise registry.UserError(f"study reference --build needs --out DIR here: rimroll is installed at "

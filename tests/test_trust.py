@@ -232,6 +232,7 @@ def test_reference_build_never_writes_an_installed_package(monkeypatch, tmp_path
     from study import reference
 
     monkeypatch.setattr(reference, "checkout_dir", lambda: None)  # as after pip install
+    monkeypatch.delenv(reference.ENV_DIR, raising=False)
     before = {p: p.stat().st_mtime_ns for p in reference.packaged_dir().glob("*.nc")}
     assert main(["reference", "--build", "--only", "fig9", "--no-progress"]) == 2
     _one_line_error(capsys.readouterr().err, "needs --out DIR")
