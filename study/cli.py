@@ -50,6 +50,9 @@ def _parser() -> argparse.ArgumentParser:
     plot = sub.add_parser("plot", help="re-draw the PNG of an existing results file")
     plot.add_argument("target", help="a study name (meaning <out>/NAME.nc) or a .nc file")
     plot.add_argument("--out", default="results", help="directory holding NAME.nc (default: results)")
+    plot.add_argument("--select", action="append", default=[], metavar="DIM=VALUE",
+                      help="draw the slice nearest to VALUE along the file's dimension DIM (repeatable), "
+                           "e.g. --select j=0.5; the PNG is named after the slice")
     info = sub.add_parser("info", help="dimensions, variables and provenance of a results file")
     info.add_argument("file")
     verify = sub.add_parser("verify", help="compare a results file with the stored reference slice of its study")
@@ -74,13 +77,32 @@ def _cmd_list(args) -> int:
     return 0
 
 
-def _draw(study, nc: pathlib.Path) -> pathlib.Path | None:
-    """Re-open ``nc`` lazily and save the study's plot next to it as PNG."""
+def _draw(study, nc: pathlib.Path, select: dict | None = None) -> pathlib.Path | None:
+    """Re-open ``nc`` lazily and save the study's plot next to it as PNG (of a slice: ``select``)."""
     if study.plot is None:
         return None
+    png = nc.with_suffix(".png")
     with io.open_result(nc, lazy=True) as ds:
+        if select:
+            ds = ds.sel(select, method="nearest")
+            png = nc.with_name(nc.stem + "".join(f"_{k}={float(ds[k]):g}" for k in select) + ".png")
         fig = study.plot(ds)
-    return io.write_figure(fig, nc.with_suffix(".png"))
+    return io.write_figure(fig, png)
+
+
+def _selection(words: list[str], ds) -> dict:
+    """``--select DIM=VALUE`` words as {dim: float}; a user error names a bad word or dimension."""
+    out = {}
+    for word in words:
+        key, sep, value = word.partition("=")
+        if not sep or key not in ds.dims:
+            raise UserError(f"--select {word!r}: expected DIM=VALUE with DIM one of the file's dimensions "
+                            f"({', '.join(ds.dims) or 'none'})")
+        try:
+            out[key] = float(value)
+        except ValueError:
+            raise UserError(f"--select {word!r}: VALUE must be a number") from None
+    return out
 
 
 def _cmd_run(args, command: str) -> int:
@@ -127,7 +149,7 @@ def _cmd_plot(args) -> int:
     else:
         nc = pathlib.Path(args.out) / f"{registry.get(args.target).name}.nc"
     ds = io.open_result(nc)
-    png = _draw(registry.get(ds.attrs["study"]), nc)
+    png = _draw(registry.get(ds.attrs["study"]), nc, _selection(args.select, ds))
     print(f"wrote {png}" if png else f"study {ds.attrs['study']!r} has no plot")
     return 0
 
