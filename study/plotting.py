@@ -106,7 +106,7 @@ OUTCOME_TEXT = {  # reader-facing words for the outcome codes' flag meanings
     "fall_in": "falls in (score)",
     "fall_out": "falls out",
     "periodic_rolling": "periodic rolling",
-    "on_rim_at_t_max": "on the rim at t_max",
+    "on_rim_at_t_max": r"on the rim at $t_{max}$",
     "steady_motion": "steady motion (exact)",
 }
 OUTCOME_COLOUR = {

@@ -312,7 +312,7 @@ def _inv_plot(ds):
     if ds.sizes["trajectory"] <= 8:
         handles, labels = axes[0].get_legend_handles_labels()
         fig.legend(handles, labels, loc="outside lower center", ncol=3, fontsize=8, frameon=False,
-                   title=r"initial state ($\omega_2$, $\omega_3$ of the steady motion (48))", title_fontsize=8)
+                   title=r"initial state: a steady motion (48) with $\omega_1$ perturbed", title_fontsize=8)
     return fig
 
 
