@@ -59,6 +59,7 @@ def _parser() -> argparse.ArgumentParser:
     verify.add_argument("file")
     verify.add_argument("--reference", default=None, metavar="DIR",
                         help="directory of the reference slices (default: $RIMROLL_REFERENCE_DIR or tests/reference)")
+    _trace_parser(sub)
     ref = sub.add_parser("reference", help="stored reference slices (tests/reference): build them")
     ref.add_argument("--build", action="store_true", required=True,
                      help="compute the slices (outcome sections at rtol 1e-12, DOP853) and write them")
@@ -67,6 +68,24 @@ def _parser() -> argparse.ArgumentParser:
     ref.add_argument("--workers", type=int, default=None, help="local threads (default: one per core)")
     ref.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None)
     return p
+
+
+def _trace_parser(sub) -> None:
+    t = sub.add_parser("trace", help="one trajectory: netCDF time series and figure (study.trace)")
+    t.add_argument("file", nargs="?", default=None, help="an outcome map (fig11-13, outcome-cube) to pick --at from")
+    t.add_argument("--state", default=None, metavar="BETA,OMEGA1,OMEGA2,OMEGA3",
+                   help="the rolling initial state [rad, 1/s, 1/s, 1/s]")
+    t.add_argument("--at", default=None, metavar="DIM=VALUE,...",
+                   help="the point of FILE, e.g. omega1=2,beta=1.1,scene=slipping (nearest grid point)")
+    t.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
+                   help="a physical parameter (r R a m j mu g k_r k_d); repeatable")
+    t.add_argument("--t-max", type=float, default=None, help="end of the run [s] (default 20, or the map's)")
+    t.add_argument("--rtol", type=float, default=1e-10, help="relative tolerance (default 1e-10)")
+    t.add_argument("--atol", type=float, default=1e-12, help="absolute tolerance (default 1e-12)")
+    t.add_argument("--samples", type=int, default=2000, help="time samples (default 2000, plus phase ends)")
+    t.add_argument("--out", default="results", help="output directory (default: results)")
+    t.add_argument("--name", default="trace", help="file name without suffix (default: trace)")
+    t.add_argument("--force", action="store_true", help="replace an existing file of that name")
 
 
 def _cmd_list(args) -> int:
@@ -149,6 +168,12 @@ def _cmd_plot(args) -> int:
     else:
         nc = pathlib.Path(args.out) / f"{registry.get(args.target).name}.nc"
     ds = io.open_result(nc)
+    if ds.attrs["study"] == "trace":
+        from study import trace
+
+        png = io.write_figure(trace.figure(ds), nc.with_suffix(".png"))
+        print(f"wrote {png}")
+        return 0
     png = _draw(registry.get(ds.attrs["study"]), nc, _selection(args.select, ds))
     print(f"wrote {png}" if png else f"study {ds.attrs['study']!r} has no plot")
     return 0
@@ -224,6 +249,10 @@ def main(argv=None) -> int:
             return _cmd_verify(args)
         if args.command == "reference":
             return _cmd_reference(args, command)
+        if args.command == "trace":
+            from study import trace
+
+            return trace.run(args, command)
         return _cmd_info(args)
     except UserError as exc:
         message = " ".join(str(exc).split())
