@@ -199,8 +199,8 @@ def _types_plot(ds):
     ax.set_xlim(0, 1)
     ax.set_xlabel(f"fraction of the {n} sampled states")
     t_max = float(setting_of(ds, "t_max"))
-    ax.set_title(f"Types of solutions of the rolling equations (Theorem 1)\n{_sample_words(ds)}, "
-                 f"followed for up to {t_max:g} s", fontsize=11)
+    ax.set_title(f"Types of solutions of the rolling equations (Theorem 1)\n{_sample_words(ds)};\n"
+                 f"each followed for up to {t_max:g} s", fontsize=11)
     return fig
 
 

@@ -132,11 +132,9 @@ def _derive(ds) -> dict:
 
 BOUNDARY_STYLES = {  # how the plot draws each boundary type: a thin line along the cell edges
     boundaries.DEADLOCK: dict(color="k", lw=1.1, label=r"deadlock boundary ($F_{2,min} \to 0$)"),
-    boundaries.SEPARATRIX: dict(color="white", lw=0.9, outline="k",
-                                label=r"separatrix boundary (half period $\to \infty$)"),
-    boundaries.SLIPPING_INDUCED: dict(color="#e7298a", lw=1.1, label="slipping-induced boundary"),
-    boundaries.UNDETERMINED: dict(color="#ffff33", lw=1.1, outline="k",
-                                  label="undetermined boundary (grid too coarse to tell)"),
+    boundaries.SEPARATRIX: dict(color="#ffff33", lw=1.3, label=r"separatrix boundary (half period $\to \infty$)"),
+    boundaries.SLIPPING_INDUCED: dict(color="#e7298a", lw=1.3, label="slipping-induced boundary"),
+    boundaries.UNDETERMINED: dict(color="#00e5ff", lw=1.3, label="undetermined boundary (grid too coarse to tell)"),
 }
 
 
