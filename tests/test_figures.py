@@ -117,7 +117,7 @@ def test_contour_labels_clear_of_the_star_and_of_each_other(fig12):
     fig = _rendered(get("fig12").plot(fig12))
     renderer = fig.canvas.get_renderer()
     checked = 0
-    for ax in fig.axes:
+    for ax in [a for main in fig.axes for a in (main, *main.child_axes)]:  # zoom insets too
         stars = [line for line in ax.get_lines() if line.get_marker() == "*"]
         labels = [t for t in ax.texts if t.get_text().endswith(" s")]
         if not stars or not labels:
@@ -205,3 +205,21 @@ def test_select_names_a_bad_dimension(tmp_path, capsys):
     assert main(["plot", str(tmp_path / "fig9.nc"), "--select", "nope=1"]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("study: error: --select") and "rho_over_R" in err and "\n" not in err
+
+
+def test_a_small_periodic_region_gets_a_zoom_that_shows_it(fig12):
+    from workflows.outcome_grids import _small_region
+
+    mask = np.zeros((240, 360), bool)
+    mask[120:124, 170:180] = True
+    rows, cols = _small_region(mask)
+    assert mask[rows, cols].sum() == mask.sum()  # the zoom holds the whole region, with a margin
+    assert rows.stop - rows.start < 20 and cols.stop - cols.start < 40
+    big = np.zeros((240, 360), bool)
+    big[50:150, 100:250] = True
+    assert _small_region(big) is None
+    # on the quick fig12 grid, the slipping scene's periodic island is a few cells: it is zoomed
+    fig = get("fig12").plot(fig12)
+    periodic = fig12["outcome"].isel(scene=1).transpose("beta", "omega1").values == 2
+    if _small_region(periodic) is not None:
+        assert fig.axes[1].child_axes

@@ -203,44 +203,80 @@ STAR = dict(marker="*", ls="", ms=11, mfc="none", mec="k", mew=1.3, zorder=5)  #
 TIME_LEVELS = (5.0, 10.0, 20.0, 40.0)  # [s] contours of the time on the rim in dissipative panels
 
 
+def _small_region(mask, fraction: float = 0.08):
+    """(row slice, column slice) of a small region of ``mask`` with a margin, or None if empty or large."""
+    if not mask.any():
+        return None
+    rows, cols = np.nonzero(mask.any(1))[0], np.nonzero(mask.any(0))[0]
+    h, w = rows[-1] - rows[0] + 1, cols[-1] - cols[0] + 1
+    if h > fraction * mask.shape[0] or w > fraction * mask.shape[1]:
+        return None
+    pad_r, pad_c = max(2, h), max(2, w)
+    return (slice(max(rows[0] - pad_r, 0), rows[-1] + pad_r + 1), slice(max(cols[0] - pad_c, 0), cols[-1] + pad_c + 1))
+
+
+def _panel(ax, sel, w1, beta, b0, former, extras, labels=True, star_size=None) -> tuple[set, set]:
+    """Draw one scene (outcomes, typed boundaries, star, former periodic outline, time contours);
+    returns (outcome codes drawn, boundary types drawn)."""
+    cmap, norm = PALETTE.cmap_norm()
+    out = sel["outcome"].transpose("beta", "omega1").values
+    ax.pcolormesh(w1, beta, out, cmap=cmap, norm=norm, shading="nearest", rasterized=True)
+    kinds = _draw_boundaries(ax, sel, w1, beta)
+    ax.set_xlim(*P.grid_limits(w1))
+    ax.set_ylim(*P.grid_limits(beta))
+    if b0 is not None and beta.min() <= b0 <= beta.max() and w1.min() <= 0.0 <= w1.max():
+        ax.plot([0.0], [b0], **(STAR if star_size is None else dict(STAR, ms=star_size, mew=1.0)))
+        extras["star"] = Line2D([], [], **dict(STAR, label="steady motion (48)"))
+    if float(sel["k_r"]) != 0 or float(sel["k_d"]) != 0:
+        if former is not None and former.any():
+            ax.contour(w1, beta, former.astype(float), levels=[0.5], colors="k",
+                       linewidths=1.0, linestyles=":", zorder=6)  # above the star
+            extras["former"] = Line2D([], [], color="k", lw=1.0, ls=":", label="periodic region without dissipation")
+        t_end = sel["t_end"].transpose("beta", "omega1").values
+        levels = [lv for lv in TIME_LEVELS if lv < float(sel["t_max"]) and np.nanmin(t_end) < lv < np.nanmax(t_end)]
+        if levels:
+            cs = ax.contour(w1, beta, t_end, levels=levels, colors="k", linewidths=0.7, linestyles="-")
+            if labels:
+                P.place_contour_labels(ax, cs, fmt="%g s", avoid=[(0.0, b0)] if b0 is not None else [])
+            extras["time"] = Line2D([], [], color="k", lw=0.7, label="time on the rim [s]")
+    return set(np.unique(out).tolist()), kinds
+
+
+def _zoom(ax, sel, w1, beta, b0, former, extras, region) -> None:
+    """An inset (upper right) magnifying a small periodic or former periodic region, so that it
+    stays visible under the star and the lines."""
+    rs, cs = region
+    inset = ax.inset_axes([0.6, 0.58, 0.38, 0.38])
+    part = sel.isel(beta=rs, omega1=cs)
+    _panel(inset, part, w1[cs], beta[rs], b0, None if former is None else former[rs, cs], extras, star_size=7)
+    inset.tick_params(labelsize=6, length=2)
+    inset.set_title("zoom", fontsize=7, pad=2)
+    ax.indicate_inset_zoom(inset, edgecolor="k", lw=0.8)
+
+
 def _plot(ds):
     fig = Figure(figsize=(11.0, 9.0), layout="constrained")
     axes = fig.subplots(2, 2, sharex=True, sharey=True)
     w1 = ds["omega1"].values
     beta = ds["beta"].values
-    cmap, norm = PALETTE.cmap_norm()
     p = params_of(ds)
     omega2, omega3 = float(setting_of(ds, "omega2")), float(setting_of(ds, "omega3"))
     b0 = steady_beta0(omega2, omega3, p, beta.min(), beta.max())
     codes, kinds = set(), set()
     extras = {}
-    conservative_periodic = None
+    former = None  # the periodic region of the last conservative scene drawn
     for k, ax in enumerate(axes.flat[: ds.sizes["scene"]]):
         sel = ds.isel(scene=k)
-        out = sel["outcome"].transpose("beta", "omega1").values
-        codes |= set(np.unique(out).tolist())
-        ax.pcolormesh(w1, beta, out, cmap=cmap, norm=norm, shading="nearest", rasterized=True)
-        kinds |= _draw_boundaries(ax, sel, w1, beta)
-        ax.set_xlim(*P.grid_limits(w1))
-        ax.set_ylim(*P.grid_limits(beta))
-        if b0 is not None:
-            ax.plot([0.0], [b0], **STAR)
-            extras["star"] = Line2D([], [], **dict(STAR, label="steady motion (48)"))
-        k_r, k_d = float(sel["k_r"]), float(sel["k_d"])
-        if k_r == 0 and k_d == 0:
-            conservative_periodic = out == outcomes.PERIODIC_ROLLING
-        else:
-            if conservative_periodic is not None and conservative_periodic.any():
-                ax.contour(w1, beta, conservative_periodic.astype(float), levels=[0.5], colors="k",
-                           linewidths=1.0, linestyles=":", zorder=6)  # above the star
-                extras["former"] = Line2D([], [], color="k", lw=1.0, ls=":",
-                                          label="periodic region without dissipation")
-            t_end = sel["t_end"].transpose("beta", "omega1").values
-            levels = [lv for lv in TIME_LEVELS if lv < float(sel["t_max"]) and np.nanmin(t_end) < lv < np.nanmax(t_end)]
-            if levels:
-                cs = ax.contour(w1, beta, t_end, levels=levels, colors="k", linewidths=0.7, linestyles="-")
-                P.place_contour_labels(ax, cs, fmt="%g s", avoid=[(0.0, b0)] if b0 is not None else [])
-                extras["time"] = Line2D([], [], color="k", lw=0.7, label="time on the rim [s]")
+        conservative = float(sel["k_r"]) == 0 and float(sel["k_d"]) == 0
+        periodic = sel["outcome"].transpose("beta", "omega1").values == outcomes.PERIODIC_ROLLING
+        small = _small_region(periodic if conservative or former is None else former | periodic)
+        # a small region gets a zoom, which then carries the time labels (the panel stays clear)
+        c, t = _panel(ax, sel, w1, beta, b0, None if conservative else former, extras, labels=small is None)
+        codes, kinds = codes | c, kinds | t
+        if small is not None:
+            _zoom(ax, sel, w1, beta, b0, None if conservative else former, extras, small)
+        if conservative:
+            former = periodic
         ax.set_title(P.scene_title(sel), fontsize=10)
     for ax in axes[1]:
         ax.set_xlabel(r"initial transversal angular velocity $\omega_1$ [1/s]")
