@@ -63,8 +63,9 @@ def _fig9_plot(ds):
     fig, ax = P.new_figure(7.5, 6.4)
     ax.contourf(x, j, np.abs(tr), levels=[0.0, 2.0], colors=["0.72"])  # = stable, drawn smoothly
     ax.contour(x, j, np.abs(tr), levels=[2.0], colors="k", linewidths=1.2)
-    P.label_parts(ax, x, j, stable == 1, "S", min_fraction=0.004, fontsize=16)
-    P.label_parts(ax, x, j, stable == 0, "U", min_fraction=0.004, fontsize=16)
+    if min(x.size, j.size) >= 5:  # on a grid of a few points every part touches the edge: the legend says it
+        P.label_parts(ax, x, j, stable == 1, "S", min_fraction=0.004, fontsize=16)
+        P.label_parts(ax, x, j, stable == 0, "U", min_fraction=0.004, fontsize=16)
     # the computed domain; when it is the whole physical range, the paper's view with the
     # outside of the range striped, else the computed domain only (nothing uncomputed drawn)
     xl, jl = P.grid_limits(x), P.grid_limits(j)
@@ -76,11 +77,13 @@ def _fig9_plot(ds):
         ax.axvline(x_max, color="k", lw=1.0)
         ax.axhline(J_MAX, color="k", lw=1.0)
     std = solver.Params()
+    std_shown = full or (x.min() <= std.rho / std.R <= x.max() and j.min() <= std.j <= j.max())
     ax.plot([std.rho / std.R], [std.j], "o", ms=11, mfc="none", mec="tab:red", mew=2.2, zorder=8)
-    ax.annotate("standard ball\n(Table 1)", (std.rho / std.R, std.j), xytext=(-14, -34),
-                textcoords="offset points", ha="right", va="top", fontsize=10, color="tab:red",
-                bbox=dict(fc="white", ec="none", alpha=0.8),
-                arrowprops=dict(arrowstyle="-", color="tab:red", lw=1.0))
+    if std_shown:
+        ax.annotate("standard ball\n(Table 1)", (std.rho / std.R, std.j), xytext=(-14, -34),
+                    textcoords="offset points", ha="right", va="top", fontsize=10, color="tab:red",
+                    bbox=dict(fc="white", ec="none", alpha=0.8),
+                    arrowprops=dict(arrowstyle="-", color="tab:red", lw=1.0))
     if full:
         ax.set_xlim(0.0, 1.0)
         ax.set_ylim(0.0, y_top)
@@ -94,7 +97,7 @@ def _fig9_plot(ds):
     handles = [Patch(fc="0.72", label=r"S: $|\mathrm{tr}\,M| \leq 2$, quasi-periodic"),
                Patch(fc="white", ec="0.5", label=r"U: $|\mu_1| < 1 < |\mu_2|$"),
                Line2D([], [], ls="none", marker="o", ms=9, mfc="none", mec="tab:red", mew=2,
-                      label=rf"standard ball $\rho/R$={std.rho / std.R:.3f}, $j$={std.j:.3f}")]
+                      label=rf"standard ball $\rho/R$={std.rho / std.R:.3f}, $j$={std.j:.3f}")][: 3 if std_shown else 2]
     if full:
         handles.insert(2, Patch(fc="white", ec="0.3", hatch="///", label=r"outside $0<\rho/R<1-a/R$, $0<j\leq 2/3$"))
     fig.legend(handles=handles, loc="outside lower center", ncol=2, fontsize=9, frameon=False)

@@ -226,9 +226,14 @@ def _fig8_plot(ds):
                 bbox=dict(fc="white", ec="none", alpha=0.6, pad=0.5))
     ax.contour(b, w, np.where(inside, w20, np.nan), levels=[0.0], colors="k", linestyles=":", linewidths=1.8)
     P.singular_lines(ax, circles=False)
-    P.beta_omega_axes(ax, ds, rf"Realisable steady motions: $\mu$={p.mu:g}, $v_{{throw}}$={v_throw:g} m/s; "
+    P.beta_omega_axes(ax, ds, rf"Realisable steady motions: $\mu$={_mu_text(p.mu)}, $v_{{throw}}$={v_throw:g} m/s; "
                               r"$\pm$: sign of $\omega_{20}$, dotted: $\omega_{20}=0$")
     return fig
+
+
+def _mu_text(mu: float) -> str:
+    """mu for a title: a number, or the infinity sign (rolling only)."""
+    return r"$\infty$" if np.isinf(mu) else f"{mu:g}"
 
 
 def region_labels(b, w, region, w20, letters) -> list:
