@@ -51,7 +51,7 @@ def _parser() -> argparse.ArgumentParser:
     plot.add_argument("target", help="a study name (meaning <out>/NAME.nc) or a .nc file")
     plot.add_argument("--out", default="results", help="directory holding NAME.nc (default: results)")
     plot.add_argument("--select", action="append", default=[], metavar="DIM=VALUE",
-                      help="draw the slice nearest to VALUE along the file's dimension DIM (repeatable), "
+                      help="draw the slice nearest to VALUE along a swept axis DIM of a cube (repeatable), "
                            "e.g. --select j=0.5; the PNG is named after the slice")
     info = sub.add_parser("info", help="dimensions, variables and provenance of a results file")
     info.add_argument("file")
@@ -112,11 +112,12 @@ def _draw(study, nc: pathlib.Path, select: dict | None = None) -> pathlib.Path |
 def _selection(words: list[str], ds) -> dict:
     """``--select DIM=VALUE`` words as {dim: float}; a user error names a bad word or dimension."""
     out = {}
+    swept = str(ds.attrs.get("swept", "")).split()
     for word in words:
         key, sep, value = word.partition("=")
-        if not sep or key not in ds.dims:
-            raise UserError(f"--select {word!r}: expected DIM=VALUE with DIM one of the file's dimensions "
-                            f"({', '.join(ds.dims) or 'none'})")
+        if not sep or key not in swept:
+            raise UserError(f"--select {word!r}: expected DIM=VALUE with DIM one of the file's swept axes "
+                            f"({', '.join(swept) or 'none: the file is not a cube'})")
         try:
             out[key] = float(value)
         except ValueError:

@@ -202,9 +202,13 @@ def test_realisable_cube_mu_in_order_and_select(tmp_path):
 
 def test_select_names_a_bad_dimension(tmp_path, capsys):
     _run(tmp_path, "fig9")
-    assert main(["plot", str(tmp_path / "fig9.nc"), "--select", "nope=1"]) == 2
+    assert main(["plot", str(tmp_path / "fig9.nc"), "--select", "j=0.5"]) == 2  # a grid axis, not a cube's
     err = capsys.readouterr().err.strip()
-    assert err.startswith("study: error: --select") and "rho_over_R" in err and "\n" not in err
+    assert err.startswith("study: error: --select") and "not a cube" in err and "\n" not in err
+    _run(tmp_path, "realisable-cube", "n_beta0=12", "n_omega30=8")
+    assert main(["plot", str(tmp_path / "realisable-cube.nc"), "--select", "beta0=1"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "rho_over_R" in err and "\n" not in err
 
 
 def test_a_small_periodic_region_gets_a_zoom_that_shows_it(fig12):
