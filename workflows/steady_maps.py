@@ -72,6 +72,8 @@ def _fig3_plot(ds):
     P.singular_lines(ax)
     top = w.max() * 0.88
     for text, x in ZONES.items():
+        if not b.min() <= x <= b.max():  # a restricted grid: only the zones it computed
+            continue
         ax.text(x, top, text, ha="center", va="center", fontsize=14, fontweight="bold",
                 bbox=dict(fc="white", ec="none", alpha=0.8))
     P.beta_omega_axes(ax, ds, r"Steady motions (48): $\omega_{20}(\beta_0, \omega_{30})$; "
@@ -111,8 +113,9 @@ def _fig5_plot(ds):
     bs = steady.beta_star(p)
     for x in (-bs, bs):
         ax.axvline(x, color="tab:red", ls="--", lw=1.2)
-    ax.text(bs, w.max() * 0.93, r" $\beta^*$", color="tab:red", fontsize=12, ha="left")
-    ax.text(-bs, w.max() * 0.93, r"$-\beta^*$ ", color="tab:red", fontsize=12, ha="right")
+    for x, text, ha in ((bs, r" $\beta^*$", "left"), (-bs, r"$-\beta^*$ ", "right")):
+        if b.min() <= x <= b.max():
+            ax.text(x, w.max() * 0.93, text, color="tab:red", fontsize=12, ha=ha)
     bh, w_tip = _beta_hat_points(p, float(np.abs(w).max()))
     ax.plot([bh, bh], w_tip, "o", color="k", ms=6, zorder=8)
     ax.annotate(r"$\hat\beta$", (bh, w_tip[1]), xytext=(8, 6), textcoords="offset points", fontsize=12)
