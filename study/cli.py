@@ -53,6 +53,9 @@ def _parser() -> argparse.ArgumentParser:
     plot = sub.add_parser("plot", help="re-draw the PNG of an existing results file")
     plot.add_argument("target", help="a study name (meaning <out>/NAME.nc) or a .nc file")
     plot.add_argument("--out", default="results", help="directory holding NAME.nc (default: results)")
+    plot.add_argument("--select", action="append", default=[], metavar="DIM=VALUE",
+                      help="draw the slice nearest to VALUE along a swept axis DIM of a cube (repeatable), "
+                           "e.g. --select j=0.5; the PNG is named after the slice")
     info = sub.add_parser("info", help="dimensions, variables and provenance of a results file")
     info.add_argument("file")
     verify = sub.add_parser("verify", help="compare a results file with the stored reference slice of its study")
@@ -60,6 +63,7 @@ def _parser() -> argparse.ArgumentParser:
     verify.add_argument("--reference", default=None, metavar="DIR",
                         help="directory of the reference slices (default: $RIMROLL_REFERENCE_DIR, else the "
                              "slices shipped with rimroll)")
+    _trace_parser(sub)
     ref = sub.add_parser("reference", help="stored reference slices (study/reference_slices): build them")
     ref.add_argument("--build", action="store_true", required=True,
                      help="compute the slices (outcome sections at rtol 1e-12, DOP853) and write them")
@@ -71,6 +75,24 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
+def _trace_parser(sub) -> None:
+    t = sub.add_parser("trace", help="one trajectory: netCDF time series and figure (study.trace)")
+    t.add_argument("file", nargs="?", default=None, help="an outcome map (fig11-13, outcome-cube) to pick --at from")
+    t.add_argument("--state", default=None, metavar="BETA,OMEGA1,OMEGA2,OMEGA3",
+                   help="the rolling initial state [rad, 1/s, 1/s, 1/s]")
+    t.add_argument("--at", default=None, metavar="DIM=VALUE,...",
+                   help="the point of FILE, e.g. omega1=2,beta=1.1,scene=slipping (nearest grid point)")
+    t.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
+                   help="a physical parameter (r R a m j mu g k_r k_d); repeatable")
+    t.add_argument("--t-max", type=float, default=None, help="end of the run [s] (default 20, or the map's)")
+    t.add_argument("--rtol", type=float, default=1e-10, help="relative tolerance (default 1e-10)")
+    t.add_argument("--atol", type=float, default=1e-12, help="absolute tolerance (default 1e-12)")
+    t.add_argument("--samples", type=int, default=2000, help="time samples (default 2000, plus phase ends)")
+    t.add_argument("--out", default="results", help="output directory (default: results)")
+    t.add_argument("--name", default="trace", help="file name without suffix (default: trace)")
+    t.add_argument("--force", action="store_true", help="replace an existing file of that name")
+
+
 def _cmd_list(args) -> int:
     names = registry.names()
     width = max(map(len, names), default=0)
@@ -79,17 +101,37 @@ def _cmd_list(args) -> int:
     return 0
 
 
-def _draw(study, nc: pathlib.Path) -> pathlib.Path | None:
-    """Re-open ``nc`` lazily and save the study's plot next to it as PNG."""
+def _draw(study, nc: pathlib.Path, select: dict | None = None) -> pathlib.Path | None:
+    """Re-open ``nc`` lazily and save the study's plot next to it as PNG (of a slice: ``select``)."""
     if study.plot is None:
         return None
+    png = nc.with_suffix(".png")
     with io.open_result(nc, lazy=True) as ds:
         missing = [v.name for v in study.variables if v.name not in ds.data_vars]
         if missing:
             raise UserError(f"cannot plot {nc}: it lacks the variable(s) {', '.join(missing)} of study "
                             f"{study.name}; recompute it with study run {study.name} --force")
+        if select:
+            ds = ds.sel(select, method="nearest")
+            png = nc.with_name(nc.stem + "".join(f"_{k}={float(ds[k]):g}" for k in select) + ".png")
         fig = study.plot(ds)
-    return io.write_figure(fig, nc.with_suffix(".png"))
+    return io.write_figure(fig, png)
+
+
+def _selection(words: list[str], ds) -> dict:
+    """``--select DIM=VALUE`` words as {dim: float}; a user error names a bad word or dimension."""
+    out = {}
+    swept = str(ds.attrs.get("swept", "")).split()
+    for word in words:
+        key, sep, value = word.partition("=")
+        if not sep or key not in swept:
+            raise UserError(f"--select {word!r}: expected DIM=VALUE with DIM one of the file's swept axes "
+                            f"({', '.join(swept) or 'none: the file is not a cube'})")
+        try:
+            out[key] = float(value)
+        except ValueError:
+            raise UserError(f"--select {word!r}: VALUE must be a number") from None
+    return out
 
 
 def _cmd_run(args, command: str) -> int:
@@ -179,7 +221,13 @@ def _cmd_plot(args) -> int:
     else:
         nc = pathlib.Path(args.out) / f"{registry.get(args.target).name}.nc"
     ds = io.open_result(nc)
-    png = _draw(registry.get(ds.attrs["study"]), nc)
+    if ds.attrs["study"] == "trace":
+        from study import trace
+
+        png = io.write_figure(trace.figure(ds), nc.with_suffix(".png"))
+        print(f"wrote {png}")
+        return 0
+    png = _draw(registry.get(ds.attrs["study"]), nc, _selection(args.select, ds))
     print(f"wrote {png}" if png else f"study {ds.attrs['study']!r} has no plot")
     return 0
 
@@ -272,6 +320,10 @@ def _dispatch(args, command: str) -> int:
         return _cmd_verify(args)
     if args.command == "reference":
         return _cmd_reference(args, command)
+    if args.command == "trace":
+        from study import trace
+
+        return trace.run(args, command)
     return _cmd_info(args)
 
 

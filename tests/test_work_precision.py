@@ -46,3 +46,18 @@ def test_speed_ratio_is_computed_on_identical_states(wp):
     common = wp["seconds_per_trajectory_common"]
     assert np.isfinite(common.isel(scene=0)).all()
     assert np.isfinite(speed_ratio(wp)) and speed_ratio(wp) > 0
+
+
+def test_speed_ratio_is_stored_with_its_spread_and_the_figure_shows_misclassification(wp):
+    from workflows.work_precision import _plot
+
+    ratio = wp["speed_ratio_rk45_dp5"]
+    assert ratio.dims == ("scene",) and ratio.attrs["units"] == "1"
+    lo, hi = np.asarray(ratio.attrs["ratio_min_over_rtol"]), np.asarray(ratio.attrs["ratio_max_over_rtol"])
+    assert np.all(lo <= ratio.values) and np.all(ratio.values <= hi)
+    assert ratio.values[0] == pytest.approx(np.median([speed_ratio(wp, 0, r) for r in wp["rtol"].values]))
+    fig = _plot(wp)
+    assert len(fig.axes) == 2 * wp.sizes["scene"]  # error and misclassification per scene
+    assert "faster" not in fig._suptitle.get_text()  # no run-to-run number in the title
+    labels = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
+    assert all("states" in lbl for lbl in labels)  # how many states each curve rests on
