@@ -138,8 +138,12 @@ def _cmd_info(args) -> int:
     print("dimensions: " + ", ".join(f"{k}={v}" for k, v in ds.sizes.items()))
     print("coordinates:")
     for name, c in ds.coords.items():
-        print(f"  {name} [{c.attrs.get('units', '?')}] {c.attrs.get('long_name', '')}: "
-              f"{float(c.min()):.4g} .. {float(c.max()):.4g} ({c.size} points)")
+        units = f" [{c.attrs['units']}]" if "units" in c.attrs else ""
+        if c.dtype.kind in "UOS":
+            values = ", ".join(str(v) for v in c.values)
+        else:
+            values = f"{float(c.min()):.4g} .. {float(c.max()):.4g}"
+        print(f"  {name}{units} {c.attrs.get('long_name', '')}: {values} ({c.size} points)")
     print("variables:")
     for name, v in ds.data_vars.items():
         line = f"  {name}({', '.join(v.dims)}) {v.dtype} [{v.attrs.get('units', '?')}] {v.attrs.get('long_name', '')}"

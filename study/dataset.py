@@ -52,9 +52,14 @@ def _attr_value(value):
     return value
 
 
+def _axis_attrs(a: Axis) -> dict:
+    """CF attributes of an axis' coordinate: units (none for string labels) and long_name."""
+    return {"units": a.units, "long_name": a.long_name} if a.units else {"long_name": a.long_name}
+
+
 def coords_of(axes: list[Axis]) -> dict:
     """xarray coordinates of the axes (each with units and long_name), auxiliary ones included."""
-    coords = {a.name: (a.name, a.values, {"units": a.units, "long_name": a.long_name}) for a in axes}
+    coords = {a.name: (a.name, a.values, _axis_attrs(a)) for a in axes}
     for a in axes:
         for aux_name, (values, units, long_name) in a.aux.items():
             coords[aux_name] = (a.name, np.asarray(values), {"units": units, "long_name": long_name})

@@ -25,6 +25,11 @@ PLUGIN_ENV = "RIMROLL_STUDY_MODULES"
 """Environment variable: extra study modules (``.py`` paths, ``os.pathsep``-separated) to register,
 e.g. test-only studies. Read in every process that loads the registry (dask workers too)."""
 
+RESERVED_DIM_NAMES = frozenset({"indexers", "method", "tolerance", "drop", "missing_dims", "indexers_kwargs"})
+"""Keyword parameters of xarray's ``Dataset.sel``/``Dataset.isel``: never a dimension name, or
+``ds.sel(method=...)`` would silently mean the keyword, not the dimension (a test keeps this in
+step with xarray's signatures)."""
+
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 _STUDY_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_-]*$")  # study names may also use '-' (realisable-cube)
 
@@ -35,7 +40,8 @@ class UserError(Exception):
 
 @dataclasses.dataclass(frozen=True)
 class Axis:
-    """One swept coordinate: a 1-D, finite, strictly monotonic array with its metadata.
+    """One swept coordinate with its metadata: a 1-D, finite, strictly monotonic array of
+    numbers, or (a categorical axis such as ``scene``) distinct string labels.
 
     ``units`` is a CF/UDUNITS string ("rad", "s-1", "m s-1", "1"). ``aux`` holds auxiliary
     coordinates along this axis, ``{name: (values, units, long_name)}``: e.g. a ``scene`` axis
@@ -49,17 +55,41 @@ class Axis:
     aux: dict = dataclasses.field(default_factory=dict)
 
     def __post_init__(self):
-        values = np.asarray(self.values, dtype=float)
+        values = np.asarray(self.values)
+        values = values.astype(str) if values.dtype.kind in "UO" else values.astype(float)
         object.__setattr__(self, "values", values)
         if not _NAME.match(self.name):
             raise ValueError(f"axis name {self.name!r} is not a valid identifier")
+        if self.name in RESERVED_DIM_NAMES:
+            raise ValueError(f"axis name {self.name!r} is a keyword of xarray's Dataset.sel/isel "
+                             f"(reserved: {', '.join(sorted(RESERVED_DIM_NAMES))}); choose another name")
         if values.ndim != 1 or values.size < 2:
             raise ValueError(f"axis {self.name!r} needs at least 2 points in a 1-D array; got shape {values.shape}")
+        if values.dtype.kind == "U":
+            self._check_labels(values)
+            return
         if not np.all(np.isfinite(values)):
             raise ValueError(f"axis {self.name!r} has non-finite values")
         steps = np.diff(values)
         if not (np.all(steps > 0) or np.all(steps < 0)):
             raise ValueError(f"axis {self.name!r} must be strictly monotonic")
+        self._check_aux(values)
+
+    def _check_labels(self, values: np.ndarray) -> None:
+        """A categorical axis: distinct labels, each a valid identifier (``ds.sel(scene="slipping")``)."""
+        bad = [v for v in values if not _NAME.match(v)]
+        if bad:
+            raise ValueError(f"axis {self.name!r}: labels must be identifiers (letters, digits, '_'); got {bad}")
+        if len(set(values)) != values.size:
+            raise ValueError(f"axis {self.name!r}: labels must be distinct; got {list(values)}")
+        self._check_aux(values)
+
+    @property
+    def categorical(self) -> bool:
+        """True for an axis of string labels (a scene, an integrator), False for numbers."""
+        return self.values.dtype.kind == "U"
+
+    def _check_aux(self, values: np.ndarray) -> None:
         for aux_name, (aux_values, _units, _long_name) in self.aux.items():
             if not _NAME.match(aux_name) or np.shape(aux_values) != values.shape:
                 raise ValueError(f"axis {self.name!r}: auxiliary coordinate {aux_name!r} needs a valid name "
