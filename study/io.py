@@ -2,7 +2,8 @@
 
 Every write goes to a temporary file in the destination directory and is moved into place
 with ``os.replace``, so a reader never sees a half-written file and an interrupted run
-leaves nothing behind but the files that were finished.
+leaves nothing behind but the files that were finished. Finished files get the permissions
+any new file gets under the user's umask (0666 & ~umask), not the 0600 of a temporary file.
 """
 
 from __future__ import annotations
@@ -19,6 +20,18 @@ from study.registry import UserError
 COMPRESSION = {"zlib": True, "complevel": 4}
 
 
+def current_umask() -> int:
+    """The process' umask, read without changing it where Linux allows (``/proc/self/status``)."""
+    with contextlib.suppress(OSError, ValueError):
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    mask = os.umask(0o022)  # elsewhere: set and restore at once
+    os.umask(mask)
+    return mask
+
+
 @contextlib.contextmanager
 def atomic_path(path: pathlib.Path, tmp_dir=None):
     """Yield a temporary path next to ``path`` (or in ``tmp_dir``, same file system); on success
@@ -29,6 +42,7 @@ def atomic_path(path: pathlib.Path, tmp_dir=None):
     os.close(fd)
     try:
         yield pathlib.Path(tmp)
+        os.chmod(tmp, 0o666 & ~current_umask())  # mkstemp makes 0600; a result is an ordinary file
         os.replace(tmp, path)
     except BaseException:
         with contextlib.suppress(OSError):
