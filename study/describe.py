@@ -104,7 +104,8 @@ def _grid(study: Study, quick: bool) -> tuple[str, int, int]:
 
 
 def estimate(study: Study, points: int, workers: int, quick: bool = False) -> str:
-    """Rough run time for ``points`` grid points on ``workers`` threads, from :data:`COST`
+    """Rough run time for ``points`` grid points on ``workers`` busy threads (at most one per
+    chunk), from :data:`COST`
     (plus a few seconds of start-up and writing, not counted)."""
     if study.name not in COST:
         return "no estimate for this study"
@@ -136,7 +137,7 @@ def describe(name: str) -> list[str]:
         dims, points, chunks = _grid(study, quick)
         label = "grid with --quick" if quick else "grid"
         lines.append(f"{label}: {dims} = {points} points in {chunks} chunks; "
-                     f"run time on {workers} cores: {estimate(study, points, workers, quick)}")
+                     f"run time on {workers} cores: {estimate(study, points, min(workers, chunks), quick)}")
     lines.append(f"run: study run {study.name} [--quick] [--set KEY=VALUE ...] [--out DIR]; "
                  "output: <out>/" + study.name + ".nc and .png")
     return lines

@@ -71,8 +71,14 @@ SPECS = {s.name: s for s in (
 
 
 def reference_dir() -> pathlib.Path:
-    """Where the stored slices live: ``$RIMROLL_REFERENCE_DIR`` or the checkout's tests/reference."""
-    return pathlib.Path(os.environ.get(ENV_DIR) or DEFAULT_DIR)
+    """Where the stored slices live: ``$RIMROLL_REFERENCE_DIR``, else the checkout's tests/reference
+    (this package's own checkout; for an installed package, ``tests/reference`` of the current
+    directory, i.e. the checkout it was installed from)."""
+    if os.environ.get(ENV_DIR):
+        return pathlib.Path(os.environ[ENV_DIR])
+    if DEFAULT_DIR.is_dir():
+        return DEFAULT_DIR
+    return pathlib.Path.cwd() / "tests" / "reference"
 
 
 def reference_path(study: str, directory=None) -> pathlib.Path:

@@ -107,6 +107,7 @@ class Var:
     flag_values: tuple | None = None
     flag_meanings: str | None = None
     outer: bool = False  # one value per point of the swept (outer) axes, e.g. an area over the grid
+    standard_name: str | None = None  # CF standard name, where CF defines one (e.g. status_flag)
 
     def __post_init__(self):
         if not _NAME.match(self.name):
@@ -122,6 +123,8 @@ class Var:
     def attrs(self) -> dict[str, Any]:
         """CF attributes of the variable."""
         out = {"units": self.units, "long_name": self.long_name}
+        if self.standard_name:
+            out["standard_name"] = self.standard_name
         if self.flag_values is not None:
             out["flag_values"] = np.array(self.flag_values, dtype=self.dtype)
             out["flag_meanings"] = self.flag_meanings

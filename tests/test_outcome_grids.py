@@ -49,6 +49,18 @@ def test_scenes_are_selected_by_label(sections):
     assert np.isinf(float(ds["mu"].sel(scene="rolling_only")))
 
 
+def test_cf_xarray_reads_the_flags(sections):
+    cf_xarray = pytest.importorskip("cf_xarray")  # noqa: F841  (registers the .cf accessor)
+    ds = sections["fig11"]
+    codes = dict(zip(ds["outcome"].attrs["flag_meanings"].split(), ds["outcome"].attrs["flag_values"].tolist()))
+    periodic = ds["outcome"].cf == "periodic_rolling"
+    assert periodic.any() and (periodic == (ds["outcome"] == codes["periodic_rolling"])).all()
+    assert (ds["status"].cf == "ok").all()
+    assert ds["status"].attrs["standard_name"] == "status_flag"  # the CF standard name of a status flag
+    assert ds.attrs["references"] and ds.attrs["source"].startswith("rimroll ")
+    assert "dp5 at rtol 1e-08" in ds.attrs["source"]
+
+
 def test_grid_matches_the_documented_outcome_grid(sections):
     ds = sections["fig11"]
     assert ds["beta"].values[[0, -1]].tolist() == [0.8, 1.8]

@@ -68,7 +68,7 @@ VARIABLES = [
     *FLOAT_VARS,
     Var("slip_phases", "1", "number of slipping phases", dtype="int32"),
     Var("n_steps", "1", "attempted integrator steps", dtype="int64"),
-    Var("status", "1", "integration status", dtype="int8",
+    Var("status", "1", "integration status", dtype="int8", standard_name="status_flag",
         flag_values=outcomes.STATUS_FLAG_VALUES, flag_meanings=outcomes.STATUS_FLAG_MEANINGS),
 ]
 
