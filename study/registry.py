@@ -2,13 +2,16 @@
 
 A study (see ``study/CONTRACT.md``) is pure computation on numpy arrays plus metadata. This
 module only holds the declarations; ``study.runner`` evaluates them and ``study.io`` writes them.
+Studies are found through the entry-point group ``rimroll.studies`` (:func:`study_modules`).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import importlib
 import importlib.util
 import os
+import pathlib
 import re
 import sys
 from typing import Any, Callable
@@ -186,9 +189,38 @@ def register(study: Study) -> Study:
     return study
 
 
-def _load_workflows() -> None:
-    import workflows  # noqa: F401  (registers every named study on import)
+ENTRY_POINT_GROUP = "rimroll.studies"
+"""Entry-point group naming the modules that register studies on import (rimroll's own:
+``workflows``, declared in pyproject.toml); another package can add studies the same way."""
 
+_PYPROJECT = pathlib.Path(__file__).resolve().parent.parent / "pyproject.toml"
+
+
+def study_modules() -> list[str]:
+    """Modules that register studies: the ``rimroll.studies`` entry points of installed
+    distributions, plus (running from a checkout that is not installed) the same group read from
+    the checkout's pyproject.toml. ``study`` never imports a studies module by name."""
+    from importlib.metadata import entry_points
+
+    modules = [ep.value.split(":")[0] for ep in entry_points(group=ENTRY_POINT_GROUP)]
+    if _PYPROJECT.is_file():
+        text = _PYPROJECT.read_text()
+        section = re.search(r'^\[project\.entry-points\."' + re.escape(ENTRY_POINT_GROUP) + r'"\]\s*$(.*?)(?=^\[|\Z)',
+                            text, re.M | re.S)
+        if section:
+            modules += [m.split(":")[0] for m in re.findall(r'^\s*[\w.-]+\s*=\s*"([^"]+)"', section.group(1), re.M)]
+    return list(dict.fromkeys(modules))
+
+
+_loaded_entry_points = False
+
+
+def _load_workflows() -> None:
+    global _loaded_entry_points
+    if not _loaded_entry_points:  # once per process: scanning entry points costs milliseconds
+        for module in study_modules():
+            importlib.import_module(module)  # registers its studies on import
+        _loaded_entry_points = True
     for path in filter(None, os.environ.get(PLUGIN_ENV, "").split(os.pathsep)):
         _load_module_file(path)
 
