@@ -1,9 +1,10 @@
-"""Assemble a study's numpy results into a CF-1.10 ``xarray.Dataset`` with provenance.
+"""Coordinates and provenance of result files (CF-1.10), and reading them back.
 
-Global attributes: ``Conventions``, ``title``, ``study``, every Params value as
-``param_<name>`` plus ``param_rho``, every study setting as ``setting_<name>``,
-``rimroll_version``, ``git_revision`` (when git can tell), ``created`` (UTC, ISO 8601) and
-``history`` (the command line).
+Global attributes: ``Conventions``, ``title``, ``study``, ``references`` (the paper),
+``source`` (rimroll version and method), every Params value as ``param_<name>`` plus
+``param_rho`` and every study setting as ``setting_<name>`` (except swept ones: those are axes,
+named in ``swept``), ``rimroll_version``, ``git_revision`` (when known), ``created`` (UTC,
+ISO 8601) and ``history`` (the command line).
 """
 
 from __future__ import annotations
@@ -137,17 +138,6 @@ def _source(study: Study, settings: dict, version: str) -> str:
     elif "rtol" in settings:
         text += f": rtol {settings['rtol']:g}"
     return text
-
-
-def build_dataset(study: Study, axes: list[Axis], arrays: dict, params: solver.Params,
-                  settings: dict, command: str) -> xr.Dataset:
-    """The Dataset of one run: coordinates from ``axes``, variables from ``arrays``."""
-    from study.derived import with_derived
-
-    dims = [a.name for a in axes]
-    data = {v.name: (dims, arrays[v.name], v.attrs) for v in study.variables}
-    ds = xr.Dataset(data, coords=coords_of(axes), attrs=global_attrs(study, params, settings, command))
-    return with_derived(study, ds)
 
 
 def params_of(ds: xr.Dataset) -> solver.Params:

@@ -50,24 +50,6 @@ def atomic_path(path: pathlib.Path, tmp_dir=None):
         raise
 
 
-def encoding_for(ds: xr.Dataset, chunks: tuple[int, ...]) -> dict:
-    """netCDF4 encoding: zlib everywhere, data chunked like the computation's chunks."""
-    enc = {}
-    for name, var in ds.data_vars.items():
-        enc[name] = dict(COMPRESSION, chunksizes=tuple(min(c, n) for c, n in zip(chunks, var.shape)))
-    for name in ds.coords:
-        enc[name] = dict(COMPRESSION, _FillValue=None)
-    return enc
-
-
-def write_dataset(ds: xr.Dataset, path, chunks: tuple[int, ...]) -> pathlib.Path:
-    """Write ``ds`` to ``path`` as compressed, chunked netCDF4, atomically."""
-    path = pathlib.Path(path)
-    with atomic_path(path) as tmp:
-        ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=encoding_for(ds, chunks))
-    return path
-
-
 def write_figure(fig, path, dpi: int = 120) -> pathlib.Path:
     """Save a matplotlib Figure as PNG at ``dpi``, atomically."""
     path = pathlib.Path(path)
