@@ -65,6 +65,7 @@ def _parser() -> argparse.ArgumentParser:
     ref.add_argument("--only", action="append", default=[], metavar="STUDY", help="build only this study's slice")
     ref.add_argument("--workers", type=int, default=None, help="local threads (default: one per core)")
     ref.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None)
+    p.set_defaults(run_parser=run)
     return p
 
 
@@ -154,12 +155,13 @@ def _cmd_plot(args) -> int:
 
 def _cmd_info(args) -> int:
     target = pathlib.Path(args.file)
-    if not target.exists() and target.suffix != ".nc" and args.file in registry.names():
+    is_file = target.is_file() or target.suffix == ".nc"
+    if not is_file and args.file in registry.names():
         from study.describe import describe
 
         print("\n".join(describe(args.file)))
         return 0
-    if not target.exists() and target.suffix != ".nc":
+    if not is_file:
         raise UserError(f"{args.file!r} is neither a results file nor a study; studies: {', '.join(natural_order(registry.names()))}")
     ds = io.open_result(target)
     print(f"{args.file}: {ds.attrs.get('title', '')} [study {ds.attrs['study']}]")
@@ -232,7 +234,7 @@ def _study_help(words: list[str]) -> bool:
     from study.describe import settings_lines
 
     study = registry.get(names[0])
-    run = _parser()._subparsers._group_actions[0].choices["run"]
+    run = _parser().get_default("run_parser")
     print(run.format_help().replace("study run [-h]", f"study run {study.name} [-h]", 1).rstrip())
     print(f"\nsettings of {study.name} ({study.title}); default, --quick value, units (--set KEY=VALUE):")
     print("\n".join(settings_lines(study)))
@@ -263,3 +265,8 @@ def main(argv=None) -> int:
         message = " ".join(str(exc).split())
         print(f"study: error: {message}", file=sys.stderr)
         return EXIT_USAGE
+    except BrokenPipeError:  # output piped into e.g. `head`, which stopped reading: not an error
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
