@@ -32,7 +32,7 @@ class _Parser(argparse.ArgumentParser):
 
 def _parser() -> argparse.ArgumentParser:
     p = _Parser(prog="study", description="Run and inspect rimroll's named studies.")
-    p.add_argument("--version", action="version", version=_version())
+    p.add_argument("--version", action=_Version, nargs=0, help="show rimroll's version (and git revision) and exit")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
     sub.add_parser("list", help="list the named studies")
     run = sub.add_parser("run", help="run a named study, write <out>/<name>.nc and .png")
@@ -69,11 +69,15 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
-def _version() -> str:
-    from study.dataset import git_revision, rimroll_version
+class _Version(argparse.Action):
+    """``--version``: the version and git revision, looked up only when asked for."""
 
-    rev = git_revision()
-    return f"study (rimroll) {rimroll_version()}" + (f", git {rev}" if rev else "")
+    def __call__(self, parser, namespace, values, option_string=None):
+        from study.dataset import git_revision, rimroll_version
+
+        rev = git_revision()
+        print(f"study (rimroll) {rimroll_version()}" + (f", git {rev}" if rev else ""))
+        parser.exit(0)
 
 
 def natural_order(names) -> list[str]:
