@@ -99,8 +99,9 @@ def coords_of(axes: list[Axis]) -> dict:
 
 def global_attrs(study: Study, params: solver.Params, settings: dict, command: str,
                  swept: tuple = ()) -> dict:
-    """Provenance of one run. ``swept``: names of the settings swept as outer axes (their
-    ``param_``/``setting_`` attributes hold the first value; the coordinate holds all)."""
+    """Provenance of one run. ``swept``: names of the settings swept as outer axes; they get no
+    ``param_``/``setting_`` attribute (nor ``param_r``, ``param_rho`` when ``rho_over_R`` is
+    swept): their coordinates hold their values."""
     now = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat()
     version = rimroll_version()
     attrs = {"Conventions": "CF-1.10", "title": study.title, "study": study.name,
@@ -125,7 +126,7 @@ def global_attrs(study: Study, params: solver.Params, settings: dict, command: s
     return attrs
 
 
-REFERENCES = ("G. Antali, V. Havas, S. J. Hogan, G. Stepan: Nonlinear dynamics of a basketball rolling "
+REFERENCES = ("M. Antali, V. Havas, S. J. Hogan, G. Stepan: Nonlinear dynamics of a basketball rolling "
               "around the rim (the paper rimroll reproduces; equation numbers in attributes are its)")
 
 
