@@ -1,7 +1,7 @@
 """Assemble the final netCDF of a run from its part files, region by region, atomically.
 
-The coordinates and global attributes are written by xarray (so files look exactly like
-:func:`study.dataset.build_dataset`'s); the data variables are created once with netCDF4 and
+The coordinates and global attributes are written by xarray (``study.dataset.coords_of``,
+``global_attrs``); the data variables are created once with netCDF4 and
 filled one chunk at a time, so memory holds one chunk whatever the size of the cube. The
 file's chunks are the compute chunks (outer axes by 1), which is what
 ``xarray.open_dataset(path, chunks={})`` hands to dask.

@@ -32,6 +32,7 @@ class _Parser(argparse.ArgumentParser):
 
 def _parser() -> argparse.ArgumentParser:
     p = _Parser(prog="study", description="Run and inspect rimroll's named studies.")
+    p.add_argument("--version", action=_Version, nargs=0, help="show rimroll's version (and git revision) and exit")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
     sub.add_parser("list", help="list the named studies")
     run = sub.add_parser("run", help="run a named study, write <out>/<name>.nc and .png")
@@ -56,8 +57,9 @@ def _parser() -> argparse.ArgumentParser:
     plot.add_argument("--select", action="append", default=[], metavar="DIM=VALUE",
                       help="draw the slice nearest to VALUE along a swept axis DIM of a cube (repeatable), "
                            "e.g. --select j=0.5; the PNG is named after the slice")
-    info = sub.add_parser("info", help="dimensions, variables and provenance of a results file")
-    info.add_argument("file")
+    info = sub.add_parser("info", help="what a study computes, its settings, grid and run time (NAME); "
+                                       "dimensions, variables and provenance of a results file (FILE)")
+    info.add_argument("file", metavar="NAME|FILE")
     verify = sub.add_parser("verify", help="compare a results file with the stored reference slice of its study")
     verify.add_argument("file")
     verify.add_argument("--reference", default=None, metavar="DIR",
@@ -72,6 +74,7 @@ def _parser() -> argparse.ArgumentParser:
     ref.add_argument("--only", action="append", default=[], metavar="STUDY", help="build only this study's slice")
     ref.add_argument("--workers", type=int, default=None, help="local threads (default: one per core)")
     ref.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None)
+    p.set_defaults(run_parser=run)
     return p
 
 
@@ -93,8 +96,30 @@ def _trace_parser(sub) -> None:
     t.add_argument("--force", action="store_true", help="replace an existing file of that name")
 
 
+class _Version(argparse.Action):
+    """``--version``: the version and git revision, looked up only when asked for."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        from study.dataset import git_revision, rimroll_version
+
+        rev = git_revision()
+        print(f"study (rimroll) {rimroll_version()}" + (f", git {rev}" if rev else ""))
+        parser.exit(0)
+
+
+def natural_order(names) -> list[str]:
+    """fig3, fig5, ..., fig9, fig11, ... (numbers compared as numbers), then the other studies."""
+    import re
+
+    def key(name):
+        parts = [int(t) if t.isdigit() else t for t in re.split(r"(\d+)", name)]
+        return (0 if re.fullmatch(r"fig\d+", name) else 1, [(isinstance(t, str), t) for t in parts])
+
+    return sorted(names, key=key)
+
+
 def _cmd_list(args) -> int:
-    names = registry.names()
+    names = natural_order(registry.names())
     width = max(map(len, names), default=0)
     for name in names:
         print(f"{name:<{width}}  {registry.get(name).title}")
@@ -233,16 +258,26 @@ def _cmd_plot(args) -> int:
 
 
 def _cmd_info(args) -> int:
-    ds = io.open_result(pathlib.Path(args.file))
+    target = pathlib.Path(args.file)
+    is_file = target.is_file() or target.suffix == ".nc"
+    if not is_file and args.file in registry.names():
+        from study.describe import describe
+
+        print("\n".join(describe(args.file)))
+        return 0
+    if not is_file:
+        raise UserError(f"{args.file!r} is neither a results file nor a study; studies: {', '.join(natural_order(registry.names()))}")
+    ds = io.open_result(target)
     print(f"{args.file}: {ds.attrs.get('title', '')} [study {ds.attrs['study']}]")
     print("dimensions: " + ", ".join(f"{k}={v}" for k, v in ds.sizes.items()))
     print("coordinates:")
     for name, c in ds.coords.items():
+        units = f" [{c.attrs['units']}]" if "units" in c.attrs else ""
         if c.dtype.kind in "iuf":
-            span = f"{float(c.min()):.4g} .. {float(c.max()):.4g}"
-        else:  # labels (e.g. the integrators of work-precision)
-            span = ", ".join(str(v) for v in c.values.ravel()[:6]) + (", ..." if c.size > 6 else "")
-        print(f"  {name} [{c.attrs.get('units', '?')}] {c.attrs.get('long_name', '')}: {span} ({c.size} points)")
+            values = f"{float(c.min()):.4g} .. {float(c.max()):.4g}"
+        else:  # labels (scene, integrator)
+            values = ", ".join(str(v) for v in c.values.ravel()[:12]) + (", ..." if c.size > 12 else "")
+        print(f"  {name}{units} {c.attrs.get('long_name', '')}: {values} ({c.size} points)")
     print("variables:")
     for name, v in ds.data_vars.items():
         line = f"  {name}({', '.join(v.dims)}) {v.dtype} [{v.attrs.get('units', '?')}] {v.attrs.get('long_name', '')}"
@@ -250,6 +285,10 @@ def _cmd_info(args) -> int:
             pairs = zip(list(v.attrs["flag_values"]), v.attrs["flag_meanings"].split())
             line += "; flags: " + ", ".join(f"{int(k)} {m}" for k, m in pairs)
         print(line)
+    if ds.attrs.get("swept"):
+        for name in str(ds.attrs["swept"]).split():
+            values = ", ".join(f"{v:g}" for v in ds[name].values) if name in ds.coords else "?"
+            print(f"swept: {name} = {values}")
     params = [f"{k[6:]}={v}" for k, v in ds.attrs.items() if k.startswith("param_")]
     settings = [f"{k[8:]}={v}" for k, v in ds.attrs.items() if k.startswith("setting_")]
     print("parameters: " + " ".join(params))
@@ -288,12 +327,32 @@ def _cmd_reference(args, command: str) -> int:
     return 0
 
 
+def _study_help(words: list[str]) -> bool:
+    """``study run NAME --help``: the run options, then NAME's settings; True if it printed."""
+    if not words or words[0] != "run" or not {"-h", "--help"} & set(words):
+        return False
+    names = [w for w in words[1:] if not w.startswith("-")]
+    if not names or names[0] not in registry.names():
+        return False
+    from study.describe import settings_lines
+
+    study = registry.get(names[0])
+    run = _parser().get_default("run_parser")
+    print(run.format_help().replace("study run [-h]", f"study run {study.name} [-h]", 1).rstrip())
+    print(f"\nsettings of {study.name} ({study.title}); default, --quick value, units (--set KEY=VALUE):")
+    print("\n".join(settings_lines(study)))
+    print(f"\nsweepable: {', '.join(study.sweepable) or 'none'}; `study info {study.name}` adds the grid and run time")
+    return True
+
+
 def main(argv=None) -> int:
     """Entry point of ``study`` / ``python -m study``; returns the exit status."""
     words = sys.argv[1:] if argv is None else list(argv)
     command = shlex.join(["study", *words])
     _ignore_file_size_signal()
     try:
+        if _study_help(words):
+            return 0
         status = _dispatch(_parser().parse_args(words), command)
         sys.stdout.flush()  # here, so that a closed pipe is caught below, not at exit
         return status

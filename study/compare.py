@@ -106,7 +106,13 @@ def _setting_mismatch(ds: xr.Dataset, ref: xr.Dataset) -> list[str]:
 
 
 def _match(file_values: np.ndarray, ref_values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Indices (file, reference) of values matching within COORD_RTOL of the axis' span."""
+    """Indices (file, reference) of values matching within COORD_RTOL of the axis' span; string
+    labels (a ``scene``) match when equal."""
+    if file_values.dtype.kind in "UOS" or ref_values.dtype.kind in "UOS":
+        file_labels = [str(v) for v in file_values]
+        pairs = [(file_labels.index(str(v)), k) for k, v in enumerate(ref_values) if str(v) in file_labels]
+        return np.array([i for i, _ in pairs], dtype=int), np.array([k for _, k in pairs], dtype=int)
+    file_values, ref_values = file_values.astype(float), ref_values.astype(float)
     span = max(float(np.ptp(ref_values)), float(np.max(np.abs(ref_values))), 1e-300)
     tol = COORD_RTOL * span
     idx_f, idx_r = [], []
@@ -117,6 +123,14 @@ def _match(file_values: np.ndarray, ref_values: np.ndarray) -> tuple[np.ndarray,
             idx_f.append(i)
             idx_r.append(k)
     return np.array(idx_f, dtype=int), np.array(idx_r, dtype=int)
+
+
+def _span(coord) -> str:
+    """'lo..hi' of a numeric coordinate, or its labels."""
+    values = coord.values
+    if values.dtype.kind in "UOS":
+        return ", ".join(str(v) for v in values)
+    return f"{float(values.min()):.4g}..{float(values.max()):.4g}"
 
 
 def _away_from_boundaries(ref: xr.Dataset, names: list[str]) -> np.ndarray:
@@ -154,15 +168,14 @@ def compare(ds: xr.Dataset, ref: xr.Dataset, tolerances: dict | None = None) -> 
     ds = ds.squeeze([d for d in ds.dims if d not in ref.dims], drop=True)
     sel_f, sel_r = {}, {}
     for d in dims:
-        i_f, i_r = _match(ds[d].values.astype(float), ref[d].values.astype(float))
+        i_f, i_r = _match(ds[d].values, ref[d].values)
         for name, c in ref.coords.items():  # auxiliary coordinates along d must match as well
             if name != d and c.dims == (d,) and name in ds.coords and i_f.size:
                 a, b = ds[name].values[i_f].astype(float), c.values[i_r].astype(float)
                 keep = (a == b) | np.isclose(a, b, rtol=1e-12, atol=0.0)
                 i_f, i_r = i_f[keep], i_r[keep]
         if i_f.size == 0:
-            return Report(study, 0, f"no common values of {d!r} (file {float(ds[d].min()):.4g}..{float(ds[d].max()):.4g}, "
-                                    f"reference {float(ref[d].min()):.4g}..{float(ref[d].max()):.4g})")
+            return Report(study, 0, f"no common values of {d!r} (file {_span(ds[d])}, reference {_span(ref[d])})")
         sel_f[d], sel_r[d] = i_f, i_r
     a = ds.isel(sel_f)
     b = ref.isel(sel_r)

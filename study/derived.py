@@ -42,6 +42,6 @@ def derived_variables(study: Study, ds: xr.Dataset) -> dict[str, tuple[tuple, np
 
 
 def with_derived(study: Study, ds: xr.Dataset) -> xr.Dataset:
-    """``ds`` plus the study's derived variables (in-memory path, e.g. ``build_dataset``)."""
+    """``ds`` plus the study's derived variables (in-memory path: ``study.reference.recompute``)."""
     extra = derived_variables(study, ds)
     return ds.assign({name: xr.Variable(dims, values, attrs) for name, (dims, values, attrs) in extra.items()})

@@ -123,7 +123,7 @@ class Plan:
              "variables": [(v.name, v.dtype, v.outer) for v in self.study.variables]})
         for a in self.axes:
             put([a.name, a.units, sorted(a.aux)])
-            h.update(np.ascontiguousarray(a.values, dtype=float).tobytes())
+            h.update(np.ascontiguousarray(a.values).tobytes())  # float64 numbers or string labels
             for values, *_ in a.aux.values():
                 h.update(np.ascontiguousarray(values).tobytes())
         h.update(code_digest(self.study).encode())

@@ -181,8 +181,9 @@ def _outcome_plot(ds):
     return fig
 
 
-def _flag_var(name, long_name, values, meanings):
-    return Var(name, "1", long_name, dtype="int8", flag_values=tuple(values), flag_meanings=meanings)
+def _flag_var(name, long_name, values, meanings, standard_name=None):
+    return Var(name, "1", long_name, dtype="int8", flag_values=tuple(values), flag_meanings=meanings,
+               standard_name=standard_name)
 
 
 register(Study(
@@ -195,12 +196,12 @@ register(Study(
            "n_beta": 12, "n_omega1": 18},
     sweepable=("mu", "k_r", "k_d", "omega2", "omega3", "j", "rho_over_R"),
     axes=_outcome_axes,
-    variables=[_flag_var("outcome", "outcome of the rolling initial state (DESIGN 4)", outcomes.OUTCOME_FLAG_VALUES,
+    variables=[_flag_var("outcome", "outcome of the rolling initial state (rules: docs/outcome-studies.md)", outcomes.OUTCOME_FLAG_VALUES,
                          outcomes.OUTCOME_FLAG_MEANINGS),
                Var("t_end", "s", "time the ball leaves the rim, starts periodic rolling or reaches t_max"),
                Var("revolutions", "1", "revolutions around the rim's axis until t_end (alpha / 2 pi)"),
                _flag_var("status", "integration status of the trajectory", outcomes.STATUS_FLAG_VALUES,
-                         outcomes.STATUS_FLAG_MEANINGS)],
+                         outcomes.STATUS_FLAG_MEANINGS, standard_name="status_flag")],
     compute=_outcome_compute,
     plot=_outcome_plot,
 ))

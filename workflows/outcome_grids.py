@@ -1,13 +1,14 @@
 """Outcome sections of the phase space (paper Figs. 11-13): in, out, periodic, still on the rim.
 
-Each study is the DESIGN §4 grid (beta x omega1 at fixed omega2, omega3 = 10 1/s) in four
-scenes, stored along a ``scene`` dimension whose auxiliary coordinates ``mu``, ``k_r``,
-``k_d`` and ``t_max`` say what each scene models:
+Each study is the grid of an outcome section (docs/outcome-studies.md: beta x omega1 at fixed
+omega2, omega3 = 10 1/s) in four scenes, stored along a ``scene`` dimension of string labels
+whose non-index coordinates ``mu``, ``k_r``, ``k_d`` and ``t_max`` say what each scene models
+(``ds.sel(scene="slipping")``):
 
-0. rolling only (mu = inf), conservative
-1. slipping (mu = 1), conservative
-2. slipping + drilling resistance (mu = 1, k_d = 0.02 1/s)
-3. slipping + rolling resistance (mu = 1, k_r = 0.02 1/s)
+- ``rolling_only``: mu = inf, conservative
+- ``slipping``: mu = 1, conservative
+- ``drilling``: slipping + drilling resistance (mu = 1, k_d = 0.02 1/s)
+- ``rolling_resistance``: slipping + rolling resistance (mu = 1, k_r = 0.02 1/s)
 
 The physical settings (r, R, a, m, j, g) apply to every scene; the scene's mu, k_r, k_d
 override the run's. Every result field of ``solver.simulate`` is stored, plus
@@ -29,7 +30,10 @@ from study import plotting as P
 from study.dataset import params_of, setting_of
 from study.registry import Axis, Study, Var, register
 
-SCENE_NAMES = ("rolling only", "slipping", "slipping + drilling resistance", "slipping + rolling resistance")
+SCENES = P.SCENE_KEYS
+"""Labels of the ``scene`` coordinate, in file order (the plots' ``study.plotting.SCENE_KEYS``)."""
+SCENE_TITLES = {label: P.scene_text(label) for label in SCENES}
+"""Reader-facing name of each scene (``study.plotting.SCENE_TEXT``), e.g. in the axis long_name."""
 
 SETTINGS = {
     "omega3": 10.0,  # [1/s]
@@ -61,7 +65,7 @@ VARIABLES = [
     *FLOAT_VARS,
     Var("slip_phases", "1", "number of slipping phases", dtype="int32"),
     Var("n_steps", "1", "attempted integrator steps", dtype="int64"),
-    Var("status", "1", "integration status", dtype="int8",
+    Var("status", "1", "integration status", dtype="int8", standard_name="status_flag",
         flag_values=outcomes.STATUS_FLAG_VALUES, flag_meanings=outcomes.STATUS_FLAG_MEANINGS),
 ]
 
@@ -77,15 +81,26 @@ def scene_table(s: dict) -> dict[str, np.ndarray]:
     }
 
 
-def _axes(s: dict) -> list[Axis]:
+def scene_axis(s: dict) -> Axis:
+    """The ``scene`` axis: string labels :data:`SCENES`, with each scene's mu, k_r, k_d [1/s]
+    and t_max [s] as non-index coordinates along it."""
     table = scene_table(s)
-    scene = Axis("scene", np.arange(4), "1", "physical scene: " + "; ".join(
-        f"{i} {name}" for i, name in enumerate(SCENE_NAMES)), aux={
+    return Axis("scene", np.array(SCENES), "", "physical scene (docs/outcome-studies.md#scenes): " + "; ".join(
+        f"{label} = {title}" for label, title in SCENE_TITLES.items()), aux={
         "mu": (table["mu"], "1", "Coulomb friction coefficient of the scene (inf: rolling only)"),
-        "k_r": (table["k_r"], "s-1", "rolling-resistance rate of the scene"),
-        "k_d": (table["k_d"], "s-1", "drilling-resistance rate of the scene"),
+        "k_r": (table["k_r"], "s-1", "rolling-resistance rate k_r of the scene, paper (83)"),
+        "k_d": (table["k_d"], "s-1", "drilling-resistance rate k_d of the scene, paper (83)"),
         "t_max": (table["t_max"], "s", "end of the run for states still on the rim"),
     })
+
+
+def scene_index(label) -> int:
+    """Position of a scene label in :data:`SCENES` (the row of :func:`scene_table`)."""
+    return SCENES.index(str(label))
+
+
+def _axes(s: dict) -> list[Axis]:
+    scene = scene_axis(s)
     beta = Axis("beta", np.linspace(s["beta_min"], s["beta_max"], int(s["n_beta"])), "rad",
                 "initial height angle of the contact point on the rim's cross-section")
     w = float(s["omega1_max"])
@@ -95,7 +110,7 @@ def _axes(s: dict) -> list[Axis]:
 
 def _compute(coords, p: solver.Params, s: dict) -> dict:
     scene, beta, omega1 = coords
-    k = int(scene.flat[0])  # chunks hold one scene (chunks={"scene": 1})
+    k = scene_index(scene.flat[0])  # chunks hold one scene (chunks={"scene": 1})
     table = scene_table(s)
     params = p.replace(mu=table["mu"][k], k_r=table["k_r"][k], k_d=table["k_d"][k])
     states = np.stack([beta, omega1, np.full_like(beta, s["omega2"]), np.full_like(beta, s["omega3"])], axis=-1)
