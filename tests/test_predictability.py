@@ -280,3 +280,57 @@ def test_uncertainty_fraction_rejects_bad_scale_and_eps():
         P.uncertainty_fraction(NOMINAL, ROLLING, 0.1, (0, 0, 0, 0))
     with pytest.raises(ValueError, match="eps"):
         P.uncertainty_fraction(NOMINAL, ROLLING, -0.1, (0.1, 0, 0, 0))
+
+
+# ---------------------------------------------------------------- the named studies
+@pytest.fixture(scope="module")
+def studies(tmp_path_factory):
+    import xarray as xr
+
+    from study.cli import main
+
+    out = tmp_path_factory.mktemp("predictability")
+    assert main(["run", "predictability", "--quick", "--set", "omega2=65", "--set", "n_sample=50",
+                 "--out", str(out), "--no-progress"]) == 0
+    assert main(["run", "make-probability", "--quick", "--set", "n_beta=6", "--set", "n_omega1=8",
+                 "--set", "n_samples=8", "--set", "sigma=0,1", "--out", str(out), "--no-progress"]) == 0
+    return {name: xr.open_dataset(out / f"{name}.nc") for name in ("predictability", "make-probability")}
+
+
+def test_predictability_study_file(studies):
+    ds = studies["predictability"]
+    assert ds["f"].dims == ("scene", "eps") and ds["alpha"].dims == ("scene",)
+    assert ds["eps"].values.tolist() == [0.125, 0.25, 0.5, 1.0, 2.0]
+    for name in ("S_b", "S_bb", "n_boundary_boxes", "f", "f_err", "alpha", "alpha_err", "D", "box_entropy"):
+        assert ds[name].attrs["units"] and ds[name].attrs["long_name"]
+    codes = ds["outcome"].transpose("scene", "beta", "omega1").values
+    bits = ds["uncertain"].transpose("scene", "beta", "omega1").values
+    for k in range(ds.sizes["scene"]):
+        # whole eps: every point's flag, as the grid says
+        for j, e in enumerate(ds["eps"].values):
+            if e >= 1:
+                assert np.array_equal((bits[k] >> j) & 1, P.grid_uncertain(codes[k], int(e)))
+        assert (np.diff(ds["f"].isel(scene=k).values) > 0).all()  # f grows with eps
+    assert np.allclose(ds["D"], 2 - ds["alpha"])
+    roll = ds.isel(scene=0)
+    assert float(roll["S_bb"]) < np.log(2) and abs(float(roll["alpha"]) - 1) < 3 * float(roll["alpha_err"])
+
+
+def test_make_probability_study_file(studies):
+    ds = studies["make-probability"]
+    names = [m.split(":")[0] for m in solver.OUTCOME_MEANINGS.values()]
+    total = sum(ds[f"p_{n}"] for n in names)
+    assert np.allclose(total, 1.0)
+    for n in names:
+        assert (ds[f"p_{n}_lower"] <= ds[f"p_{n}"]).all() and (ds[f"p_{n}"] <= ds[f"p_{n}_upper"]).all()
+    still = ds.sel(sigma=0.0)  # no noise: the deterministic outcome with probability 1
+    for code, n in zip(solver.OUTCOME_MEANINGS, names):
+        assert np.array_equal(still[f"p_{n}"].values == 1.0, still["outcome"].values == code)
+    assert ds["sigma"].attrs["units"] == "1"
+
+
+def test_negative_noise_level_is_a_user_error(tmp_path, capsys):
+    from study.cli import main
+
+    assert main(["run", "make-probability", "--quick", "--set", "sigma=-1,1", "--out", str(tmp_path)]) == 2
+    assert "sigma" in capsys.readouterr().err
