@@ -224,7 +224,7 @@ def _pred_plot(ds):
         ax.set_ylabel(r"uncertain fraction $f(\varepsilon)$")
         ax.set_title(rf"$\omega_2$={om:g} 1/s: $f(\varepsilon)\sim\varepsilon^\alpha$", fontsize=10)
         ax.grid(alpha=0.3, which="both")
-        ax.legend(fontsize=7.5, loc="lower right")
+        ax.legend(fontsize=7.5, loc="upper left")
         for col, k in ((1, 0), (2, 1)):
             ax = axes[r, col]
             sc = sec.isel(scene=k)
