@@ -286,6 +286,8 @@ def section_uncertainty(states, codes, params: Params, eps, scale, *, n_sample: 
         if take.size:
             w[take] = rest.size / take.size
         pick = np.nonzero(w > 0)[0]
+        if pick.size == 0:  # no boundary on the grid and no sample asked for
+            return uncertain, weight
         fr = uncertainty_fraction(x.reshape(-1, 4)[pick], params, e[fine], s, reference=c.ravel()[pick],
                                   t_max=t_max, rtol=rtol, atol=atol, method=method, workers=workers)
         for j, i in enumerate(fine):
@@ -363,6 +365,8 @@ def uncertainty_exponent(eps, f, n=None, d: int = 2) -> Exponent:
         nv = np.broadcast_to(np.asarray(n, dtype=float), e.shape)[use]
         w = nv * fv[use] / (1 - fv[use])
     W = w.sum()
+    if not W > 0:
+        return Exponent(nan, nan, nan, nan)
     xm, ym = (w * x).sum() / W, (w * y).sum() / W
     sxx = (w * (x - xm) ** 2).sum()
     if sxx <= 0:

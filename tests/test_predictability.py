@@ -140,6 +140,14 @@ def test_exponent_fit_of_an_exact_power_law_and_degenerate_input():
         P.uncertainty_exponent([0.0, 1.0], [0.1, 0.2])
 
 
+def test_a_section_without_boundary_and_without_sample_simulates_nothing():
+    states, scale = _section(35.0, 4, 5)
+    codes = np.zeros((4, 5), dtype=np.int8)
+    uncertain, weight = P.section_uncertainty(states, codes, ROLLING, [0.5, 1.0], scale, n_sample=0, **QUICK)
+    assert not uncertain.any() and not weight.any()
+    assert np.isnan(P.sampled_fraction(uncertain[0], weight)[0])
+
+
 def test_grid_uncertain_at_edges_compares_the_inside_neighbour_only():
     codes = np.array([0, 0, 1, 1, 1])
     assert P.grid_uncertain(codes, 1).tolist() == [False, True, True, False, False]
