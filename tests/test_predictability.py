@@ -342,3 +342,25 @@ def test_negative_noise_level_is_a_user_error(tmp_path, capsys):
 
     assert main(["run", "make-probability", "--quick", "--set", "sigma=-1,1", "--out", str(tmp_path)]) == 2
     assert "sigma" in capsys.readouterr().err
+
+
+def test_derive_may_add_a_dimension_only_with_its_coordinate():
+    import xarray as xr
+
+    from study.derived import derived_variables
+    from study.registry import Study, Var
+
+    ds = xr.Dataset({"x": (("a",), np.arange(3.0))})
+    attrs = {"units": "1", "long_name": "test"}
+
+    def make(with_coordinate):
+        out = {"g": (("a", "e"), np.zeros((3, 2)), attrs)}
+        if with_coordinate:
+            out["e"] = (("e",), np.array([0.5, 1.0]), attrs)
+        return Study(name="probe", title="t", settings={}, axes=lambda s: [], variables=[Var("x", "1", "x")],
+                     compute=lambda *a: {}, derive=lambda d: out)
+
+    extra = derived_variables(make(True), ds)
+    assert list(extra)[0] == "e" and extra["g"][1].shape == (3, 2)  # the coordinate comes first
+    with pytest.raises(ValueError, match="new dimension"):
+        derived_variables(make(False), ds)
