@@ -30,6 +30,14 @@ DERIVED = {  # variables that a study's ``derive`` adds once the whole file exis
     "workflows.work_precision": ["| `speed_ratio_rk45_dp5` | 1 | per scene: scipy RK45 seconds per trajectory over "
                                  "rimroll DP5's on the same states, median over rtol (spread in its attributes; "
                                  "[work-precision.md](work-precision.md)) |"],
+    "workflows.predictability": [
+        "| `eps` | 1 | coordinate: perturbation size in grid steps of beta and omega1 |",
+        "| `S_b`, `S_bb` | 1 | basin entropy over all boxes / over boxes with more than one outcome [nats]; "
+        "S_bb above ln 2 = 0.693: a fractal boundary |",
+        "| `n_boundary_boxes` | 1 | boxes holding more than one outcome |",
+        "| `f`, `f_err` | 1 | uncertain fraction f(eps) and its standard error (over `eps`) |",
+        "| `alpha`, `alpha_err`, `D` | 1 | uncertainty exponent (slope of log f against log eps), its standard "
+        "error, and the boundary dimension D = 2 - alpha |"],
 }
 
 

@@ -63,6 +63,8 @@ def _add_derived(plan: Plan, tmp) -> None:
     dims_all = tuple(a.name for a in plan.axes)
     with netCDF4.Dataset(tmp, "a") as nc:
         for name, (dims, values, attrs) in extra.items():
+            if dims == (name,) and name not in nc.dimensions:  # a new dimension and its coordinate
+                nc.createDimension(name, values.shape[0])
             chunks = plan.nc_chunks if dims == dims_all else None
             var = nc.createVariable(name, values.dtype, dims, chunksizes=chunks, zlib=bool(dims),
                                     complevel=io.COMPRESSION["complevel"])

@@ -8,7 +8,8 @@ name and shared by every study that has the setting:
 - ``rtol``: 1e-14 <= rtol <= 1e-2 (what ``solver.simulate`` accepts); ``atol``: finite, > 0;
 - ``t_max*``: finite, > 0 [s]; ``method``: a method of ``solver.simulate`` (dp5, dop853);
 - ``mu_slip``: a friction coefficient >= 0 (inf allowed); ``k_dissipation``: finite, >= 0 [1/s];
-- ``seed``: an integer >= 0; ``n_*`` (grid sizes, counts): 1 .. :data:`MAX_AXIS`;
+- ``seed``: an integer >= 0; ``n_*`` (grid sizes, counts): 1 .. :data:`MAX_AXIS` (0 allowed for
+  the counts of :data:`ZERO_COUNTS`);
 - every other number: finite, and of magnitude below :data:`MAX_MAGNITUDE` (an axis spanning
   +-1e308 overflows).
 
@@ -27,6 +28,8 @@ MAX_CHUNKS = 200_000  # chunks of one cube (one part file each)
 MAX_POINTS = 10**10  # grid points of one cube
 MAX_MAGNITUDE = 1e12  # |value| of a numeric setting (coordinates, bounds): far beyond any physical use
 MAX_WORKERS = 1024  # --workers: threads of the local cluster
+ZERO_COUNTS = ("n_fine", "n_coarse", "n_sample")  # counts that may be 0 (predictability: no eps below /
+# above one grid step, no simulated sample)
 
 
 def _methods() -> list[str]:
@@ -70,8 +73,9 @@ def check_setting(study: str, key: str, value) -> None:
         if not (isinstance(value, int) and value >= 0):
             raise UserError(f"{where} is out of range: allowed an integer seed >= 0")
     elif key.startswith("n_") and isinstance(value, int):
-        if not (1 <= value <= MAX_AXIS):
-            raise UserError(f"{where} is out of range: allowed 1 <= {key} <= {MAX_AXIS}")
+        low = 0 if key in ZERO_COUNTS else 1
+        if not (low <= value <= MAX_AXIS):
+            raise UserError(f"{where} is out of range: allowed {low} <= {key} <= {MAX_AXIS}")
     if not math.isfinite(v) or abs(v) > MAX_MAGNITUDE:
         raise UserError(f"{where} is out of range: allowed a finite value of magnitude <= {MAX_MAGNITUDE:g}")
 

@@ -46,17 +46,33 @@ SETTING_DOCS = {  # name: (units, meaning); units "" for counts, labels and swit
     "n_beta0": ("", "grid points of beta0"), "n_omega30": ("", "grid points of omega30"),
     "n_beta": ("", "grid points of beta"), "n_omega1": ("", "grid points of omega1"),
     "n_j": ("", "grid points of j"), "n_rho_over_R": ("", "grid points of rho/R"),
+    "box": ("", "grid points per side of a basin-entropy box"),
+    "n_fine": ("", "eps below one grid step: 1/2 ... 1/2^n_fine (simulated)"),
+    "n_coarse": ("", "eps of whole grid steps: 1 ... 2^n_coarse (read from the grid)"),
+    "n_sample": ("", "states away from the grid's boundaries simulated for eps < 1"),
+    "sigma": ("1", "noise level: multiplies sigma_beta ... sigma_omega3"),
+    "sigma_beta": ("rad", "standard deviation of the arriving beta at sigma = 1"),
+    "sigma_omega1": ("s-1", "standard deviation of the arriving omega1 at sigma = 1"),
+    "sigma_omega2": ("s-1", "standard deviation of the arriving omega2 at sigma = 1"),
+    "sigma_omega3": ("s-1", "standard deviation of the arriving omega3 at sigma = 1"),
+    "confidence": ("1", "confidence level of the Wilson intervals"),
 }
 
 COST = {  # seconds per grid point on one core, warm: measured with --quick on 2 shared cores (2026-11)
     "fig3": 1e-7, "fig5": 1e-7, "fig6": 2e-6, "fig7": 1e-7, "fig8": 2e-6, "fig9": 1.5e-4,
     "fig11": 3e-4, "fig12": 3e-4, "fig13": 3e-4, "outcome-cube": 2e-4, "realisable-cube": 1e-6,
     "solution-types": 4e-2, "invariants": 2e-3, "work-precision": 0.2,
+    # from README "Predictability of a shot": make-probability ~50 s CPU for 86,400 states x 64
+    # samples (per point at the --quick 16 samples: 1.5e-4); predictability ~250 s CPU for the
+    # 12 sections x scenes of 86,400 points
+    "make-probability": 1.5e-4, "predictability": 2.5e-4,
 }
 SCALE = {  # the cost per point grows with this setting (measured at its --quick value)
     "work-precision": "n_states", "solution-types": "t_max", "invariants": "t_max",
+    "make-probability": "n_samples",
 }
-COMPILES = ("fig11", "fig12", "fig13", "outcome-cube", "work-precision", "solution-types", "invariants")
+COMPILES = ("fig11", "fig12", "fig13", "outcome-cube", "work-precision", "solution-types", "invariants",
+            "predictability", "make-probability")
 """Studies whose first run in a fresh environment compiles the simulation kernels (cached afterwards)."""
 
 

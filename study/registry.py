@@ -21,7 +21,7 @@ import numpy as np
 PHYSICAL_KEYS = ("r", "R", "a", "m", "j", "mu", "g", "k_r", "k_d")
 """Settings that build the :class:`solver.Params` of a run; every study accepts them."""
 
-SWEEP_KEYS = ("mu", "v_throw", "j", "rho_over_R", "k_r", "k_d", "omega2", "omega3")
+SWEEP_KEYS = ("mu", "v_throw", "j", "rho_over_R", "k_r", "k_d", "omega2", "omega3", "sigma")
 """Settings a study may declare ``sweepable``: a list or range of values becomes an outer axis."""
 
 PLUGIN_ENV = "RIMROLL_STUDY_MODULES"

@@ -27,6 +27,7 @@ META = {  # units and long_name of an outer axis
     "k_d": ("s-1", "drilling-resistance rate C_d/(j m R^2) of (83)"),
     "omega2": ("s-1", "initial orthogonal angular velocity"),
     "omega3": ("s-1", "initial circular angular velocity"),
+    "sigma": ("1", "noise level: the spread of the arriving state in units of the study's sigma_* settings"),
 }
 assert set(META) == set(SWEEP_KEYS)
 
@@ -136,6 +137,8 @@ def check_value(key: str, value) -> None:
     """Ranges of the non-physical sweep keys (the physical ones are checked by Params)."""
     if key == "v_throw" and not (math.isfinite(value) and value >= 0):
         raise UserError(f"parameter v_throw={value!r} is out of range: allowed 0 <= v_throw < inf [m/s]")
+    if key == "sigma" and not (math.isfinite(value) and value >= 0):
+        raise UserError(f"parameter sigma={value!r} is out of range: allowed 0 <= sigma < inf (a noise level)")
     if key in ("omega2", "omega3") and not math.isfinite(value):
         raise UserError(f"parameter {key}={value!r} is out of range: allowed a finite rate [1/s]")
 
