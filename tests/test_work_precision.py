@@ -62,3 +62,19 @@ def test_speed_ratio_is_stored_with_its_spread_and_the_figure_shows_misclassific
     assert "faster" not in fig._suptitle.get_text()  # no run-to-run number in the title
     labels = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
     assert all("states" in lbl for lbl in labels)  # how many states each curve rests on
+
+
+def test_files_of_the_older_layout_read_the_same(wp):
+    """A file written before the labelled dimensions (numeric scene 0..3, numeric ``method`` with
+    ``method_name`` labels such as scipy_RK45) gives the same speed ratio, derived ratio and
+    figure layout as the labelled one."""
+    from workflows.work_precision import _derive, _plot, integrator_names
+
+    old = wp.drop_vars("speed_ratio_rk45_dp5").rename({"integrator": "method"})
+    old = old.assign_coords(method=np.arange(old.sizes["method"]), scene=np.arange(old.sizes["scene"]))
+    old = old.assign_coords(method_name=("method", ["rimroll_dp5", "rimroll_dop853", "scipy_RK45",
+                                                    "scipy_DOP853", "scipy_LSODA"]))
+    assert integrator_names(old) == list(INTEGRATORS)
+    assert speed_ratio(old) == speed_ratio(wp) == speed_ratio(wp, "rolling_only")
+    np.testing.assert_array_equal(_derive(old)["speed_ratio_rk45_dp5"][1], wp["speed_ratio_rk45_dp5"].values)
+    assert len(_plot(old).axes) == len(_plot(wp).axes)
