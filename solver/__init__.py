@@ -12,5 +12,6 @@ __all__ = ["Params", "kinematics", "rolling", "slipping", "steady"]
 __all__ += ["floquet", "invariants"]
 from solver.outcomes import OUTCOME_MEANINGS, STATUS_MEANINGS
 from solver.simulate import simulate
+from solver import predictability
 
-__all__ += ["simulate", "OUTCOME_MEANINGS", "STATUS_MEANINGS"]
+__all__ += ["simulate", "OUTCOME_MEANINGS", "STATUS_MEANINGS", "predictability"]

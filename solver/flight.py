@@ -1,4 +1,4 @@
-"""Free flight of the ball's centre after separation (DESIGN §4): in or out.
+"""Free flight of the ball's centre after separation (docs/outcome-studies.md, rule 4): in or out.
 
 From the separation state, the centre is at horizontal radius d = R - rho cos(beta) and height
 z = rho sin(beta) (12); its velocity is radial beta_dot rho sin(beta), vertical

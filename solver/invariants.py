@@ -2,7 +2,7 @@
 
 Along the conservative rolling equations (33)-(36) (k_r = k_d = 0):
 
-- the energy E (60) [J], with potential m g rho sin(beta) (DESIGN §8: (60) prints r, the
+- the energy E (60) [J], with potential m g rho sin(beta) ((60) prints r, the
   equations conserve rho);
 - P = c2(beta) omega2 + c3(beta) omega3 (65) [1/s] (c1 = 0) for every solution c = (c2, c3) of
   (66), dc/dbeta = -A(beta)^T c with A the matrix of (62). Derivation (checked, (66) is right as

@@ -1,7 +1,7 @@
 """Rolling dynamics of the ball on the rim: (33)-(36) with the dissipation of (83).
 
 State x = (beta, omega1, omega2, omega3): beta [rad], angular velocities [1/s] in the
-contact basis (n1, n2, n3). The contact moment of DESIGN §3,
+contact basis (n1, n2, n3). The contact moment of docs/outcome-studies.md#scenes,
 
     M_C = -((1+j) m r^2 k_r omega1,  j m r^2 k_d omega2,  (1+j) m r^2 k_r omega3),
 
@@ -109,7 +109,7 @@ def energy(beta, omega1, omega2, omega3, p):
     """Total mechanical energy of the rolling ball (60) [J], with potential m g rho sin(beta).
 
     (60) as printed has m g r sin(beta); the centre's height is rho sin(beta) (12), and that is
-    the potential the rolling equations conserve (see DESIGN §8).
+    the potential the rolling equations conserve (docs/outcome-studies.md, end of "Rules").
     """
     r = p[P_R_BALL]
     m = p[P_M]

@@ -4,7 +4,7 @@ State y = (beta, omega1, omega2, omega3, u1, u3): beta [rad], angular velocities
 slip velocities of the contact point u1, u3 [m/s].
 
 Everything derives from one Newton-Euler model, (24)-(25) in the rotating n-basis with the
-contact moment M_C of DESIGN §3 (see ``solver.rolling``):
+contact moment M_C of docs/outcome-studies.md#scenes (see ``solver.rolling``):
 
     omega_dot = a(y) + (-F3, 0, F1) / (j m r)
     u_dot     = b(y) + (1 + j) / (j m) * (F1, F3)

@@ -1,7 +1,7 @@
 """Assemble the final netCDF of a run from its part files, region by region, atomically.
 
-The coordinates and global attributes are written by xarray (so files look exactly like
-:func:`study.dataset.build_dataset`'s); the data variables are created once with netCDF4 and
+The coordinates and global attributes are written by xarray (``study.dataset.coords_of``,
+``global_attrs``); the data variables are created once with netCDF4 and
 filled one chunk at a time, so memory holds one chunk whatever the size of the cube. The
 file's chunks are the compute chunks (outer axes by 1), which is what
 ``xarray.open_dataset(path, chunks={})`` hands to dask.
@@ -63,6 +63,8 @@ def _add_derived(plan: Plan, tmp) -> None:
     dims_all = tuple(a.name for a in plan.axes)
     with netCDF4.Dataset(tmp, "a") as nc:
         for name, (dims, values, attrs) in extra.items():
+            if dims == (name,) and name not in nc.dimensions:  # a new dimension and its coordinate
+                nc.createDimension(name, values.shape[0])
             chunks = plan.nc_chunks if dims == dims_all else None
             var = nc.createVariable(name, values.dtype, dims, chunksizes=chunks, zlib=bool(dims),
                                     complevel=io.COMPRESSION["complevel"])

@@ -11,6 +11,10 @@ reference; derived ones such as ``boundary_type`` mark boundaries themselves);
 continuous variables as a scaled error ``|x - x_ref| / (atol + rtol |x_ref|)`` at the points
 away from boundaries where every categorical variable agrees (elsewhere they describe different
 motions), with NaN == NaN and inf == inf of the same sign counted as equal.
+
+A result passes only if it holds every variable of the reference (but ``n_steps``), and if its
+common points cover at least :data:`MIN_COVERAGE` of the reference's points: a coarse grid that
+shares a few corners with the slice has checked almost nothing.
 """
 
 from __future__ import annotations
@@ -46,6 +50,7 @@ TOLERANCES = {
     "trace_M": (1e-9, 1e-9),
 }
 MIN_AGREEMENT_AWAY = 1.0  # categorical: fraction identical away from boundaries needed to pass
+MIN_COVERAGE = 0.5  # common points / points of the reference slice needed to pass
 
 
 @dataclasses.dataclass
@@ -68,10 +73,17 @@ class Report:
     n_common: int
     reason: str = ""  # why there are no common points
     variables: list = dataclasses.field(default_factory=list)
+    n_reference: int = 0  # points of the reference slice
+    missing: list = dataclasses.field(default_factory=list)  # reference variables absent from the file
+
+    @property
+    def coverage(self) -> float:
+        return self.n_common / self.n_reference if self.n_reference else 0.0
 
     @property
     def ok(self) -> bool:
-        return self.n_common > 0 and all(v.ok for v in self.variables)
+        return (self.n_common > 0 and bool(self.variables) and not self.missing
+                and self.coverage >= MIN_COVERAGE and all(v.ok for v in self.variables))
 
 
 def _setting_mismatch(ds: xr.Dataset, ref: xr.Dataset) -> list[str]:
@@ -94,7 +106,13 @@ def _setting_mismatch(ds: xr.Dataset, ref: xr.Dataset) -> list[str]:
 
 
 def _match(file_values: np.ndarray, ref_values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Indices (file, reference) of values matching within COORD_RTOL of the axis' span."""
+    """Indices (file, reference) of values matching within COORD_RTOL of the axis' span; string
+    labels (a ``scene``) match when equal."""
+    if file_values.dtype.kind in "UOS" or ref_values.dtype.kind in "UOS":
+        file_labels = [str(v) for v in file_values]
+        pairs = [(file_labels.index(str(v)), k) for k, v in enumerate(ref_values) if str(v) in file_labels]
+        return np.array([i for i, _ in pairs], dtype=int), np.array([k for _, k in pairs], dtype=int)
+    file_values, ref_values = file_values.astype(float), ref_values.astype(float)
     span = max(float(np.ptp(ref_values)), float(np.max(np.abs(ref_values))), 1e-300)
     tol = COORD_RTOL * span
     idx_f, idx_r = [], []
@@ -105,6 +123,14 @@ def _match(file_values: np.ndarray, ref_values: np.ndarray) -> tuple[np.ndarray,
             idx_f.append(i)
             idx_r.append(k)
     return np.array(idx_f, dtype=int), np.array(idx_r, dtype=int)
+
+
+def _span(coord) -> str:
+    """'lo..hi' of a numeric coordinate, or its labels."""
+    values = coord.values
+    if values.dtype.kind in "UOS":
+        return ", ".join(str(v) for v in values)
+    return f"{float(values.min()):.4g}..{float(values.max()):.4g}"
 
 
 def _away_from_boundaries(ref: xr.Dataset, names: list[str]) -> np.ndarray:
@@ -142,15 +168,14 @@ def compare(ds: xr.Dataset, ref: xr.Dataset, tolerances: dict | None = None) -> 
     ds = ds.squeeze([d for d in ds.dims if d not in ref.dims], drop=True)
     sel_f, sel_r = {}, {}
     for d in dims:
-        i_f, i_r = _match(ds[d].values.astype(float), ref[d].values.astype(float))
+        i_f, i_r = _match(ds[d].values, ref[d].values)
         for name, c in ref.coords.items():  # auxiliary coordinates along d must match as well
             if name != d and c.dims == (d,) and name in ds.coords and i_f.size:
                 a, b = ds[name].values[i_f].astype(float), c.values[i_r].astype(float)
                 keep = (a == b) | np.isclose(a, b, rtol=1e-12, atol=0.0)
                 i_f, i_r = i_f[keep], i_r[keep]
         if i_f.size == 0:
-            return Report(study, 0, f"no common values of {d!r} (file {float(ds[d].min()):.4g}..{float(ds[d].max()):.4g}, "
-                                    f"reference {float(ref[d].min()):.4g}..{float(ref[d].max()):.4g})")
+            return Report(study, 0, f"no common values of {d!r} (file {_span(ds[d])}, reference {_span(ref[d])})")
         sel_f[d], sel_r[d] = i_f, i_r
     a = ds.isel(sel_f)
     b = ref.isel(sel_r)
@@ -162,7 +187,9 @@ def compare(ds: xr.Dataset, ref: xr.Dataset, tolerances: dict | None = None) -> 
     cat_dims = list(ref[categorical[0]].dims) if categorical else dims
     away = away_full[np.ix_(*[sel_r[d] for d in cat_dims])] if categorical else np.ones(
         tuple(len(sel_r[d]) for d in cat_dims), dtype=bool)
-    report = Report(study, int(np.prod([len(sel_r[d]) for d in dims])))
+    report = Report(study, int(np.prod([len(sel_r[d]) for d in dims])),
+                    n_reference=int(np.prod([ref.sizes[d] for d in dims])),
+                    missing=[n for n in ref.data_vars if n not in ds.data_vars and n not in NOT_COMPARED])
     agree_all = np.ones_like(away)
     for n in categorical:
         x, y = a[n].transpose(*cat_dims).values, b[n].transpose(*cat_dims).values
@@ -203,6 +230,12 @@ def format_report(report: Report, file: str, ref_path: str) -> list[str]:
         else:
             lines.append(f"  {mark} {v.name:<14} continuous: worst |error| {v.worst:.3g} over {v.n_compared} points "
                          f"= {v.worst_scaled:.3g} x tolerance (atol {v.tolerance[0]:g}, rtol {v.tolerance[1]:g})")
-    compared = ", ".join(v.name for v in report.variables)
-    lines.append(f"compared: {compared}; result: {'within tolerance' if report.ok else 'NOT within tolerance'}")
+    compared = ", ".join(v.name for v in report.variables) or "nothing"
+    lines.append(f"compared: {compared}")
+    if report.missing:
+        lines.append(f"  FAIL missing from the file: {', '.join(report.missing)}")
+    mark = "ok  " if report.coverage >= MIN_COVERAGE else "FAIL"
+    lines.append(f"  {mark} coverage: {report.n_common} of the reference's {report.n_reference} points compared "
+                 f"({100 * report.coverage:.1f}%, needed {100 * MIN_COVERAGE:.0f}%)")
+    lines.append(f"result: {'within tolerance' if report.ok else 'NOT within tolerance'}")
     return lines

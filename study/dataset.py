@@ -1,9 +1,10 @@
-"""Assemble a study's numpy results into a CF-1.10 ``xarray.Dataset`` with provenance.
+"""Coordinates and provenance of result files (CF-1.10), and reading them back.
 
-Global attributes: ``Conventions``, ``title``, ``study``, every Params value as
-``param_<name>`` plus ``param_rho``, every study setting as ``setting_<name>``,
-``rimroll_version``, ``git_revision`` (when git can tell), ``created`` (UTC, ISO 8601) and
-``history`` (the command line).
+Global attributes: ``Conventions``, ``title``, ``study``, ``references`` (the paper),
+``source`` (rimroll version and method), every Params value as ``param_<name>`` plus
+``param_rho`` and every study setting as ``setting_<name>`` (except swept ones: those are axes,
+named in ``swept``), ``rimroll_version``, ``git_revision`` (when known), ``created`` (UTC,
+ISO 8601) and ``history`` (the command line).
 """
 
 from __future__ import annotations
@@ -11,7 +12,9 @@ from __future__ import annotations
 import datetime as _dt
 import functools
 import importlib.metadata
+import json
 import pathlib
+import re
 import subprocess
 
 import numpy as np
@@ -21,26 +24,54 @@ import solver
 from study.registry import PHYSICAL_KEYS, Axis, Study
 
 
+HERE = pathlib.Path(__file__).resolve().parent
+BUILD_INFO = HERE / "_build_info.json"  # written by setup.py's build_py into an installed build
+
+
+@functools.lru_cache(maxsize=1)
 def rimroll_version() -> str:
-    """Installed version of the ``rimroll`` distribution ('unknown' if not installed)."""
+    """Version of the rimroll code that runs: the installed distribution's when this package is
+    the installed one, else the ``version`` of the source tree's pyproject.toml; 'unknown' if neither."""
     try:
-        return importlib.metadata.version("rimroll")
-    except importlib.metadata.PackageNotFoundError:
-        return "unknown"
+        dist = importlib.metadata.distribution("rimroll")
+        if pathlib.Path(dist.locate_file("study/__init__.py")).resolve() == HERE / "__init__.py":
+            return dist.version
+    except (importlib.metadata.PackageNotFoundError, OSError):
+        pass
+    try:
+        match = re.search(r'^version\s*=\s*"([^"]+)"', (HERE.parent / "pyproject.toml").read_text(), re.M)
+    except OSError:
+        match = None
+    return match.group(1) if match else "unknown"
+
+
+def _git(*args: str) -> str | None:
+    try:
+        return subprocess.run(["git", *args], cwd=HERE, capture_output=True, text=True, timeout=10,
+                              check=True).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return None
 
 
 @functools.lru_cache(maxsize=1)
 def git_revision() -> str | None:
-    """Commit hash of the source tree this package runs from (+'-dirty'), or None; never raises."""
-    here = pathlib.Path(__file__).resolve().parent
-    try:
-        rev = subprocess.run(["git", "rev-parse", "HEAD"], cwd=here, capture_output=True, text=True,
-                             timeout=5, check=True).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=here,
-                               capture_output=True, text=True, timeout=10).stdout.strip()
-    except (OSError, subprocess.SubprocessError):
+    """Commit hash (+'-dirty') of the code that runs, or None; never raises.
+
+    An installed build: the revision its source tree had when it was built (``_build_info.json``).
+    A source checkout (or editable install): the checkout's HEAD now, if this package is its own
+    ``study/`` (not, say, a copy in a virtual environment that happens to sit inside a checkout).
+    """
+    if BUILD_INFO.is_file():
+        try:
+            return json.loads(BUILD_INFO.read_text()).get("git_revision") or None
+        except (OSError, ValueError):
+            return None
+    top = _git("rev-parse", "--show-toplevel")
+    if not top or pathlib.Path(top).resolve() != HERE.parent:
         return None
-    return f"{rev}-dirty" if dirty else (rev or None)
+    rev = _git("rev-parse", "HEAD")
+    dirty = _git("status", "--porcelain", "--untracked-files=no")
+    return f"{rev}-dirty" if rev and dirty else (rev or None)
 
 
 def _attr_value(value):
@@ -52,9 +83,14 @@ def _attr_value(value):
     return value
 
 
+def _axis_attrs(a: Axis) -> dict:
+    """CF attributes of an axis' coordinate: units (none for string labels) and long_name."""
+    return {"units": a.units, "long_name": a.long_name} if a.units else {"long_name": a.long_name}
+
+
 def coords_of(axes: list[Axis]) -> dict:
     """xarray coordinates of the axes (each with units and long_name), auxiliary ones included."""
-    coords = {a.name: (a.name, a.values, {"units": a.units, "long_name": a.long_name}) for a in axes}
+    coords = {a.name: (a.name, a.values, _axis_attrs(a)) for a in axes}
     for a in axes:
         for aux_name, (values, units, long_name) in a.aux.items():
             coords[aux_name] = (a.name, np.asarray(values), {"units": units, "long_name": long_name})
@@ -63,19 +99,24 @@ def coords_of(axes: list[Axis]) -> dict:
 
 def global_attrs(study: Study, params: solver.Params, settings: dict, command: str,
                  swept: tuple = ()) -> dict:
-    """Provenance of one run. ``swept``: names of the settings swept as outer axes (their
-    ``param_``/``setting_`` attributes hold the first value; the coordinate holds all)."""
+    """Provenance of one run. ``swept``: names of the settings swept as outer axes; they get no
+    ``param_``/``setting_`` attribute (nor ``param_r``, ``param_rho`` when ``rho_over_R`` is
+    swept): their coordinates hold their values."""
     now = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat()
-    attrs = {"Conventions": "CF-1.10", "title": study.title, "study": study.name}
+    version = rimroll_version()
+    attrs = {"Conventions": "CF-1.10", "title": study.title, "study": study.name,
+             "references": REFERENCES, "source": _source(study, settings, version)}
+    varying = set(swept) | ({"r", "rho"} if "rho_over_R" in swept else set())  # one value per point of an axis
     for name, value in params.as_dict().items():
-        attrs[f"param_{name}"] = float(value)
-    attrs["param_rho"] = float(params.rho)
+        if name not in varying:
+            attrs[f"param_{name}"] = float(value)
+    if "rho" not in varying:
+        attrs["param_rho"] = float(params.rho)
     for name, value in settings.items():
-        if (name not in PHYSICAL_KEYS or name in study.settings) and value is not None:
-            attrs[f"setting_{name}"] = _attr_value(value[0] if isinstance(value, tuple) else value)
+        if (name not in PHYSICAL_KEYS or name in study.settings) and value is not None and name not in varying:
+            attrs[f"setting_{name}"] = _attr_value(value)
     if swept:
         attrs["swept"] = " ".join(swept)
-    version = rimroll_version()
     attrs["rimroll_version"] = version
     rev = git_revision()
     if rev:
@@ -85,25 +126,45 @@ def global_attrs(study: Study, params: solver.Params, settings: dict, command: s
     return attrs
 
 
-def build_dataset(study: Study, axes: list[Axis], arrays: dict, params: solver.Params,
-                  settings: dict, command: str) -> xr.Dataset:
-    """The Dataset of one run: coordinates from ``axes``, variables from ``arrays``."""
-    from study.derived import with_derived
+REFERENCES = ("M. Antali, V. Havas, S. J. Hogan, G. Stepan: Nonlinear dynamics of a basketball rolling "
+              "around the rim (the paper rimroll reproduces; equation numbers in attributes are its)")
 
-    dims = [a.name for a in axes]
-    data = {v.name: (dims, arrays[v.name], v.attrs) for v in study.variables}
-    ds = xr.Dataset(data, coords=coords_of(axes), attrs=global_attrs(study, params, settings, command))
-    return with_derived(study, ds)
+
+def _source(study: Study, settings: dict, version: str) -> str:
+    """CF ``source``: the software and the method that made the file."""
+    text = f"rimroll {version}, study {study.name}"
+    if "method" in settings and "rtol" in settings:
+        text += (f": solver.simulate, compiled event-driven integrator {settings['method']} at rtol "
+                 f"{settings['rtol']:g}, atol {settings.get('atol', float('nan')):g}")
+    elif "rtol" in settings:
+        text += f": rtol {settings['rtol']:g}"
+    return text
 
 
 def params_of(ds: xr.Dataset) -> solver.Params:
-    """The :class:`solver.Params` recorded in a results file's ``param_*`` attributes."""
-    return solver.Params(**{k: float(ds.attrs[f"param_{k}"]) for k in PHYSICAL_KEYS})
+    """The :class:`solver.Params` of a results file (``param_*`` attributes).
+
+    A swept parameter has no attribute (it varies along its axis): select one point first,
+    e.g. ``params_of(ds.sel(mu=1.0))``, and its scalar coordinate is used.
+    """
+    swept = str(ds.attrs.get("swept", "")).split()
+    if "rho_over_R" in swept:
+        x = float(setting_of(ds, "rho_over_R"))
+        return solver.Params.from_rho_over_R(x, **{k: float(setting_of(ds, k)) for k in PHYSICAL_KEYS if k != "r"})
+    return solver.Params(**{k: float(setting_of(ds, k)) for k in PHYSICAL_KEYS})
 
 
 def setting_of(ds: xr.Dataset, name: str):
-    """A recorded setting (``setting_<name>``, else ``param_<name>``) of a results file."""
+    """A recorded setting (``setting_<name>``, else ``param_<name>``) of a results file; for a
+    swept setting, its scalar coordinate once one point is selected (``ds.sel(mu=1.0)``)."""
     if f"setting_{name}" in ds.attrs:
         return ds.attrs[f"setting_{name}"]
-    return ds.attrs[f"param_{name}"]
+    if f"param_{name}" in ds.attrs:
+        return ds.attrs[f"param_{name}"]
+    if name in ds.coords and ds[name].ndim == 0:
+        return ds[name].item()
+    if name in ds.coords:
+        raise ValueError(f"{name!r} is swept in this file ({ds[name].size} values along its axis); select one "
+                         f"point first, e.g. ds.sel({name}={ds[name].values[0]!r})")
+    raise KeyError(f"no setting or parameter {name!r} recorded in this file")
 

@@ -20,21 +20,30 @@ def derived_variables(study: Study, ds: xr.Dataset) -> dict[str, tuple[tuple, np
     """The study's derived variables for ``ds``, checked: ``{name: (dims, values, attrs)}``.
 
     Each must use dimensions of ``ds`` (values shaped accordingly), carry ``units`` and
-    ``long_name``, and not reuse the name of a variable or coordinate of ``ds``. The attribute
+    ``long_name``, and not reuse the name of a variable or coordinate of ``ds``. A dimension
+    that ``ds`` lacks (e.g. ``eps`` of an f(eps) curve) is allowed when ``derive`` also returns
+    its coordinate, a 1-D variable of that name along it; coordinates come first in the
+    result. The attribute
     ``rimroll_derived = 1`` is added (``study.compare`` does not use derived categorical
     variables to decide which points lie away from boundaries).
     """
     if study.derive is None:
         return {}
     out = {}
-    for name, (dims, values, attrs) in study.derive(ds).items():
-        dims = tuple(dims)
-        values = np.asarray(values)
+    items = {name: (tuple(dims), np.asarray(values), attrs) for name, (dims, values, attrs) in study.derive(ds).items()}
+    # a new dimension comes with its coordinate: a 1-D derived variable named like it
+    sizes = dict(ds.sizes)
+    for name, (dims, values, _) in items.items():
+        if dims == (name,) and name not in ds.sizes:
+            sizes[name] = values.shape[0]
+    items = dict(sorted(items.items(), key=lambda kv: kv[1][0] != (kv[0],)))  # coordinates first
+    for name, (dims, values, attrs) in items.items():
         if name in ds.variables:
             raise ValueError(f"study {study.name!r}: derived variable {name!r} already exists in the dataset")
-        if any(d not in ds.sizes for d in dims) or values.shape != tuple(ds.sizes[d] for d in dims):
+        if any(d not in sizes for d in dims) or values.shape != tuple(sizes[d] for d in dims):
             raise ValueError(f"study {study.name!r}: derived variable {name!r} has dims {dims} and shape "
-                             f"{values.shape}, not matching the dataset's sizes {dict(ds.sizes)}")
+                             f"{values.shape}, not matching the dataset's sizes {sizes} (a new dimension "
+                             "needs a 1-D derived coordinate of the same name)")
         if not attrs.get("units") or not attrs.get("long_name"):
             raise ValueError(f"study {study.name!r}: derived variable {name!r} needs units and long_name")
         out[name] = (dims, values, {**attrs, "rimroll_derived": 1})
@@ -42,6 +51,6 @@ def derived_variables(study: Study, ds: xr.Dataset) -> dict[str, tuple[tuple, np
 
 
 def with_derived(study: Study, ds: xr.Dataset) -> xr.Dataset:
-    """``ds`` plus the study's derived variables (in-memory path, e.g. ``build_dataset``)."""
+    """``ds`` plus the study's derived variables (in-memory path: ``study.reference.recompute``)."""
     extra = derived_variables(study, ds)
     return ds.assign({name: xr.Variable(dims, values, attrs) for name, (dims, values, attrs) in extra.items()})

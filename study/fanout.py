@@ -6,6 +6,11 @@ the GIL; ``--workers N`` threads, default one per core), or an existing cluster 
 :class:`study.plan.ChunkJob`. At most a small window of tasks is in flight; each result is
 written to disk as it completes (``as_completed``) and dropped, so memory holds a few chunks
 whatever the size of the cube.
+
+Every wait is bounded by ``timeout`` seconds (``study run --timeout``): a ``--scheduler`` address
+must answer dask's identity call in that time (an HTTP server, a socket that never answers or
+an unreachable host give one line), must have a worker within it, and a run whose cluster has
+had no worker for that long stops with the count of saved chunks (a rerun resumes).
 """
 
 from __future__ import annotations
@@ -23,6 +28,59 @@ from study.parts import PartStore
 from study.plan import Plan, compute_chunk
 from study.progress import ProgressLine
 from study.registry import UserError
+
+DEFAULT_TIMEOUT = 30.0  # [s] bound on waiting for a scheduler and for its workers
+POLL = 0.5  # [s] how often a run checks that its cluster still has workers
+
+
+def check_address(scheduler: str | None) -> None:
+    """A ``--scheduler`` address of the form ``[protocol://]host:port`` (checked without connecting)."""
+    if not scheduler:
+        return
+    from distributed.comm import parse_address
+
+    try:
+        protocol, loc = parse_address(scheduler)
+        host, _, port = loc.rpartition(":")
+        ok = protocol in ("tcp", "tls", "ucx", "ws", "wss") and host and 0 < int(port) < 65536
+    except (ValueError, TypeError):
+        ok = False
+    if not ok:
+        raise UserError(f"--scheduler {scheduler!r} is not an address of the form tcp://HOST:PORT")
+
+
+def _identity(address: str, timeout: float) -> dict:
+    """The scheduler's answer to dask's ``identity`` call, all of it within ``timeout`` seconds."""
+    import asyncio
+
+    from distributed.comm import connect
+
+    async def ask():
+        comm = await connect(address, timeout=timeout)
+        try:
+            await comm.write({"op": "identity"})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    async def bounded():
+        return await asyncio.wait_for(ask(), timeout)
+
+    return asyncio.run(bounded())
+
+
+def probe_scheduler(address: str, timeout: float) -> None:
+    """:class:`UserError` unless a dask scheduler answers at ``address`` within ``timeout`` s."""
+    try:
+        answer = _identity(address, timeout)
+    except (TimeoutError, OSError) as exc:
+        why = "no answer" if isinstance(exc, TimeoutError) or not str(exc) else " ".join(str(exc).split())
+        raise UserError(f"cannot connect to the dask scheduler at {address} within {timeout:g} s: {why}") from None
+    except Exception as exc:  # noqa: BLE001  garbage from something else (an HTTP server: a huge 'frame')
+        raise UserError(f"{address} is not a dask scheduler (its answer is not dask's protocol: "
+                        f"{type(exc).__name__})") from None
+    if not isinstance(answer, dict) or answer.get("type") != "Scheduler":
+        raise UserError(f"{address} is not a dask scheduler (identity: {str(answer)[:80]})")
 
 
 @dataclasses.dataclass
@@ -42,19 +100,26 @@ def timed_chunk(job):
 
 
 @contextlib.contextmanager
-def client(workers: int | None = None, scheduler: str | None = None):
-    """A dask.distributed Client: the cluster at ``scheduler``, else threads in this process."""
+def client(workers: int | None = None, scheduler: str | None = None, timeout: float = DEFAULT_TIMEOUT):
+    """A dask.distributed Client: the cluster at ``scheduler`` (which must answer and have a worker
+    within ``timeout`` s), else threads in this process."""
     from distributed import Client, LocalCluster
 
     for name in ("distributed", "distributed.scheduler", "distributed.nanny"):
         logging.getLogger(name).setLevel(logging.ERROR)
     logging.getLogger("distributed.worker").setLevel(logging.CRITICAL)  # the client re-raises task errors
     if scheduler:
+        check_address(scheduler)
+        probe_scheduler(scheduler, timeout)
         try:
-            c = Client(scheduler, timeout=dask.config.get("distributed.comm.timeouts.connect"))
+            c = Client(scheduler, timeout=timeout)
         except (OSError, TimeoutError, ValueError) as exc:
             raise UserError(f"cannot connect to the dask scheduler at {scheduler}: {exc}") from None
         with c:
+            try:
+                c.wait_for_workers(1, timeout=timeout)
+            except (TimeoutError, OSError):
+                raise UserError(f"no workers at {scheduler} after {timeout:g} s") from None
             yield c
         return
     threads = workers or os.cpu_count() or 1
@@ -64,9 +129,24 @@ def client(workers: int | None = None, scheduler: str | None = None):
         yield c
 
 
-def run(plan: Plan, store: PartStore, todo: list[int], c, progress: ProgressLine) -> RunStats:
-    """Compute the chunks ``todo`` on client ``c``, writing each part as it finishes."""
-    from distributed import as_completed
+def _workers(c) -> int:
+    try:
+        return len(c.nthreads())
+    except Exception:  # noqa: BLE001  a scheduler that went away has no workers
+        return 0
+
+
+def run(plan: Plan, store: PartStore, todo: list[int], c, progress: ProgressLine,
+        timeout: float = DEFAULT_TIMEOUT) -> RunStats:
+    """Compute the chunks ``todo`` on client ``c``, writing each part as it finishes.
+
+    :class:`UserError` (after cancelling what is in flight) when the cluster has had no worker
+    for ``timeout`` s, or a chunk's worker died too often (``KilledWorker``)."""
+    from distributed import wait
+    from distributed.client import FuturesCancelledError
+    from distributed.scheduler import KilledWorker
+
+    from study import runguard
 
     stats = RunStats(total=plan.n_chunks, resumed=plan.n_chunks - len(todo))
     if not todo:
@@ -82,23 +162,47 @@ def run(plan: Plan, store: PartStore, todo: list[int], c, progress: ProgressLine
             return None
         return c.submit(timed_chunk, plan.job(k), key=f"chunk-{plan.fingerprint}-{k}-{token}", pure=False)
 
+    def lost(why: str) -> UserError:
+        return UserError(f"worker lost ({why}); {store.count()} of {plan.n_chunks} chunks saved, "
+                         "rerun the same command to resume")
+
     t0 = time.perf_counter()
     inflight = {f for f in (submit() for _ in range(window)) if f is not None}
-    queue = as_completed(list(inflight))
+    no_worker_since = None
+    estimated = False
     try:
-        for future in queue:
-            inflight.discard(future)
-            k, arrays, seconds = future.result()
-            future.release()
-            store.save(k, arrays)
-            del arrays
-            stats.computed += 1
-            stats.compute_s += seconds
-            progress.advance()
-            nxt = submit()
-            if nxt is not None:
-                inflight.add(nxt)
-                queue.add(nxt)
+        while inflight:
+            try:
+                finished = wait(list(inflight), timeout=POLL, return_when="FIRST_COMPLETED").done
+            except TimeoutError:
+                finished = set()
+            if not finished:
+                if _workers(c):
+                    no_worker_since = None
+                elif no_worker_since is None:
+                    no_worker_since = time.monotonic()
+                elif time.monotonic() - no_worker_since > timeout:
+                    raise lost(f"no worker for {timeout:g} s")
+                continue
+            for future in finished:
+                inflight.discard(future)
+                try:
+                    k, arrays, seconds = future.result()
+                except (KilledWorker, FuturesCancelledError) as exc:
+                    raise lost(type(exc).__name__) from None
+                future.release()
+                store.save(k, arrays)
+                del arrays
+                stats.computed += 1
+                stats.compute_s += seconds
+                progress.advance()
+                nxt = submit()
+                if nxt is not None:
+                    inflight.add(nxt)
+            if not estimated and stats.computed >= min(threads, len(todo)):
+                estimated = True
+                runguard.estimate(plan, stats.compute_s / stats.computed,
+                                  len(todo) - stats.computed, threads)
     except BaseException:
         for f in inflight:
             f.cancel()

@@ -2,7 +2,8 @@
 
 Every write goes to a temporary file in the destination directory and is moved into place
 with ``os.replace``, so a reader never sees a half-written file and an interrupted run
-leaves nothing behind but the files that were finished.
+leaves nothing behind but the files that were finished. Finished files get the permissions
+any new file gets under the user's umask (0666 & ~umask), not the 0600 of a temporary file.
 """
 
 from __future__ import annotations
@@ -19,6 +20,18 @@ from study.registry import UserError
 COMPRESSION = {"zlib": True, "complevel": 4}
 
 
+def current_umask() -> int:
+    """The process' umask, read without changing it where Linux allows (``/proc/self/status``)."""
+    with contextlib.suppress(OSError, ValueError):
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    mask = os.umask(0o022)  # elsewhere: set and restore at once
+    os.umask(mask)
+    return mask
+
+
 @contextlib.contextmanager
 def atomic_path(path: pathlib.Path, tmp_dir=None):
     """Yield a temporary path next to ``path`` (or in ``tmp_dir``, same file system); on success
@@ -29,6 +42,7 @@ def atomic_path(path: pathlib.Path, tmp_dir=None):
     os.close(fd)
     try:
         yield pathlib.Path(tmp)
+        os.chmod(tmp, 0o666 & ~current_umask())  # mkstemp makes 0600; a result is an ordinary file
         os.replace(tmp, path)
     except BaseException:
         with contextlib.suppress(OSError):
@@ -37,7 +51,7 @@ def atomic_path(path: pathlib.Path, tmp_dir=None):
 
 
 def encoding_for(ds: xr.Dataset, chunks: tuple[int, ...]) -> dict:
-    """netCDF4 encoding: zlib everywhere, data chunked like the computation's chunks."""
+    """netCDF4 encoding: zlib everywhere, data chunked by ``chunks`` (clipped to each shape)."""
     enc = {}
     for name, var in ds.data_vars.items():
         enc[name] = dict(COMPRESSION, chunksizes=tuple(min(c, n) for c, n in zip(chunks, var.shape)))
@@ -47,7 +61,8 @@ def encoding_for(ds: xr.Dataset, chunks: tuple[int, ...]) -> dict:
 
 
 def write_dataset(ds: xr.Dataset, path, chunks: tuple[int, ...]) -> pathlib.Path:
-    """Write ``ds`` to ``path`` as compressed, chunked netCDF4, atomically."""
+    """Write an in-memory ``ds`` to ``path`` as compressed, chunked netCDF4, atomically (files
+    that are not assembled from chunks: ``study trace``; studies are written by ``study.assemble``)."""
     path = pathlib.Path(path)
     with atomic_path(path) as tmp:
         ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=encoding_for(ds, chunks))

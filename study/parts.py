@@ -2,10 +2,15 @@
 
 A part is written to a temporary file, flushed to disk and moved into place with
 ``os.replace``, so it is either complete or absent whatever kills the run. Each part holds its
-arrays plus a SHA-256 of their dtype, shape and bytes; a part that fails to load, whose
-checksum, names, shapes or dtypes do not match, is treated as missing (deleted and recomputed).
-The fingerprint in the folder's name keeps parts of different inputs apart. One run at a time
-per folder: ``fcntl.flock`` on ``<study>-<fingerprint>.lock``, non-blocking.
+arrays, its chunk index and the run's fingerprint, plus a SHA-256 of all of them (names, dtypes,
+shapes and bytes); a part that fails to load for any reason, whose checksum, chunk index,
+fingerprint, names, shapes or dtypes do not match, is treated as missing (deleted and
+recomputed). The fingerprint in the folder's name keeps parts of different inputs apart.
+
+One run at a time per output file: ``fcntl.flock`` on ``<out>/.parts/<study>.lock``,
+non-blocking, whatever the inputs (two runs of different inputs never race for
+``<out>/<study>.nc``). While it holds the lock, a run may delete the parts folders of its study
+that belong to other fingerprints: no live run can be using them (:meth:`PartStore.sweep_stale`).
 """
 
 from __future__ import annotations
@@ -15,9 +20,9 @@ import fcntl
 import hashlib
 import os
 import pathlib
+import re
 import shutil
 import tempfile
-import zipfile
 
 import numpy as np
 
@@ -25,6 +30,8 @@ from study.registry import UserError
 
 PARTS = ".parts"
 _SUM = "__sha256__"
+_INDEX = "__chunk__"  # the chunk index, inside the checksummed payload
+_FINGERPRINT = "__fingerprint__"  # the run's fingerprint, inside the checksummed payload
 
 
 def checksum(arrays: dict[str, np.ndarray]) -> str:
@@ -42,37 +49,57 @@ class PartStore:
     def __init__(self, out, study: str, fingerprint: str):
         self.root = pathlib.Path(out) / PARTS
         self.dir = self.root / f"{study}-{fingerprint}"
-        self.lock_path = self.root / f"{study}-{fingerprint}.lock"
+        self.lock_path = self.root / f"{study}.lock"
         self.study = study
+        self.fingerprint = fingerprint
+        self.target = pathlib.Path(out) / f"{study}.nc"
 
     def path(self, k: int) -> pathlib.Path:
         return self.dir / f"chunk-{k}.npz"
 
     @contextlib.contextmanager
     def lock(self):
-        """Hold the exclusive run lock; :class:`UserError` if another run holds it."""
+        """Hold the exclusive lock of the output file; :class:`UserError` if another run holds it.
+        The lock file is deleted on leaving."""
         self.root.mkdir(parents=True, exist_ok=True)
-        fd = os.open(self.lock_path, os.O_RDWR | os.O_CREAT, 0o644)
-        try:
+        while True:
+            fd = os.open(self.lock_path, os.O_RDWR | os.O_CREAT, 0o644)
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except BlockingIOError:
-                raise UserError(f"another run of {self.study!r} with the same inputs is in progress "
-                                f"(lock {self.lock_path} is held); wait for it to finish") from None
+                os.close(fd)
+                raise UserError(f"another run of {self.study!r} into {self.target} is in progress "
+                                f"(lock {self.lock_path} is held); wait for it to finish or use another --out"
+                                ) from None
+            try:  # the file may have been deleted by the run that held it: lock the current one
+                same = os.fstat(fd).st_ino == os.stat(self.lock_path).st_ino
+            except FileNotFoundError:
+                same = False
+            if same:
+                break
+            os.close(fd)
+        try:
             os.ftruncate(fd, 0)
             os.write(fd, f"{os.getpid()}\n".encode())
             yield self
         finally:
-            os.close(fd)  # releases the lock
+            # no stale lock file: deleted while held (a run that opened it meanwhile sees another
+            # inode above and retries), then released
+            with contextlib.suppress(OSError):
+                self.lock_path.unlink()
+            with contextlib.suppress(OSError):
+                self.root.rmdir()  # only if empty
+            os.close(fd)
 
     def save(self, k: int, arrays: dict[str, np.ndarray]) -> pathlib.Path:
         """Write chunk ``k`` atomically (temp file, fsync, rename)."""
         self.dir.mkdir(parents=True, exist_ok=True)
         path = self.path(k)
+        payload = {**arrays, _INDEX: np.array(int(k), dtype=np.int64), _FINGERPRINT: np.array(self.fingerprint)}
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=self.dir)
         try:
             with os.fdopen(fd, "wb") as fh:
-                np.savez(fh, **arrays, **{_SUM: np.array(checksum(arrays))})
+                np.savez(fh, **payload, **{_SUM: np.array(checksum(payload))})
                 fh.flush()
                 os.fsync(fh.fileno())
             os.replace(tmp, path)
@@ -90,17 +117,21 @@ class PartStore:
         path = self.path(k)
         try:
             with np.load(path, allow_pickle=False) as z:
-                names = set(z.files) - {_SUM}
-                if names != set(expected) or _SUM not in z.files:
+                names = set(z.files) - {_SUM, _INDEX, _FINGERPRINT}
+                if names != set(expected) or not {_SUM, _INDEX, _FINGERPRINT} <= set(z.files):
                     return None
-                arrays = {name: z[name] for name in names}
+                payload = {name: z[name] for name in set(z.files) - {_SUM}}
                 stored = str(z[_SUM])
-        except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile):
+        except Exception:  # noqa: BLE001  any damage (zip directory, compression method, ...) = missing
             return None
         for name, (shape, dtype) in expected.items():
-            if arrays[name].shape != tuple(shape) or arrays[name].dtype != np.dtype(dtype):
+            if payload[name].shape != tuple(shape) or payload[name].dtype != np.dtype(dtype):
                 return None
-        return arrays if checksum(arrays) == stored else None
+        if checksum(payload) != stored:
+            return None
+        if payload[_INDEX].shape != () or int(payload[_INDEX]) != k or str(payload[_FINGERPRINT]) != self.fingerprint:
+            return None  # a part of another chunk or another run, copied or renamed here
+        return {name: payload[name] for name in expected}
 
     def valid(self, n: int, expected) -> set[int]:
         """Chunks whose parts are intact; corrupt parts and stale temporary files are deleted.
@@ -124,6 +155,23 @@ class PartStore:
                 with contextlib.suppress(OSError):
                     path.unlink()
         return ok
+
+    def sweep_stale(self) -> int:
+        """Delete the parts folders of this study left by other fingerprints (call with the lock
+        held: no live run can be using them); returns how many were removed."""
+        pattern = re.compile(re.escape(self.study) + r"-[0-9a-f]{16}")
+        n = 0
+        if not self.root.is_dir():
+            return 0
+        for d in self.root.iterdir():
+            if d != self.dir and d.is_dir() and pattern.fullmatch(d.name):
+                shutil.rmtree(d, ignore_errors=True)
+                n += 1
+        return n
+
+    def count(self) -> int:
+        """Part files present now (finished chunks; for messages)."""
+        return len(list(self.dir.glob("chunk-*.npz"))) if self.dir.is_dir() else 0
 
     def remove(self) -> None:
         """Delete the parts folder and the lock file (after a successful assembly)."""

@@ -20,7 +20,7 @@ import pathlib
 import numpy as np
 
 import solver
-from study import runner, sweep
+from study import checks, runner, sweep
 from study.dataset import rimroll_version
 from study.registry import PHYSICAL_KEYS, SWEEP_KEYS, Axis, Study, UserError
 
@@ -123,7 +123,7 @@ class Plan:
              "variables": [(v.name, v.dtype, v.outer) for v in self.study.variables]})
         for a in self.axes:
             put([a.name, a.units, sorted(a.aux)])
-            h.update(np.ascontiguousarray(a.values, dtype=float).tobytes())
+            h.update(np.ascontiguousarray(a.values).tobytes())  # float64 numbers or string labels
             for values, *_ in a.aux.values():
                 h.update(np.ascontiguousarray(values).tobytes())
         h.update(code_digest(self.study).encode())
@@ -151,6 +151,7 @@ def make_plan(study: Study, quick: bool = False, sets=()) -> Plan:
     for key in SWEEP_KEYS:
         if key not in order and isinstance(base.get(key), float):
             sweep.check_value(key, base[key])
+    checks.check_settings(study.name, base, physical=(*PHYSICAL_KEYS, *SWEEP_KEYS))
     outer = sweep.outer_axes(settings, order)
     # Params of the scalar settings; a swept key stays at its first value there
     params = sweep.params_from(base)
@@ -164,7 +165,9 @@ def make_plan(study: Study, quick: bool = False, sets=()) -> Plan:
         n = a.values.size
         size = n if whole else study.chunks.get(a.name, runner.DEFAULT_CHUNK if i == 0 else n)
         block.append(max(1, min(int(size), n)))
-    return Plan(study, settings, params, tuple(outer), tuple(grid), tuple(block))
+    plan = Plan(study, settings, params, tuple(outer), tuple(grid), tuple(block))
+    checks.check_size(study.name, plan.n_chunks, math.prod(plan.shape))
+    return plan
 
 
 def compute_chunk(job: ChunkJob) -> dict[str, np.ndarray]:
@@ -185,7 +188,8 @@ def compute_chunk(job: ChunkJob) -> dict[str, np.ndarray]:
             raise KeyError(f"study {study.name!r}: compute returned no {var.name!r}")
         shape = () if var.outer else grid_shape
         values = np.broadcast_to(np.asarray(out[var.name]), shape).astype(var.dtype)
-        result[var.name] = np.ascontiguousarray(values.reshape((1,) * job.n_outer + shape))
+        # np.array, not np.ascontiguousarray: that one turns a 0-d result (no swept axis) into shape (1,)
+        result[var.name] = np.array(values.reshape((1,) * job.n_outer + shape), order="C")
     return result
 
 

@@ -33,11 +33,16 @@ def plane(ds, name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def beta_omega_axes(ax, ds, title: str) -> None:
-    """beta0 on x in [-pi, pi) with ticks at multiples of pi/2; omega30 on y; units in labels."""
-    ax.set_xlim(-np.pi, np.pi)
-    w = ds["omega30"].values
+    """beta0 on x, omega30 on y, each over the computed domain only (a restricted grid is not
+    padded with an uncomputed area that would read as a region); ticks at multiples of pi/2
+    when the domain holds at least two of them; units in labels."""
+    b, w = ds["beta0"].values, ds["omega30"].values
+    b_hi = np.pi if np.isclose(b[0], -np.pi) and b[-1] < np.pi else b.max()  # plane() closes the circle
+    ax.set_xlim(b.min(), b_hi)
     ax.set_ylim(w.min(), w.max())
-    ax.set_xticks(PI_TICKS, PI_LABELS)
+    inside = (PI_TICKS >= b.min() - 1e-9) & (PI_TICKS <= b_hi + 1e-9)
+    if inside.sum() >= 2:
+        ax.set_xticks(PI_TICKS[inside], [lbl for lbl, ok in zip(PI_LABELS, inside) if ok])
     ax.set_xlabel(r"height angle $\beta_0$ [rad]")
     ax.set_ylabel(r"circular angular velocity $\omega_{30}$ [1/s]")
     ax.set_title(title, fontsize=11)
@@ -94,3 +99,193 @@ def label_parts(ax, beta0, omega30, mask, text: str, min_fraction: float = 0.002
         ax.text(x, y, text, **style)
         points.append((x, y))
     return points
+
+
+# ---------------------------------------------------------------- outcomes: one palette, one set of labels
+OUTCOME_TEXT = {  # reader-facing words for the outcome codes' flag meanings
+    "fall_in": "falls in (score)",
+    "fall_out": "falls out",
+    "periodic_rolling": "periodic rolling",
+    "on_rim_at_t_max": r"on the rim at $t_{max}$",
+    "steady_motion": "steady motion (exact)",
+}
+OUTCOME_COLOUR = {
+    "fall_in": "#2b8cbe",  # blue
+    "fall_out": "#e6550d",  # orange
+    "periodic_rolling": "#31a354",  # green
+    "on_rim_at_t_max": "#bdbdbd",  # light grey
+    "steady_motion": "#756bb1",  # purple
+}
+_FALLBACK_COLOURS = ("#e7298a", "#66a61e", "#a6761d", "#1b9e77", "#666666")
+
+
+class OutcomePalette:
+    """Colours and reader-facing labels of the outcome codes, from ``solver.OUTCOME_MEANINGS``.
+
+    One object, used by every outcome figure (fig11-13, outcome-cube), so a colour means the
+    same outcome everywhere. Codes the palette has no word for (a code added to the engine
+    later) get their flag meaning with spaces and a colour of a fallback list.
+    """
+
+    def __init__(self, meanings: dict):
+        self.codes = tuple(int(c) for c in meanings)
+        names = [str(m).split(":")[0].strip() for m in meanings.values()]
+        spare = iter(_FALLBACK_COLOURS * (1 + len(names) // len(_FALLBACK_COLOURS)))
+        self.names = dict(zip(self.codes, names))
+        self.colours = {c: OUTCOME_COLOUR.get(n) or next(spare) for c, n in self.names.items()}
+        self.labels = {c: OUTCOME_TEXT.get(n, n.replace("_", " ")) for c, n in self.names.items()}
+
+    def colour(self, code: int) -> str:
+        """Colour of an outcome code (a neutral grey for a code the palette does not know)."""
+        return self.colours.get(int(code), "0.5")
+
+    def label(self, code: int) -> str:
+        """Reader-facing label of an outcome code ("outcome <code>" for an unknown one)."""
+        return self.labels.get(int(code), f"outcome {int(code)}")
+
+    def cmap_norm(self):
+        """(ListedColormap, BoundaryNorm) mapping each code 0..max to its colour, for pcolormesh."""
+        from matplotlib.colors import BoundaryNorm, ListedColormap
+
+        top = max(self.codes)
+        cmap = ListedColormap([self.colour(c) for c in range(top + 1)])
+        return cmap, BoundaryNorm(np.arange(-0.5, top + 1.5), cmap.N)
+
+    def handles(self, codes=None) -> list:
+        """Legend patches of ``codes`` (default: every known code), in code order."""
+        from matplotlib.patches import Patch
+
+        codes = self.codes if codes is None else sorted(int(c) for c in codes)
+        return [Patch(color=self.colour(c), label=self.label(c)) for c in codes]
+
+
+def _outcome_palette() -> OutcomePalette:
+    import solver
+
+    return OutcomePalette(solver.OUTCOME_MEANINGS)
+
+
+OUTCOME_PALETTE = _outcome_palette()
+"""The palette of every outcome figure (fig11-13, outcome-cube)."""
+
+
+# ---------------------------------------------------------------- scenes of the outcome sections
+SCENE_KEYS = ("rolling_only", "slipping", "drilling", "rolling_resistance")
+"""Labels of the ``scene`` dimension; files written before the labels were strings hold 0..3."""
+SCENE_TEXT = {
+    "rolling_only": "rolling only",
+    "slipping": "slipping",
+    "drilling": "slipping + drilling resistance",
+    "rolling_resistance": "slipping + rolling resistance",
+}
+
+
+def scene_key(value) -> str:
+    """The scene label of a ``scene`` coordinate value: a string label, or an old numeric code 0..3."""
+    if isinstance(value, bytes):
+        value = value.decode()
+    if isinstance(value, str):
+        return value
+    k = int(round(float(value)))
+    return SCENE_KEYS[k] if 0 <= k < len(SCENE_KEYS) else f"scene_{k}"
+
+
+def scene_text(value) -> str:
+    """Reader-facing name of a scene (label or old numeric code)."""
+    key = scene_key(value)
+    return SCENE_TEXT.get(key, key.replace("_", " "))
+
+
+def scene_title(sel) -> str:
+    """Panel title of one scene of an outcome file: its name and the mu, k_d, k_r it models."""
+    mu = float(sel["mu"]) if "mu" in sel.coords else np.nan
+    k_r = float(sel["k_r"]) if "k_r" in sel.coords else 0.0
+    k_d = float(sel["k_d"]) if "k_d" in sel.coords else 0.0
+    mu_txt = r"$\mu=\infty$" if np.isinf(mu) else (rf"$\mu={mu:g}$" if np.isfinite(mu) else "")
+    extra = (rf", $k_d={k_d:g}$ 1/s" if k_d else "") + (rf", $k_r={k_r:g}$ 1/s" if k_r else "")
+    return f"{scene_text(sel['scene'].values[()])} ({mu_txt}{extra})"
+
+
+# ---------------------------------------------------------------- legends and limits
+def legend_texts(fig) -> list[str]:
+    """Texts of every legend of ``fig`` (figure and axes legends), in order."""
+    legends = list(fig.legends) + [ax.get_legend() for ax in fig.axes if ax.get_legend() is not None]
+    return [t.get_text() for leg in legends for t in leg.get_texts()]
+
+
+def grid_limits(values) -> tuple[float, float]:
+    """(lo, hi) of the cells around a 1-D grid (half a spacing beyond each end; one point: +-0.5)."""
+    v = np.sort(np.asarray(values, dtype=float))
+    if v.size < 2:
+        return float(v[0]) - 0.5, float(v[0]) + 0.5
+    return float(v[0] - 0.5 * (v[1] - v[0])), float(v[-1] + 0.5 * (v[-1] - v[-2]))
+
+
+# ---------------------------------------------------------------- contour labels clear of markers
+def place_contour_labels(ax, cs, fmt, avoid=(), fontsize: float = 7.5, margin: float = 0.05,
+                         clear: float = 0.05, inline: bool = True) -> list:
+    """Label each level of the contour set ``cs`` once, at the point of its line farthest from
+    everything else: the points ``avoid`` (data coordinates, e.g. a marker), the other levels'
+    lines and the labels already placed; never within ``margin`` (axes fraction) of an edge.
+
+    Call after the axes' limits are final. A level whose every point lies within ``clear`` (axes
+    fraction) of a point to avoid or of a placed label is labelled outside, with a thin leader.
+    ``inline``: break the line under the label and give the label a light box; otherwise a
+    white halo around the letters only (for lines that border a shading: no gap in it).
+    Returns the label Text objects.
+    """
+    from matplotlib import patheffects
+
+    halo = [patheffects.withStroke(linewidth=2.5, foreground="white")]
+    to_axes = ax.transData + ax.transAxes.inverted()
+    avoid = [np.asarray(a, dtype=float).reshape(-1, 2) for a in avoid]
+    lines = []
+    for segs in cs.allsegs:
+        pts = [s for s in segs if len(s)]
+        lines.append(to_axes.transform(np.concatenate(pts)) if pts else np.empty((0, 2)))
+    fixed = [to_axes.transform(a) for a in avoid if a.size]
+    chosen = []
+    texts = []
+    for k, level in enumerate(cs.levels):
+        cand = lines[k]
+        inside = np.all((cand > margin) & (cand < 1 - margin), axis=1)
+        if not inside.any():
+            continue
+        cand = cand[inside]
+        def dist(points):  # distance in axes units, a label's own width counted along x
+            if not points:
+                return np.full(len(cand), np.inf)
+            ref = np.concatenate(points)
+            return np.min(np.hypot((cand[:, None, 0] - ref[None, :, 0]) / 1.6,
+                                   cand[:, None, 1] - ref[None, :, 1]), axis=1)
+
+        hard = dist(fixed + chosen)
+        soft = np.minimum(hard, dist([lines[i] for i in range(len(lines)) if i != k and len(lines[i])]))
+        ok = hard >= clear
+        if ok.any():
+            best = cand[ok][int(np.argmax(soft[ok]))]
+            xy = to_axes.inverted().transform(best)
+            before = len(cs.labelTexts)
+            ax.clabel(cs, levels=[level], manual=[tuple(xy)], inline=inline, fmt=fmt, fontsize=fontsize)
+            new = cs.labelTexts[before:]
+            if not new and len(cs.labelTexts) and cs.labelTexts[-1].get_text():
+                new = cs.labelTexts[-1:]
+            for t in new:
+                if inline:
+                    t.set_bbox(dict(fc="white", ec="none", alpha=0.75, pad=0.6))
+                else:
+                    t.set_path_effects(halo)
+                texts.append(t)
+            chosen.append(best[None, :])
+        else:  # crowded: outside the crowd, to the right, with a leader line
+            anchor = cand[int(np.argmax(cand[:, 0]))]
+            n_out = sum(1 for t in texts if getattr(t, "arrow_patch", None) is not None)
+            spot = np.array([min(anchor[0] + 0.08, 1 - 3 * margin), min(anchor[1] + 0.05 + 0.05 * n_out, 0.95)])
+            text = fmt % level if isinstance(fmt, str) else fmt(level)
+            t = ax.annotate(text, to_axes.inverted().transform(anchor), xytext=tuple(spot),
+                            textcoords="axes fraction", fontsize=fontsize, ha="left", va="center",
+                            arrowprops=dict(arrowstyle="-", lw=0.6, color="k"),
+                            bbox=dict(fc="white", ec="none", alpha=0.75, pad=0.6), zorder=8)
+            texts.append(t)
+            chosen.append(spot[None, :])
+    return texts

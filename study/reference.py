@@ -1,6 +1,9 @@
 """Stored reference slices: small, precise results of every map and outcome study.
 
-``study reference --build`` writes ``tests/reference/<study>.nc`` (or ``--out DIR``): each
+The slices ship inside the package (``study/reference_slices/<study>.nc``, package data found
+with ``importlib.resources``), so ``study verify`` works after ``pip install .``.
+``study reference --build`` writes them to ``--out DIR``; without ``--out`` only in a source
+checkout (never into an installed package): each
 study on a coarse **sub-grid of its default grid** (every axis: ``points`` values picked from
 the default axis, ends included: a 36 x 24 sub-grid of each outcome section in all four scenes,
 121 x 80 of the steady maps, 40 x 30 of fig9), so a full-resolution run shares every reference
@@ -19,6 +22,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import importlib.resources
 import os
 import pathlib
 import shlex
@@ -36,7 +40,7 @@ from study.plan import Plan, compute_chunk, make_plan
 from study.progress import ProgressLine
 
 ENV_DIR = "RIMROLL_REFERENCE_DIR"
-DEFAULT_DIR = pathlib.Path(__file__).resolve().parent.parent / "tests" / "reference"
+PACKAGE_DIR = "reference_slices"  # package data of ``study``
 PRECISE = ("rtol=1e-12", "atol=1e-14", "method=dop853")  # outcome studies: the engine's tightest setting
 
 
@@ -70,9 +74,37 @@ SPECS = {s.name: s for s in (
 )}
 
 
+def packaged_dir() -> pathlib.Path:
+    """The slices shipped with the package (``study/reference_slices``, package data)."""
+    return pathlib.Path(str(importlib.resources.files("study").joinpath(PACKAGE_DIR)))
+
+
 def reference_dir() -> pathlib.Path:
-    """Where the stored slices live: ``$RIMROLL_REFERENCE_DIR`` or the checkout's tests/reference."""
-    return pathlib.Path(os.environ.get(ENV_DIR) or DEFAULT_DIR)
+    """Where the stored slices are read: ``$RIMROLL_REFERENCE_DIR``, else the packaged slices."""
+    return pathlib.Path(os.environ.get(ENV_DIR) or packaged_dir())
+
+
+def checkout_dir() -> pathlib.Path | None:
+    """``study/reference_slices`` of a source checkout (a git work tree with pyproject.toml), or None
+    when ``study`` runs from an installed package, which is never written."""
+    package = pathlib.Path(__file__).resolve().parent
+    root = package.parent
+    if (root / "pyproject.toml").is_file() and (root / ".git").exists() and "-packages" not in str(package):
+        return package / PACKAGE_DIR
+    return None
+
+
+def default_build_dir() -> pathlib.Path:
+    """Where ``study reference --build`` writes without ``--out``: ``$RIMROLL_REFERENCE_DIR``, else
+    the checkout's slices, else a :class:`registry.UserError` asking for ``--out``."""
+    if os.environ.get(ENV_DIR):
+        return pathlib.Path(os.environ[ENV_DIR])
+    target = checkout_dir()
+    if target is None:
+        raise registry.UserError(f"study reference --build needs --out DIR here: rimroll is installed at "
+                                 f"{pathlib.Path(__file__).resolve().parent.parent} and the installed package is "
+                                 f"never written (read a built directory with study verify --reference DIR)")
+    return target
 
 
 def reference_path(study: str, directory=None) -> pathlib.Path:
@@ -120,8 +152,9 @@ def _provenance(name: str, plan: Plan, command: str) -> dict:
 
 def build(out=None, names=None, workers: int | None = None, command: str = "study reference --build",
           progress: bool = False) -> list[pathlib.Path]:
-    """Compute the reference slices ``names`` (default: all) into ``out`` (default: tests/reference)."""
-    out = pathlib.Path(out) if out is not None else reference_dir()
+    """Compute the reference slices ``names`` (default: all) into ``out`` (default: the checkout's
+    ``study/reference_slices``; refused in an installed package)."""
+    out = pathlib.Path(out) if out is not None else default_build_dir()
     names = list(names or SPECS)
     unknown = [n for n in names if n not in SPECS]
     if unknown:

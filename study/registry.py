@@ -2,13 +2,16 @@
 
 A study (see ``study/CONTRACT.md``) is pure computation on numpy arrays plus metadata. This
 module only holds the declarations; ``study.runner`` evaluates them and ``study.io`` writes them.
+Studies are found through the entry-point group ``rimroll.studies`` (:func:`study_modules`).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import importlib
 import importlib.util
 import os
+import pathlib
 import re
 import sys
 from typing import Any, Callable
@@ -18,12 +21,17 @@ import numpy as np
 PHYSICAL_KEYS = ("r", "R", "a", "m", "j", "mu", "g", "k_r", "k_d")
 """Settings that build the :class:`solver.Params` of a run; every study accepts them."""
 
-SWEEP_KEYS = ("mu", "v_throw", "j", "rho_over_R", "k_r", "k_d", "omega2", "omega3")
+SWEEP_KEYS = ("mu", "v_throw", "j", "rho_over_R", "k_r", "k_d", "omega2", "omega3", "sigma")
 """Settings a study may declare ``sweepable``: a list or range of values becomes an outer axis."""
 
 PLUGIN_ENV = "RIMROLL_STUDY_MODULES"
 """Environment variable: extra study modules (``.py`` paths, ``os.pathsep``-separated) to register,
 e.g. test-only studies. Read in every process that loads the registry (dask workers too)."""
+
+RESERVED_DIM_NAMES = frozenset({"indexers", "method", "tolerance", "drop", "missing_dims", "indexers_kwargs"})
+"""Keyword parameters of xarray's ``Dataset.sel``/``Dataset.isel``: never a dimension name, or
+``ds.sel(method=...)`` would silently mean the keyword, not the dimension (a test keeps this in
+step with xarray's signatures)."""
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 _STUDY_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_-]*$")  # study names may also use '-' (realisable-cube)
@@ -35,7 +43,8 @@ class UserError(Exception):
 
 @dataclasses.dataclass(frozen=True)
 class Axis:
-    """One swept coordinate: a 1-D, finite, strictly monotonic array with its metadata.
+    """One swept coordinate with its metadata: a 1-D, finite, strictly monotonic array of
+    numbers, or (a categorical axis such as ``scene``) distinct string labels.
 
     ``units`` is a CF/UDUNITS string ("rad", "s-1", "m s-1", "1"). ``aux`` holds auxiliary
     coordinates along this axis, ``{name: (values, units, long_name)}``: e.g. a ``scene`` axis
@@ -49,17 +58,41 @@ class Axis:
     aux: dict = dataclasses.field(default_factory=dict)
 
     def __post_init__(self):
-        values = np.asarray(self.values, dtype=float)
+        values = np.asarray(self.values)
+        values = values.astype(str) if values.dtype.kind in "UO" else values.astype(float)
         object.__setattr__(self, "values", values)
         if not _NAME.match(self.name):
             raise ValueError(f"axis name {self.name!r} is not a valid identifier")
+        if self.name in RESERVED_DIM_NAMES:
+            raise ValueError(f"axis name {self.name!r} is a keyword of xarray's Dataset.sel/isel "
+                             f"(reserved: {', '.join(sorted(RESERVED_DIM_NAMES))}); choose another name")
         if values.ndim != 1 or values.size < 2:
             raise ValueError(f"axis {self.name!r} needs at least 2 points in a 1-D array; got shape {values.shape}")
+        if values.dtype.kind == "U":
+            self._check_labels(values)
+            return
         if not np.all(np.isfinite(values)):
             raise ValueError(f"axis {self.name!r} has non-finite values")
         steps = np.diff(values)
         if not (np.all(steps > 0) or np.all(steps < 0)):
             raise ValueError(f"axis {self.name!r} must be strictly monotonic")
+        self._check_aux(values)
+
+    def _check_labels(self, values: np.ndarray) -> None:
+        """A categorical axis: distinct labels, each a valid identifier (``ds.sel(scene="slipping")``)."""
+        bad = [v for v in values if not _NAME.match(v)]
+        if bad:
+            raise ValueError(f"axis {self.name!r}: labels must be identifiers (letters, digits, '_'); got {bad}")
+        if len(set(values)) != values.size:
+            raise ValueError(f"axis {self.name!r}: labels must be distinct; got {list(values)}")
+        self._check_aux(values)
+
+    @property
+    def categorical(self) -> bool:
+        """True for an axis of string labels (a scene, an integrator), False for numbers."""
+        return self.values.dtype.kind == "U"
+
+    def _check_aux(self, values: np.ndarray) -> None:
         for aux_name, (aux_values, _units, _long_name) in self.aux.items():
             if not _NAME.match(aux_name) or np.shape(aux_values) != values.shape:
                 raise ValueError(f"axis {self.name!r}: auxiliary coordinate {aux_name!r} needs a valid name "
@@ -77,6 +110,7 @@ class Var:
     flag_values: tuple | None = None
     flag_meanings: str | None = None
     outer: bool = False  # one value per point of the swept (outer) axes, e.g. an area over the grid
+    standard_name: str | None = None  # CF standard name, where CF defines one (e.g. status_flag)
 
     def __post_init__(self):
         if not _NAME.match(self.name):
@@ -92,6 +126,8 @@ class Var:
     def attrs(self) -> dict[str, Any]:
         """CF attributes of the variable."""
         out = {"units": self.units, "long_name": self.long_name}
+        if self.standard_name:
+            out["standard_name"] = self.standard_name
         if self.flag_values is not None:
             out["flag_values"] = np.array(self.flag_values, dtype=self.dtype)
             out["flag_meanings"] = self.flag_meanings
@@ -111,6 +147,8 @@ class Study:
     ``derive(dataset) -> {name: (dims, values, attrs)}``: variables computed once from the whole
     assembled grid (neighbours across chunks), added to the file before it is moved into place
     (``study.derived``).
+    ``ignores``: physical parameters (of :data:`PHYSICAL_KEYS`) that do not change the result, each
+    with the reason; ``--set`` of one is refused rather than recorded as if it mattered.
     """
 
     name: str
@@ -124,6 +162,7 @@ class Study:
     chunks: dict = dataclasses.field(default_factory=dict)
     sweepable: tuple = ()
     derive: Callable | None = None
+    ignores: dict = dataclasses.field(default_factory=dict)  # physical key -> why the study does not use it
 
     def __post_init__(self):
         if not _STUDY_NAME.match(self.name):
@@ -137,6 +176,8 @@ class Study:
         unknown = set(self.quick) - set(self.settings) - set(PHYSICAL_KEYS)
         if unknown:
             raise ValueError(f"study {self.name!r}: quick settings {sorted(unknown)} are not settings")
+        if set(self.ignores) - set(PHYSICAL_KEYS) or set(self.ignores) & set(self.sweepable):
+            raise ValueError(f"study {self.name!r}: ignores {sorted(self.ignores)} must be physical keys, not swept")
         names = [v.name for v in self.variables]
         if not names or len(set(names)) != len(names):
             raise ValueError(f"study {self.name!r}: variable names must be non-empty and unique; got {names}")
@@ -153,9 +194,38 @@ def register(study: Study) -> Study:
     return study
 
 
-def _load_workflows() -> None:
-    import workflows  # noqa: F401  (registers every named study on import)
+ENTRY_POINT_GROUP = "rimroll.studies"
+"""Entry-point group naming the modules that register studies on import (rimroll's own:
+``workflows``, declared in pyproject.toml); another package can add studies the same way."""
 
+_PYPROJECT = pathlib.Path(__file__).resolve().parent.parent / "pyproject.toml"
+
+
+def study_modules() -> list[str]:
+    """Modules that register studies: the ``rimroll.studies`` entry points of installed
+    distributions, plus (running from a checkout that is not installed) the same group read from
+    the checkout's pyproject.toml. ``study`` never imports a studies module by name."""
+    from importlib.metadata import entry_points
+
+    modules = [ep.value.split(":")[0] for ep in entry_points(group=ENTRY_POINT_GROUP)]
+    if _PYPROJECT.is_file():
+        text = _PYPROJECT.read_text()
+        section = re.search(r'^\[project\.entry-points\."' + re.escape(ENTRY_POINT_GROUP) + r'"\]\s*$(.*?)(?=^\[|\Z)',
+                            text, re.M | re.S)
+        if section:
+            modules += [m.split(":")[0] for m in re.findall(r'^\s*[\w.-]+\s*=\s*"([^"]+)"', section.group(1), re.M)]
+    return list(dict.fromkeys(modules))
+
+
+_loaded_entry_points = False
+
+
+def _load_workflows() -> None:
+    global _loaded_entry_points
+    if not _loaded_entry_points:  # once per process: scanning entry points costs milliseconds
+        for module in study_modules():
+            importlib.import_module(module)  # registers its studies on import
+        _loaded_entry_points = True
     for path in filter(None, os.environ.get(PLUGIN_ENV, "").split(os.pathsep)):
         _load_module_file(path)
 

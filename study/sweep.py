@@ -27,6 +27,7 @@ META = {  # units and long_name of an outer axis
     "k_d": ("s-1", "drilling-resistance rate C_d/(j m R^2) of (83)"),
     "omega2": ("s-1", "initial orthogonal angular velocity"),
     "omega3": ("s-1", "initial circular angular velocity"),
+    "sigma": ("1", "noise level: the spread of the arriving state in units of the study's sigma_* settings"),
 }
 assert set(META) == set(SWEEP_KEYS)
 
@@ -39,7 +40,11 @@ def _float(key: str, text: str) -> float:
 
 
 def parse_values(key: str, text: str):
-    """A tuple of floats for a list or range, else ``None`` (the text is a scalar)."""
+    """A tuple of floats for a list or range, else ``None`` (the text is a scalar).
+
+    At most :data:`study.checks.MAX_AXIS` values."""
+    from study.checks import MAX_AXIS
+
     if ":" in text:
         parts = text.split(":")
         if len(parts) != 3:
@@ -51,6 +56,8 @@ def parse_values(key: str, text: str):
             raise UserError(f"--set {key}={text}: num of start:stop:num must be an integer") from None
         if num < 2:
             raise UserError(f"--set {key}={text}: a range needs num >= 2 points (give one value as a scalar)")
+        if num > MAX_AXIS:
+            raise UserError(f"--set {key}={text}: at most {MAX_AXIS} values per swept setting; got {num}")
         if not (math.isfinite(start) and math.isfinite(stop)) or start == stop:
             raise UserError(f"--set {key}={text}: a range needs finite start != stop")
         return tuple(float(v) for v in np.linspace(start, stop, num))
@@ -58,6 +65,8 @@ def parse_values(key: str, text: str):
         items = [t.strip() for t in text.split(",")]
         if any(not t for t in items):
             raise UserError(f"--set {key}={text}: empty item in the list")
+        if len(items) > MAX_AXIS:
+            raise UserError(f"--set {key}: at most {MAX_AXIS} values per swept setting; got {len(items)}")
         return tuple(_float(key, t) for t in items)
     return None
 
@@ -82,9 +91,12 @@ def resolve(study: Study, quick: bool, sets) -> tuple[dict, list[str], dict]:
         if values is not None and key in grid_names:
             grid[key] = values
             continue
+        if key in study.ignores:
+            raise UserError(f"--set {key}={text}: study {study.name!r} does not use {key!r} "
+                            f"({study.ignores[key]})")
         if key not in settings:
             raise UserError(f"unknown setting {key!r} for study {study.name!r}; "
-                            f"known: {', '.join(sorted(settings))}")
+                            f"known: {', '.join(sorted(k for k in settings if k not in study.ignores))}")
         if values is None:
             default = settings[key]
             default = 1.0 if key in SWEEP_KEYS or isinstance(default, (tuple, list)) else default
@@ -125,6 +137,8 @@ def check_value(key: str, value) -> None:
     """Ranges of the non-physical sweep keys (the physical ones are checked by Params)."""
     if key == "v_throw" and not (math.isfinite(value) and value >= 0):
         raise UserError(f"parameter v_throw={value!r} is out of range: allowed 0 <= v_throw < inf [m/s]")
+    if key == "sigma" and not (math.isfinite(value) and value >= 0):
+        raise UserError(f"parameter sigma={value!r} is out of range: allowed 0 <= sigma < inf (a noise level)")
     if key in ("omega2", "omega3") and not math.isfinite(value):
         raise UserError(f"parameter {key}={value!r} is out of range: allowed a finite rate [1/s]")
 

@@ -44,7 +44,7 @@ def test_energy_60_with_rho_is_conserved_by_rolling_trajectories():
     E = rolling.energy(xs[0], xs[1], xs[2], xs[3], pa)
     assert np.ptp(xs[0]) > 0.05  # beta really moves, so the potential term is exercised
     assert np.max(np.abs(E - E[0])) / abs(E[0]) < 1e-10
-    # The printed (60), potential m g r sin(beta), is NOT conserved (DESIGN §8): the check can fail.
+    # The printed (60), potential m g r sin(beta), is NOT conserved (the equations conserve m g rho sin(beta)): the check can fail.
     printed = E - p.m * p.g * (p.rho - p.r) * np.sin(xs[0])
     assert np.max(np.abs(printed - printed[0])) / abs(printed[0]) > 1e-4
 

@@ -1,4 +1,5 @@
-"""Outcome sections fig11-fig13 (paper Figs. 11-13) on their --quick grids: the statements of DESIGN §8."""
+"""Outcome sections fig11-fig13 (paper Figs. 11-13) on their --quick grids: the paper's statements on them
+(Sect. 5.2.3, 5.3.2), as listed in docs/outcome-studies.md."""
 
 from __future__ import annotations
 
@@ -38,7 +39,30 @@ def test_files_carry_scenes_every_result_field_and_t_max(sections):
     assert (ds["status"] == outcomes.OK).all()
 
 
-def test_grid_matches_design_section_4(sections):
+def test_scenes_are_selected_by_label(sections):
+    ds = sections["fig12"]
+    assert list(ds["scene"].values) == ["rolling_only", "slipping", "drilling", "rolling_resistance"]
+    assert ds["scene"].dtype.kind in "UO"
+    slipping = ds.sel(scene="slipping")
+    assert float(slipping["mu"]) == 1.0 and float(slipping["k_r"]) == 0.0 and float(slipping["k_d"]) == 0.0
+    assert (slipping["outcome"] == ds["outcome"].isel(scene=SLIP)).all()
+    assert float(ds.sel(scene="drilling")["k_d"]) == 0.02 and float(ds.sel(scene="rolling_resistance")["k_r"]) == 0.02
+    assert np.isinf(float(ds["mu"].sel(scene="rolling_only")))
+
+
+def test_cf_xarray_reads_the_flags(sections):
+    import cf_xarray  # noqa: F401  (the test extra installs it; registers the .cf accessor)
+    ds = sections["fig11"]
+    codes = dict(zip(ds["outcome"].attrs["flag_meanings"].split(), ds["outcome"].attrs["flag_values"].tolist()))
+    periodic = ds["outcome"].cf == "periodic_rolling"
+    assert periodic.any() and (periodic == (ds["outcome"] == codes["periodic_rolling"])).all()
+    assert (ds["status"].cf == "ok").all()
+    assert ds["status"].attrs["standard_name"] == "status_flag"  # the CF standard name of a status flag
+    assert ds.attrs["references"] and ds.attrs["source"].startswith("rimroll ")
+    assert "dp5 at rtol 1e-08" in ds.attrs["source"]
+
+
+def test_grid_matches_the_documented_outcome_grid(sections):
     ds = sections["fig11"]
     assert ds["beta"].values[[0, -1]].tolist() == [0.8, 1.8]
     assert ds["omega1"].values[[0, -1]].tolist() == [-20.0, 20.0]

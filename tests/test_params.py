@@ -1,4 +1,4 @@
-"""solver.Params: Table 1 defaults and validation (DESIGN §2)."""
+"""solver.Params: Table 1 defaults and validation."""
 
 import math
 

@@ -1,4 +1,4 @@
-"""Regression against the stored reference slices (tests/reference, ``study reference --build``).
+"""Regression against the stored reference slices (study/reference_slices, ``study reference --build``).
 
 Each slice is recomputed at its study's default settings (outcome sections: dp5, rtol 1e-8,
 atol 1e-10; the references: DOP853 at rtol 1e-12) on the reference's grid and compared with

@@ -1,4 +1,4 @@
-"""Steady motions and their limits (paper Sect. 3), checked against the paper's numbers (DESIGN §8)."""
+"""Steady motions and their limits (paper Sect. 3), checked against the paper's numbers."""
 
 import numpy as np
 import pytest

@@ -80,6 +80,20 @@ def test_atomic_write_leaves_no_temp_files(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["fig3.nc", "fig3.png"]
 
 
+@pytest.mark.parametrize("umask", [0o022, 0o002, 0o077])
+def test_results_get_the_permissions_of_any_new_file(tmp_path, umask):
+    old = os.umask(umask)
+    try:
+        (tmp_path / "plain.txt").write_text("any other file")
+        assert main(["run", "fig3", "--quick", "--out", str(tmp_path), "--no-progress"]) == 0
+    finally:
+        os.umask(old)
+    expected = (tmp_path / "plain.txt").stat().st_mode & 0o777
+    assert expected == 0o666 & ~umask
+    for name in ("fig3.nc", "fig3.png"):
+        assert (tmp_path / name).stat().st_mode & 0o777 == expected, name
+
+
 def test_failed_write_leaves_nothing(tmp_path):
     from study import io
 
@@ -116,7 +130,7 @@ def test_list_names_every_steady_study(capsys):
     (["run", "fig8", "--set", "j=-1"], "parameter j=-1.0 is out of range"),
     (["run", "fig8", "--set", "a=0.2"], "must be < R"),
     (["run", "fig8", "--set", "n_beta0=1"], "invalid axes"),
-    (["run", "fig8", "--workers", "0"], "--workers must be >= 1"),
+    (["run", "fig8", "--workers", "0"], "--workers must be between 1 and 1024"),
     (["run"], "required"),
     (["plot", "nosuch.nc"], "no such results file"),
     (["info", "missing.nc"], "no such results file"),

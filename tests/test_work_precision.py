@@ -1,4 +1,4 @@
-"""The work-precision study (DESIGN §7): every method in every scene, errors against the rtol-1e-12 reference.
+"""The work-precision study (docs/work-precision.md): every integrator in every scene, errors against the rtol-1e-12 reference.
 
 Only accuracy is asserted; timings are figures of the study, never assertions.
 """
@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from workflows.work_precision import METHODS, speed_ratio
+from workflows.outcome_grids import SCENES
+from workflows.work_precision import INTEGRATORS, speed_ratio
 
 
 @pytest.fixture(scope="module")
@@ -22,9 +23,10 @@ def wp(tmp_path_factory):
     return xr.open_dataset(out / "work-precision.nc")
 
 
-def test_every_method_runs_in_every_scene_with_units(wp):
-    assert list(wp["method_name"].values) == list(METHODS)
-    assert wp.sizes == {"scene": 4, "method": len(METHODS), "rtol": 2}
+def test_every_integrator_runs_in_every_scene_with_units(wp):
+    assert list(wp["integrator"].values) == list(INTEGRATORS)
+    assert list(wp["scene"].values) == list(SCENES)
+    assert wp.sizes == {"scene": 4, "integrator": len(INTEGRATORS), "rtol": 2}
     assert np.isfinite(wp["seconds_per_trajectory"]).all()  # scipy too, slipping scenes included
     for name in ("seconds_per_trajectory", "misclassified_fraction", "t_end_error_median", "t_end_error_max"):
         assert wp[name].attrs["units"] and wp[name].attrs["long_name"]
@@ -36,13 +38,43 @@ def test_no_method_misclassifies_the_sample_at_these_tolerances(wp):
 
 def test_rimroll_error_shrinks_as_rtol_tightens_and_stays_near_it(wp):
     for name in ("rimroll_dp5", "rimroll_dop853"):
-        i = METHODS.index(name)
-        err = wp["t_end_error_max"].isel(method=i, scene=0).values  # rtol 1e-6, then 1e-8
+        err = wp["t_end_error_max"].sel(integrator=name, scene="rolling_only").values  # rtol 1e-6, then 1e-8
         assert err[1] <= err[0]
         assert err[1] < 1e-5  # seconds, over runs of at most 5 s
 
 
 def test_speed_ratio_is_computed_on_identical_states(wp):
     common = wp["seconds_per_trajectory_common"]
-    assert np.isfinite(common.isel(scene=0)).all()
+    assert np.isfinite(common.sel(scene="rolling_only")).all()
     assert np.isfinite(speed_ratio(wp)) and speed_ratio(wp) > 0
+
+
+def test_speed_ratio_is_stored_with_its_spread_and_the_figure_shows_misclassification(wp):
+    from workflows.work_precision import _plot
+
+    ratio = wp["speed_ratio_rk45_dp5"]
+    assert ratio.dims == ("scene",) and ratio.attrs["units"] == "1"
+    lo, hi = np.asarray(ratio.attrs["ratio_min_over_rtol"]), np.asarray(ratio.attrs["ratio_max_over_rtol"])
+    assert np.all(lo <= ratio.values) and np.all(ratio.values <= hi)
+    assert ratio.values[0] == pytest.approx(np.median([speed_ratio(wp, 0, r) for r in wp["rtol"].values]))
+    fig = _plot(wp)
+    assert len(fig.axes) == 2 * wp.sizes["scene"]  # error and misclassification per scene
+    assert "faster" not in fig._suptitle.get_text()  # no run-to-run number in the title
+    labels = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
+    assert all("states" in lbl for lbl in labels)  # how many states each curve rests on
+
+
+def test_files_of_the_older_layout_read_the_same(wp):
+    """A file written before the labelled dimensions (numeric scene 0..3, numeric ``method`` with
+    ``method_name`` labels such as scipy_RK45) gives the same speed ratio, derived ratio and
+    figure layout as the labelled one."""
+    from workflows.work_precision import _derive, _plot, integrator_names
+
+    old = wp.drop_vars("speed_ratio_rk45_dp5").rename({"integrator": "method"})
+    old = old.assign_coords(method=np.arange(old.sizes["method"]), scene=np.arange(old.sizes["scene"]))
+    old = old.assign_coords(method_name=("method", ["rimroll_dp5", "rimroll_dop853", "scipy_RK45",
+                                                    "scipy_DOP853", "scipy_LSODA"]))
+    assert integrator_names(old) == list(INTEGRATORS)
+    assert speed_ratio(old) == speed_ratio(wp) == speed_ratio(wp, "rolling_only")
+    np.testing.assert_array_equal(_derive(old)["speed_ratio_rk45_dp5"][1], wp["speed_ratio_rk45_dp5"].values)
+    assert len(_plot(old).axes) == len(_plot(wp).axes)

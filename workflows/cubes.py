@@ -24,7 +24,6 @@ from study.registry import Axis, Study, Var, register
 
 STANDARD = solver.Params()
 STANDARD_RHO_OVER_R = STANDARD.rho / STANDARD.R  # 0.5778: the ball of Table 1
-MU_COLOURS = ("tab:purple", "tab:blue", "tab:green", "tab:orange", "tab:red", "k")
 
 
 def _cell_sizes(values: np.ndarray) -> np.ndarray:
@@ -67,31 +66,42 @@ def _realisable_compute(coords, p, s):
     return {"region": region, **areas}
 
 
+def mu_colours(mus) -> dict:
+    """A colour per friction coefficient, in order of mu along a sequential colormap (viridis)."""
+    from matplotlib import colormaps
+
+    order = np.sort(np.unique(np.asarray(mus, dtype=float)))
+    cmap = colormaps["viridis"]
+    pos = np.linspace(0.0, 0.85, order.size) if order.size > 1 else np.array([0.4])
+    return {float(m): cmap(x) for m, x in zip(order, pos)}
+
+
 def _realisable_plot(ds):
     fig, axes = P.new_figure(13.5, 4.6)
     fig.clear()
     panels = fig.subplots(1, 3, sharey=False)
-    handles = []
+    colours = mu_colours(_ensure_dim(ds["area_A"], ds, "mu")["mu"].values)
     for ax, name in zip(panels, "ABC"):
         area = _ensure_dim(_ensure_dim(_at_standard(ds[f"area_{name}"], ()), ds, "v_throw"), ds, "mu")
         area = area.transpose("mu", "v_throw", ...).load()
         v = area["v_throw"].values
-        for i, mu in enumerate(area["mu"].values):
-            colour = MU_COLOURS[i % len(MU_COLOURS)]
+        for i in np.argsort(area["mu"].values):
+            mu = float(area["mu"].values[i])
             values = area.isel(mu=i).values.reshape(v.size, -1)[:, 0]
-            ax.plot(v, values, "o-", color=colour, lw=1.5, ms=4)
-            if name == "A":
-                handles.append(Line2D([], [], color=colour, marker="o", label=rf"$\mu$={mu:g}"))
+            ax.plot(v, values, "o-", color=colours[mu], lw=1.5, ms=4, label=rf"$\mu$={mu:g}")
         ax.set_xlabel(r"$v_{throw}$ [m/s]")
         ax.set_ylabel(f"area of region {name} [rad/s]")
         ax.set_title(f"region {name}")
         ax.grid(alpha=0.3)
-    fig.legend(handles=handles, loc="outside right upper", fontsize=9)
+    panels[0].legend(loc="upper left", fontsize=9, title="friction", title_fontsize=9)
     ball = _at_standard(ds["area_A"], ())
     j = float(ball["j"]) if "j" in ball.coords else float(ds.attrs["param_j"])
     x = float(ball["rho_over_R"]) if "rho_over_R" in ball.coords else ds.attrs["param_rho"] / ds.attrs["param_R"]
-    fig.suptitle(rf"Realisable steady motions (Fig. 8) vs throw speed at j={j:.3g}, $\rho/R$={x:.3g} "
-                 "(the cube's nearest to the standard ball)")
+    picked = [d for d in ("j", "rho_over_R") if d in ds["area_A"].dims]
+    how = (" (the cube's nearest to the standard ball; choose with study plot FILE --select j=...)"
+           if picked else "")
+    fig.suptitle(rf"Realisable steady motions (Fig. 8) vs throw speed at j={j:.3g}, $\rho/R$={x:.3g}{how}",
+                 fontsize=11)
     return fig
 
 
@@ -120,8 +130,7 @@ register(Study(
 
 
 # ================================================================ outcome-cube
-OUTCOME_NAMES = ("fall_in", "fall_out", "periodic_rolling", "on_rim_at_t_max")
-OUTCOME_COLOURS = ("tab:green", "tab:red", "tab:blue", "0.4")
+PALETTE = P.OUTCOME_PALETTE  # the one outcome palette (same colours and words as fig11-13)
 
 
 def _outcome_axes(s: dict) -> list[Axis]:
@@ -146,21 +155,24 @@ def _outcome_plot(ds):
     for name in ("k_r", "k_d", "mu"):
         outcome = _ensure_dim(outcome, ds, name)
     grid = [d for d in outcome.dims if d not in ("mu", "k_r", "k_d")]  # omega2, beta, omega1, ...
+    codes = [int(c) for c in np.unique(outcome.values)]  # the outcomes that occur: one curve each
     handles = []
     for ax, (along, other) in zip(panels, (("k_r", "k_d"), ("k_d", "k_r"))):
         cut = outcome.isel({other: 0})
         x = cut[along].values
         for i, mu in enumerate(cut["mu"].values):
             style = ("-", "--", ":", "-.")[i % 4]
-            for code, (label, colour) in enumerate(zip(OUTCOME_NAMES, OUTCOME_COLOURS)):
+            for code in codes:
                 frac = (cut.isel(mu=i) == code).mean(grid).transpose(along).values
-                ax.plot(x, frac, style, color=colour, marker="o", ms=4, lw=1.5)
+                ax.plot(x, frac, style, color=PALETTE.colour(code), marker="o", ms=4, lw=1.5)
                 if along == "k_r" and i == 0:
-                    handles.append(Line2D([], [], color=colour, lw=1.5, label=label))
+                    handles.append(Line2D([], [], color=PALETTE.colour(code), lw=1.5, label=PALETTE.label(code)))
             if along == "k_r":
                 handles.append(Line2D([], [], color="k", ls=style, label=rf"$\mu$={mu:g}"))
+        other_txt = {"k_r": r"$k_r$", "k_d": r"$k_d$"}[other]
         ax.set_xlabel({"k_r": r"rolling resistance $k_r$ [1/s]", "k_d": r"drilling resistance $k_d$ [1/s]"}[along]
-                      + f" ({other}={float(cut[other]):g})")
+                      + f" (at {other_txt} = {float(cut[other]):g} 1/s)")
+        ax.set_ylim(-0.02, 1.02)
         ax.grid(alpha=0.3)
     panels[0].set_ylabel("fraction of initial states")
     fig.legend(handles=handles, loc="outside right upper", fontsize=9)
@@ -169,8 +181,9 @@ def _outcome_plot(ds):
     return fig
 
 
-def _flag_var(name, long_name, values, meanings):
-    return Var(name, "1", long_name, dtype="int8", flag_values=tuple(values), flag_meanings=meanings)
+def _flag_var(name, long_name, values, meanings, standard_name=None):
+    return Var(name, "1", long_name, dtype="int8", flag_values=tuple(values), flag_meanings=meanings,
+               standard_name=standard_name)
 
 
 register(Study(
@@ -183,12 +196,12 @@ register(Study(
            "n_beta": 12, "n_omega1": 18},
     sweepable=("mu", "k_r", "k_d", "omega2", "omega3", "j", "rho_over_R"),
     axes=_outcome_axes,
-    variables=[_flag_var("outcome", "outcome of the rolling initial state (DESIGN 4)", outcomes.OUTCOME_FLAG_VALUES,
+    variables=[_flag_var("outcome", "outcome of the rolling initial state (rules: docs/outcome-studies.md)", outcomes.OUTCOME_FLAG_VALUES,
                          outcomes.OUTCOME_FLAG_MEANINGS),
                Var("t_end", "s", "time the ball leaves the rim, starts periodic rolling or reaches t_max"),
                Var("revolutions", "1", "revolutions around the rim's axis until t_end (alpha / 2 pi)"),
                _flag_var("status", "integration status of the trajectory", outcomes.STATUS_FLAG_VALUES,
-                         outcomes.STATUS_FLAG_MEANINGS)],
+                         outcomes.STATUS_FLAG_MEANINGS, standard_name="status_flag")],
     compute=_outcome_compute,
     plot=_outcome_plot,
 ))

@@ -63,31 +63,43 @@ def _fig9_plot(ds):
     fig, ax = P.new_figure(7.5, 6.4)
     ax.contourf(x, j, np.abs(tr), levels=[0.0, 2.0], colors=["0.72"])  # = stable, drawn smoothly
     ax.contour(x, j, np.abs(tr), levels=[2.0], colors="k", linewidths=1.2)
-    P.label_parts(ax, x, j, stable == 1, "S", min_fraction=0.004, fontsize=16)
-    P.label_parts(ax, x, j, stable == 0, "U", min_fraction=0.004, fontsize=16)
-    # boundary of the physically relevant range (striped, as in the paper)
+    if min(x.size, j.size) >= 5:  # on a grid of a few points every part touches the edge: the legend says it
+        P.label_parts(ax, x, j, stable == 1, "S", min_fraction=0.004, fontsize=16)
+        P.label_parts(ax, x, j, stable == 0, "U", min_fraction=0.004, fontsize=16)
+    # the computed domain; when it is the whole physical range, the paper's view with the
+    # outside of the range striped, else the computed domain only (nothing uncomputed drawn)
+    xl, jl = P.grid_limits(x), P.grid_limits(j)
+    full = xl[0] <= 0.05 * x_max and xl[1] >= 0.95 * x_max and jl[0] <= 0.05 * J_MAX and jl[1] >= 0.95 * J_MAX
     y_top = 0.75
-    ax.add_patch(_hatched((x_max, 0.0), 1.0 - x_max, y_top))
-    ax.add_patch(_hatched((0.0, J_MAX), 1.0, y_top - J_MAX))
-    ax.axvline(x_max, color="k", lw=1.0)
-    ax.axhline(J_MAX, color="k", lw=1.0)
+    if full:
+        ax.add_patch(_hatched((x_max, 0.0), 1.0 - x_max, y_top))
+        ax.add_patch(_hatched((0.0, J_MAX), 1.0, y_top - J_MAX))
+        ax.axvline(x_max, color="k", lw=1.0)
+        ax.axhline(J_MAX, color="k", lw=1.0)
     std = solver.Params()
+    std_shown = full or (x.min() <= std.rho / std.R <= x.max() and j.min() <= std.j <= j.max())
     ax.plot([std.rho / std.R], [std.j], "o", ms=11, mfc="none", mec="tab:red", mew=2.2, zorder=8)
-    ax.annotate("standard ball\n(Table 1)", (std.rho / std.R, std.j), xytext=(-14, -34),
-                textcoords="offset points", ha="right", va="top", fontsize=10, color="tab:red",
-                bbox=dict(fc="white", ec="none", alpha=0.8),
-                arrowprops=dict(arrowstyle="-", color="tab:red", lw=1.0))
-    ax.set_xlim(0.0, 1.0)
-    ax.set_ylim(0.0, y_top)
+    if std_shown:
+        ax.annotate("standard ball\n(Table 1)", (std.rho / std.R, std.j), xytext=(-14, -34),
+                    textcoords="offset points", ha="right", va="top", fontsize=10, color="tab:red",
+                    bbox=dict(fc="white", ec="none", alpha=0.8),
+                    arrowprops=dict(arrowstyle="-", color="tab:red", lw=1.0))
+    if full:
+        ax.set_xlim(0.0, 1.0)
+        ax.set_ylim(0.0, y_top)
+    else:
+        ax.set_xlim(x.min(), x.max())
+        ax.set_ylim(j.min(), j.max())
     ax.set_xlabel(r"$\rho/R$ [-]")
     ax.set_ylabel(r"$j$ [-]  ($J = j\,m\,r^2$)")
     ax.set_title(r"Floquet stability of $\omega_2=\omega_3=0$ in (62): S stable ($|\mu_{1,2}|=1$), "
                  r"U unstable", fontsize=11)
     handles = [Patch(fc="0.72", label=r"S: $|\mathrm{tr}\,M| \leq 2$, quasi-periodic"),
                Patch(fc="white", ec="0.5", label=r"U: $|\mu_1| < 1 < |\mu_2|$"),
-               Patch(fc="white", ec="0.3", hatch="///", label=r"outside $0<\rho/R<1-a/R$, $0<j\leq 2/3$"),
                Line2D([], [], ls="none", marker="o", ms=9, mfc="none", mec="tab:red", mew=2,
-                      label=rf"standard ball $\rho/R$={std.rho / std.R:.3f}, $j$={std.j:.3f}")]
+                      label=rf"standard ball $\rho/R$={std.rho / std.R:.3f}, $j$={std.j:.3f}")][: 3 if std_shown else 2]
+    if full:
+        handles.insert(2, Patch(fc="white", ec="0.3", hatch="///", label=r"outside $0<\rho/R<1-a/R$, $0<j\leq 2/3$"))
     fig.legend(handles=handles, loc="outside lower center", ncol=2, fontsize=9, frameon=False)
     return fig
 
@@ -114,6 +126,9 @@ register(Study(
     compute=_fig9_compute,
     plot=_fig9_plot,
     chunks={"rho_over_R": 50},
+    ignores={"mu": "the Floquet problem (62) is about rolling, without friction limits",
+             "k_r": "the Floquet problem (62) is conservative", "k_d": "the Floquet problem (62) is conservative",
+             "j": "j is an axis of the map (give a list or range to change its values)"},
 ))
 
 
@@ -183,15 +198,30 @@ def _types_plot(ds):
     ypos = np.arange(len(codes))[::-1]
     ax.barh(ypos, frac, color=TYPE_COLOURS[:len(codes)], edgecolor="k", lw=0.6)
     for y, f, c in zip(ypos, frac, counts):
-        ax.text(min(f, 1.0) + 0.01, y, f"{f:.1%} ({c})", va="center", fontsize=10)
+        inside = f > 0.75  # a long bar carries its number inside, so the axis stays a fraction in [0, 1]
+        ax.text(f - 0.01 if inside else f + 0.01, y, f"{f:.1%} ({c})", va="center", fontsize=10,
+                ha="right" if inside else "left", color="white" if inside else "k")
     ax.set_yticks(ypos, [nm.replace("_", " ") for nm in names])
-    ax.set_xlim(0, 1.3)
+    ax.set_xlim(0, 1)
     ax.set_xlabel(f"fraction of the {n} sampled states")
-    subset = setting_of(ds, "subset")
     t_max = float(setting_of(ds, "t_max"))
-    ax.set_title(f"Types of solutions of the rolling equations (Theorem 1)\nsubset '{subset}', "
-                 f"seed {setting_of(ds, 'seed')}, $t_{{max}}$ = {t_max:g} s", fontsize=11)
+    ax.set_title(f"Types of solutions of the rolling equations (Theorem 1)\n{_sample_words(ds)};\n"
+                 f"each followed for up to {t_max:g} s", fontsize=11)
     return fig
+
+
+def _sample_words(ds) -> str:
+    """How the states of a ``solution-types`` file were drawn, in words (seed for repeatability)."""
+    subset, seed = setting_of(ds, "subset"), setting_of(ds, "seed")
+    w = [float(setting_of(ds, f"omega{i}_max")) for i in (1, 2, 3)]
+    words = {
+        "box": rf"states drawn uniformly: $\beta$ in [$-\pi$, $\pi$), $|\omega_i| \leq$ "
+               rf"{w[0]:g}, {w[1]:g}, {w[2]:g} 1/s",
+        "pendulum_plane": rf"states drawn uniformly in the plane $\omega_2=\omega_3=0$ (Prop. 6), "
+                          rf"$|\omega_1| \leq$ {w[0]:g} 1/s",
+        "steady": rf"steady motions (47) with $|\omega_{{30}}| \leq$ {w[2]:g} 1/s, every fifth a trivial one (46)",
+    }.get(str(subset), f"subset {subset}")
+    return f"{words} (random seed {seed})"
 
 
 register(Study(
@@ -274,7 +304,7 @@ def _inv_plot(ds):
                                (r"$|\Delta E|/|E_0|$", r"$|\Delta P_I|/|P_0|$", r"$|\Delta P_{II}|/|P_0|$")):
         for k in ds["trajectory"].values:
             v = np.abs(ds[name].sel(trajectory=k).values)
-            ax.semilogy(t[1:], np.maximum(v[1:], tiny), lw=1.0, label=f"trajectory {int(k)}")
+            ax.semilogy(t[1:], np.maximum(v[1:], tiny), lw=1.0, label=state_label(ds.sel(trajectory=k)))
         ax.axhline(rtol, color="k", ls="--", lw=1.0)
         ax.text(t[-1], rtol, " rtol", va="bottom", ha="right", fontsize=9)
         ax.set_ylabel(label)
@@ -286,8 +316,17 @@ def _inv_plot(ds):
                       rf"DOP853 rtol = {rtol:g}; "
                       r"$|P_0| = |(P_I, P_{II})(0)|$", fontsize=10)
     if ds.sizes["trajectory"] <= 8:
-        axes[0].legend(fontsize=8, ncol=4, loc="upper left")
+        handles, labels = axes[0].get_legend_handles_labels()
+        fig.legend(handles, labels, loc="outside lower center", ncol=3, fontsize=8, frameon=False,
+                   title=r"initial state: a steady motion (48) with $\omega_1$ perturbed", title_fontsize=8)
     return fig
+
+
+def state_label(sel) -> str:
+    """The initial state of one trajectory of an ``invariants`` file, in words a reader can use."""
+    b = float(sel["beta_t"].isel(time=0))
+    w1 = float(sel["omega1_t"].isel(time=0))
+    return rf"$\beta_0$={b:.3f} rad, $\omega_1$={w1:+.3f} 1/s"
 
 
 register(Study(

@@ -1,13 +1,14 @@
 """Outcome sections of the phase space (paper Figs. 11-13): in, out, periodic, still on the rim.
 
-Each study is the DESIGN §4 grid (beta x omega1 at fixed omega2, omega3 = 10 1/s) in four
-scenes, stored along a ``scene`` dimension whose auxiliary coordinates ``mu``, ``k_r``,
-``k_d`` and ``t_max`` say what each scene models:
+Each study is the grid of an outcome section (docs/outcome-studies.md: beta x omega1 at fixed
+omega2, omega3 = 10 1/s) in four scenes, stored along a ``scene`` dimension of string labels
+whose non-index coordinates ``mu``, ``k_r``, ``k_d`` and ``t_max`` say what each scene models
+(``ds.sel(scene="slipping")``):
 
-0. rolling only (mu = inf), conservative
-1. slipping (mu = 1), conservative
-2. slipping + drilling resistance (mu = 1, k_d = 0.02 1/s)
-3. slipping + rolling resistance (mu = 1, k_r = 0.02 1/s)
+- ``rolling_only``: mu = inf, conservative
+- ``slipping``: mu = 1, conservative
+- ``drilling``: slipping + drilling resistance (mu = 1, k_d = 0.02 1/s)
+- ``rolling_resistance``: slipping + rolling resistance (mu = 1, k_r = 0.02 1/s)
 
 The physical settings (r, R, a, m, j, g) apply to every scene; the scene's mu, k_r, k_d
 override the run's. Every result field of ``solver.simulate`` is stored, plus
@@ -19,19 +20,20 @@ Sect. 5.1, 5.2.3). Slipping scenes are compared with the rolling-only scene of t
 from __future__ import annotations
 
 import numpy as np
-from matplotlib.colors import BoundaryNorm, ListedColormap
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
-from matplotlib.patches import Patch
 from scipy.optimize import brentq
 
 import solver
 from solver import boundaries, outcomes, steady
+from study import plotting as P
 from study.dataset import params_of, setting_of
 from study.registry import Axis, Study, Var, register
 
-SCENE_NAMES = ("rolling only", "slipping", "slipping + drilling resistance", "slipping + rolling resistance")
-OUTCOME_COLOURS = ("#2b8cbe", "#e6550d", "#31a354", "#bdbdbd")  # in, out, periodic, on rim at t_max
+SCENES = P.SCENE_KEYS
+"""Labels of the ``scene`` coordinate, in file order (the plots' ``study.plotting.SCENE_KEYS``)."""
+SCENE_TITLES = {label: P.scene_text(label) for label in SCENES}
+"""Reader-facing name of each scene (``study.plotting.SCENE_TEXT``), e.g. in the axis long_name."""
 
 SETTINGS = {
     "omega3": 10.0,  # [1/s]
@@ -64,7 +66,7 @@ VARIABLES = [
     *FLOAT_VARS,
     Var("slip_phases", "1", "number of slipping phases", dtype="int32"),
     Var("n_steps", "1", "attempted integrator steps", dtype="int64"),
-    Var("status", "1", "integration status", dtype="int8",
+    Var("status", "1", "integration status", dtype="int8", standard_name="status_flag",
         flag_values=outcomes.STATUS_FLAG_VALUES, flag_meanings=outcomes.STATUS_FLAG_MEANINGS),
 ]
 
@@ -80,15 +82,26 @@ def scene_table(s: dict) -> dict[str, np.ndarray]:
     }
 
 
-def _axes(s: dict) -> list[Axis]:
+def scene_axis(s: dict) -> Axis:
+    """The ``scene`` axis: string labels :data:`SCENES`, with each scene's mu, k_r, k_d [1/s]
+    and t_max [s] as non-index coordinates along it."""
     table = scene_table(s)
-    scene = Axis("scene", np.arange(4), "1", "physical scene: " + "; ".join(
-        f"{i} {name}" for i, name in enumerate(SCENE_NAMES)), aux={
+    return Axis("scene", np.array(SCENES), "", "physical scene (docs/outcome-studies.md#scenes): " + "; ".join(
+        f"{label} = {title}" for label, title in SCENE_TITLES.items()), aux={
         "mu": (table["mu"], "1", "Coulomb friction coefficient of the scene (inf: rolling only)"),
-        "k_r": (table["k_r"], "s-1", "rolling-resistance rate of the scene"),
-        "k_d": (table["k_d"], "s-1", "drilling-resistance rate of the scene"),
+        "k_r": (table["k_r"], "s-1", "rolling-resistance rate k_r of the scene, paper (83)"),
+        "k_d": (table["k_d"], "s-1", "drilling-resistance rate k_d of the scene, paper (83)"),
         "t_max": (table["t_max"], "s", "end of the run for states still on the rim"),
     })
+
+
+def scene_index(label) -> int:
+    """Position of a scene label in :data:`SCENES` (the row of :func:`scene_table`)."""
+    return SCENES.index(str(label))
+
+
+def _axes(s: dict) -> list[Axis]:
+    scene = scene_axis(s)
     beta = Axis("beta", np.linspace(s["beta_min"], s["beta_max"], int(s["n_beta"])), "rad",
                 "initial height angle of the contact point on the rim's cross-section")
     w = float(s["omega1_max"])
@@ -98,7 +111,7 @@ def _axes(s: dict) -> list[Axis]:
 
 def _compute(coords, p: solver.Params, s: dict) -> dict:
     scene, beta, omega1 = coords
-    k = int(scene.flat[0])  # chunks hold one scene (chunks={"scene": 1})
+    k = scene_index(scene.flat[0])  # chunks hold one scene (chunks={"scene": 1})
     table = scene_table(s)
     params = p.replace(mu=table["mu"][k], k_r=table["k_r"][k], k_d=table["k_d"][k])
     states = np.stack([beta, omega1, np.full_like(beta, s["omega2"]), np.full_like(beta, s["omega3"])], axis=-1)
@@ -133,24 +146,63 @@ def _derive(ds) -> dict:
     return {"boundary_type": (dims, labels, BOUNDARY_ATTRS)}
 
 
-BOUNDARY_MARKERS = {  # how the plot draws each boundary type
-    boundaries.DEADLOCK: dict(marker=".", ls="", ms=3.5, color="k", label="deadlock boundary (F2_min -> 0)"),
-    boundaries.SEPARATRIX: dict(marker="x", ls="", ms=3.5, mew=0.9, color="white",
-                                label="separatrix boundary (half period -> inf)"),
-    boundaries.SLIPPING_INDUCED: dict(marker="+", ls="", ms=4.0, mew=0.9, color="#7a0177",
-                                      label="slipping-induced boundary"),
+BOUNDARY_STYLES = {  # how the plot draws each boundary type: a thin line along the cell edges
+    boundaries.DEADLOCK: dict(color="k", lw=1.1, label=r"deadlock boundary ($F_{2,min} \to 0$)"),
+    boundaries.SEPARATRIX: dict(color="#ffff33", lw=1.3, label=r"separatrix boundary (half period $\to \infty$)"),
+    boundaries.SLIPPING_INDUCED: dict(color="#e7298a", lw=1.3, label="slipping-induced boundary"),
+    boundaries.UNDETERMINED: dict(color="#00e5ff", lw=1.3, label="undetermined boundary (grid too coarse to tell)"),
 }
 
 
-def _draw_boundaries(ax, sel, w1, beta) -> None:
+def _line_kw(style: dict) -> dict:
+    """matplotlib keywords of a boundary style (the outline becomes a stroke path effect)."""
+    from matplotlib import patheffects
+
+    kw = {k: v for k, v in style.items() if k not in ("outline", "label")}
+    if style.get("outline"):
+        kw["path_effects"] = [patheffects.Stroke(linewidth=style["lw"] + 1.2, foreground=style["outline"]),
+                              patheffects.Normal()]
+    return kw
+
+
+def boundary_segments(labels, periodic, w1, beta, code) -> list:
+    """Cell edges [(x0, y0), (x1, y1)] between a periodic cell and a non-periodic one, both typed ``code``.
+
+    ``labels``, ``periodic``: (beta, omega1) arrays; w1, beta: the grid [1/s, rad]. The edges lie
+    half-way between grid points, so the line runs exactly along the boundary of the region.
+    """
+    xe = np.concatenate([[1.5 * w1[0] - 0.5 * w1[1]], 0.5 * (w1[1:] + w1[:-1]), [1.5 * w1[-1] - 0.5 * w1[-2]]])
+    ye = np.concatenate([[1.5 * beta[0] - 0.5 * beta[1]], 0.5 * (beta[1:] + beta[:-1]),
+                         [1.5 * beta[-1] - 0.5 * beta[-2]]])
+    typed = labels == code
+    segs = []
+    # neighbours along omega1 (columns j, j + 1): a vertical edge at xe[j + 1]
+    pair = (periodic[:, :-1] != periodic[:, 1:]) & typed[:, :-1] & typed[:, 1:]
+    for i, j in zip(*np.nonzero(pair)):
+        segs.append([(xe[j + 1], ye[i]), (xe[j + 1], ye[i + 1])])
+    # neighbours along beta (rows i, i + 1): a horizontal edge at ye[i + 1]
+    pair = (periodic[:-1, :] != periodic[1:, :]) & typed[:-1, :] & typed[1:, :]
+    for i, j in zip(*np.nonzero(pair)):
+        segs.append([(xe[j], ye[i + 1]), (xe[j + 1], ye[i + 1])])
+    return segs
+
+
+def _draw_boundaries(ax, sel, w1, beta) -> set:
+    """Draw the typed boundaries of one scene; returns the codes drawn."""
+    from matplotlib.collections import LineCollection
+
     if "boundary_type" not in sel:
-        return
+        return set()
     lab = sel["boundary_type"].transpose("beta", "omega1").values
-    W, B = np.meshgrid(w1, beta)
-    for code, style in BOUNDARY_MARKERS.items():
-        m = lab == code
-        if m.any():
-            ax.plot(W[m], B[m], zorder=4, **{k: v for k, v in style.items() if k != "label"})
+    periodic = sel["outcome"].transpose("beta", "omega1").values == outcomes.PERIODIC_ROLLING
+    drawn = set()
+    for code, style in BOUNDARY_STYLES.items():
+        segs = boundary_segments(lab, periodic, w1, beta, code)
+        if segs:
+            ax.add_collection(LineCollection(segs, zorder=4, label=style["label"], gid=f"boundary_{code}",
+                                             capstyle="projecting", **_line_kw(style)))
+            drawn.add(code)
+    return drawn
 
 
 def steady_beta0(omega2: float, omega3: float, p: solver.Params, lo: float, hi: float) -> float | None:
@@ -162,54 +214,96 @@ def steady_beta0(omega2: float, omega3: float, p: solver.Params, lo: float, hi: 
     return float(brentq(f, grid[sign[0]], grid[sign[0] + 1])) if sign.size else None
 
 
+PALETTE = P.OUTCOME_PALETTE  # the one outcome palette of every outcome figure
+STAR = dict(marker="*", ls="", ms=11, mfc="none", mec="k", mew=1.3, zorder=5)  # hollow: the cells show through
+TIME_LEVELS = (5.0, 10.0, 20.0, 40.0)  # [s] contours of the time on the rim in dissipative panels
+
+
+def _small_region(mask, fraction: float = 0.08):
+    """(row slice, column slice) of a small region of ``mask`` with a margin, or None if empty or large."""
+    if not mask.any():
+        return None
+    rows, cols = np.nonzero(mask.any(1))[0], np.nonzero(mask.any(0))[0]
+    h, w = rows[-1] - rows[0] + 1, cols[-1] - cols[0] + 1
+    if h > fraction * mask.shape[0] or w > fraction * mask.shape[1]:
+        return None
+    pad_r, pad_c = max(2, h), max(2, w)
+    return (slice(max(rows[0] - pad_r, 0), rows[-1] + pad_r + 1), slice(max(cols[0] - pad_c, 0), cols[-1] + pad_c + 1))
+
+
+def _panel(ax, sel, w1, beta, b0, former, extras, labels=True, star_size=None) -> tuple[set, set]:
+    """Draw one scene (outcomes, typed boundaries, star, former periodic outline, time contours);
+    returns (outcome codes drawn, boundary types drawn)."""
+    cmap, norm = PALETTE.cmap_norm()
+    out = sel["outcome"].transpose("beta", "omega1").values
+    ax.pcolormesh(w1, beta, out, cmap=cmap, norm=norm, shading="nearest", rasterized=True)
+    kinds = _draw_boundaries(ax, sel, w1, beta)
+    ax.set_xlim(*P.grid_limits(w1))
+    ax.set_ylim(*P.grid_limits(beta))
+    if b0 is not None and beta.min() <= b0 <= beta.max() and w1.min() <= 0.0 <= w1.max():
+        ax.plot([0.0], [b0], **(STAR if star_size is None else dict(STAR, ms=star_size, mew=1.0)))
+        extras["star"] = Line2D([], [], **dict(STAR, label="steady motion (48)"))
+    if float(sel["k_r"]) != 0 or float(sel["k_d"]) != 0:
+        if former is not None and former.any():
+            ax.contour(w1, beta, former.astype(float), levels=[0.5], colors="k",
+                       linewidths=1.0, linestyles=":", zorder=6)  # above the star
+            extras["former"] = Line2D([], [], color="k", lw=1.0, ls=":", label="periodic region without dissipation")
+        t_end = sel["t_end"].transpose("beta", "omega1").values
+        levels = [lv for lv in TIME_LEVELS if lv < float(sel["t_max"]) and np.nanmin(t_end) < lv < np.nanmax(t_end)]
+        if levels:
+            cs = ax.contour(w1, beta, t_end, levels=levels, colors="k", linewidths=0.7, linestyles="-")
+            if labels:
+                P.place_contour_labels(ax, cs, fmt="%g s", avoid=[(0.0, b0)] if b0 is not None else [])
+            extras["time"] = Line2D([], [], color="k", lw=0.7, label="time on the rim [s]")
+    return set(np.unique(out).tolist()), kinds
+
+
+def _zoom(ax, sel, w1, beta, b0, former, extras, region) -> None:
+    """An inset (upper right) magnifying a small periodic or former periodic region, so that it
+    stays visible under the star and the lines."""
+    rs, cs = region
+    inset = ax.inset_axes([0.6, 0.58, 0.38, 0.38])
+    part = sel.isel(beta=rs, omega1=cs)
+    _panel(inset, part, w1[cs], beta[rs], b0, None if former is None else former[rs, cs], extras, star_size=7)
+    inset.tick_params(labelsize=6, length=2)
+    inset.set_title("zoom", fontsize=7, pad=2)
+    ax.indicate_inset_zoom(inset, edgecolor="k", lw=0.8)
+
+
 def _plot(ds):
     fig = Figure(figsize=(11.0, 9.0), layout="constrained")
     axes = fig.subplots(2, 2, sharex=True, sharey=True)
     w1 = ds["omega1"].values
     beta = ds["beta"].values
-    cmap = ListedColormap(OUTCOME_COLOURS)
-    norm = BoundaryNorm(np.arange(-0.5, 4.5), cmap.N)
     p = params_of(ds)
     omega2, omega3 = float(setting_of(ds, "omega2")), float(setting_of(ds, "omega3"))
     b0 = steady_beta0(omega2, omega3, p, beta.min(), beta.max())
-    conservative_periodic = None
-    for k, ax in enumerate(axes.flat):
+    codes, kinds = set(), set()
+    extras = {}
+    former = None  # the periodic region of the last conservative scene drawn
+    for k, ax in enumerate(axes.flat[: ds.sizes["scene"]]):
         sel = ds.isel(scene=k)
-        out = sel["outcome"].transpose("beta", "omega1").values
-        ax.pcolormesh(w1, beta, out, cmap=cmap, norm=norm, shading="nearest", rasterized=True)
-        _draw_boundaries(ax, sel, w1, beta)
-        mu, k_r, k_d = (float(sel[c]) for c in ("mu", "k_r", "k_d"))
-        if k_r == 0 and k_d == 0:
-            conservative_periodic = out == outcomes.PERIODIC_ROLLING
-        else:
-            t_end = sel["t_end"].transpose("beta", "omega1").values
-            levels = [lv for lv in (5.0, 10.0, 20.0, 40.0) if lv < float(sel["t_max"])]
-            cs = ax.contour(w1, beta, t_end, levels=levels, colors="k", linewidths=0.7, linestyles="-")
-            ax.clabel(cs, fmt="%g s", fontsize=7)
-            if conservative_periodic is not None and conservative_periodic.any():
-                ax.contour(w1, beta, conservative_periodic.astype(float), levels=[0.5], colors="k",
-                           linewidths=0.9, linestyles=":")
-        if b0 is not None:
-            ax.plot([0.0], [b0], marker="*", ms=13, mfc="yellow", mec="k", zorder=5)
-        mu_txt = r"$\mu=\infty$" if np.isinf(mu) else rf"$\mu={mu:g}$"
-        extra = (rf", $k_d={k_d:g}$ 1/s" if k_d else "") + (rf", $k_r={k_r:g}$ 1/s" if k_r else "")
-        ax.set_title(f"{SCENE_NAMES[k]} ({mu_txt}{extra})", fontsize=10)
+        conservative = float(sel["k_r"]) == 0 and float(sel["k_d"]) == 0
+        periodic = sel["outcome"].transpose("beta", "omega1").values == outcomes.PERIODIC_ROLLING
+        small = _small_region(periodic if conservative or former is None else former | periodic)
+        # a small region gets a zoom, which then carries the time labels (the panel stays clear)
+        c, t = _panel(ax, sel, w1, beta, b0, None if conservative else former, extras, labels=small is None)
+        codes, kinds = codes | c, kinds | t
+        if small is not None:
+            _zoom(ax, sel, w1, beta, b0, None if conservative else former, extras, small)
+        if conservative:
+            former = periodic
+        ax.set_title(P.scene_title(sel), fontsize=10)
     for ax in axes[1]:
         ax.set_xlabel(r"initial transversal angular velocity $\omega_1$ [1/s]")
     for ax in axes[:, 0]:
         ax.set_ylabel(r"initial height angle $\beta$ [rad]")
-    handles = [Patch(color=c, label=lbl) for c, lbl in zip(OUTCOME_COLOURS, (
-        "falls in (score)", "falls out", "periodic rolling", "on the rim at t_max"))]
-    handles.append(Line2D([], [], marker="*", ls="", ms=12, mfc="yellow", mec="k", label="steady motion (48)"))
-    if "boundary_type" in ds:
-        for style in BOUNDARY_MARKERS.values():
-            st = dict(style, ms=7)
-            if st["color"] == "white":
-                st["mec"] = st["color"] = "0.4"  # white crosses are invisible on the legend's background
-            handles.append(Line2D([], [], **st))
-    fig.legend(handles=handles, loc="outside lower center", ncol=4, fontsize=9, frameon=False)
-    fig.suptitle(rf"{ds.attrs['title']}: $\omega_2={omega2:g}$ 1/s, $\omega_3={omega3:g}$ 1/s"
-                 "\nlines in dissipative panels: time on the rim; dotted: former periodic region", fontsize=11)
+    handles = PALETTE.handles(codes)
+    handles += [Line2D([], [], **_line_kw(BOUNDARY_STYLES[c]), label=BOUNDARY_STYLES[c]["label"])
+                for c in BOUNDARY_STYLES if c in kinds]
+    handles += [extras[key] for key in ("star", "time", "former") if key in extras]
+    fig.legend(handles=handles, loc="outside lower center", ncol=3, fontsize=9, frameon=False)
+    fig.suptitle(rf"{ds.attrs['title']}: $\omega_2={omega2:g}$ 1/s, $\omega_3={omega3:g}$ 1/s", fontsize=11)
     return fig
 
 
@@ -225,4 +319,6 @@ for _name, _omega2, _fig in (("fig11", 35.0, 11), ("fig12", 65.0, 12), ("fig13",
         plot=_plot,
         chunks={"scene": 1, "beta": 24},
         derive=_derive,
+        ignores={k: "each of the four scenes sets its own mu, k_r and k_d; change mu_slip or k_dissipation"
+                 for k in ("mu", "k_r", "k_d")},
     ))

@@ -41,8 +41,14 @@ def _axes(s: dict) -> list[Axis]:
 
 
 def _study(name, title, variables, compute, plot, **settings) -> Study:
+    # steady motions of the conservative rolling equations: no dissipation; friction only where declared
+    ignores = {k: "steady motions of the conservative rolling equations do not depend on dissipation"
+               for k in ("k_r", "k_d")}
+    if "mu" not in settings:
+        ignores["mu"] = "this map of the steady rolling motions does not depend on friction"
     return register(Study(name=name, title=title, settings={**GRID, **settings}, quick=QUICK,
-                          axes=_axes, variables=variables, compute=compute, plot=plot, chunks=CHUNKS))
+                          axes=_axes, variables=variables, compute=compute, plot=plot, chunks=CHUNKS,
+                          ignores=ignores))
 
 
 def _flag(name, long_name, meanings):
@@ -72,6 +78,8 @@ def _fig3_plot(ds):
     P.singular_lines(ax)
     top = w.max() * 0.88
     for text, x in ZONES.items():
+        if not b.min() <= x <= b.max():  # a restricted grid: only the zones it computed
+            continue
         ax.text(x, top, text, ha="center", va="center", fontsize=14, fontweight="bold",
                 bbox=dict(fc="white", ec="none", alpha=0.8))
     P.beta_omega_axes(ax, ds, r"Steady motions (48): $\omega_{20}(\beta_0, \omega_{30})$; "
@@ -111,8 +119,9 @@ def _fig5_plot(ds):
     bs = steady.beta_star(p)
     for x in (-bs, bs):
         ax.axvline(x, color="tab:red", ls="--", lw=1.2)
-    ax.text(bs, w.max() * 0.93, r" $\beta^*$", color="tab:red", fontsize=12, ha="left")
-    ax.text(-bs, w.max() * 0.93, r"$-\beta^*$ ", color="tab:red", fontsize=12, ha="right")
+    for x, text, ha in ((bs, r" $\beta^*$", "left"), (-bs, r"$-\beta^*$ ", "right")):
+        if b.min() <= x <= b.max():
+            ax.text(x, w.max() * 0.93, text, color="tab:red", fontsize=12, ha=ha)
     bh, w_tip = _beta_hat_points(p, float(np.abs(w).max()))
     ax.plot([bh, bh], w_tip, "o", color="k", ms=6, zorder=8)
     ax.annotate(r"$\hat\beta$", (bh, w_tip[1]), xytext=(8, 6), textcoords="offset points", fontsize=12)
@@ -179,10 +188,18 @@ def _fig7_plot(ds):
     b, w, v = P.plane(ds, "throw_speed")
     ax.contourf(b, w, np.nan_to_num(v, nan=1e6, posinf=1e6), levels=[-1.0, v_throw], colors=["0.78"])
     cs = ax.contour(b, w, v, levels=list(V_LEVELS), colors=V_COLOURS, linewidths=1.4)
-    ax.clabel(cs, fmt=lambda x: f"{x:g} m/s", fontsize=8)
     P.singular_lines(ax)
     P.beta_omega_axes(ax, ds, rf"Kinetic energy limit (59): contours of $v_{{throw}}$; "
                               rf"shaded: $v_{{throw}} \leq$ {v_throw:g} m/s")
+    # one label per speed, clear of the edges, the other lines and the singular points; no
+    # break in the line (it may border the shading); the legend names every line, even a tiny one
+    P.place_contour_labels(ax, cs, fmt=lambda x: f"{x:g} m/s", fontsize=8, inline=False, margin=0.06,
+                           avoid=[(-np.pi / 2, 0.0), (np.pi / 2, 0.0)])
+    drawn = [lv for lv, segs in zip(cs.levels, cs.allsegs) if any(len(s) for s in segs)]
+    handles = [Line2D([], [], color=c, lw=1.4, label=f"{lv:g} m/s") for lv, c in zip(V_LEVELS, V_COLOURS)
+               if lv in drawn]
+    handles.append(Patch(fc="0.78", label=rf"$v_{{throw}} \leq$ {v_throw:g} m/s"))
+    fig.legend(handles=handles, loc="outside right upper", fontsize=9, title=r"$v_{throw}$ (59)")
     return fig
 
 
@@ -209,33 +226,35 @@ def _fig8_plot(ds):
     b, w, region = P.plane(ds, "region")
     _, _, w20 = P.plane(ds, "omega20")
     letters = dict(zip(steady.REGION_FLAG_VALUES, ds["region"].attrs["flag_meanings"].split()))
-    letter_points = []
     for code, colour in REGION_COLOURS.items():
         ax.contourf(b, w, (region == code).astype(float), levels=[0.5, 1.5], colors=[colour])
         ax.contour(b, w, (region == code).astype(float), levels=[0.5], colors="0.35", linewidths=0.8)
-        letter_points += P.label_parts(ax, b, w, region == code, letters[code][0], min_fraction=1e-4,
-                                       fontsize=16)
     inside = region != steady.REGION_NONE
-    scale = np.array([np.ptp(b), np.ptp(w)])
-    for sign, text in ((1, "+"), (-1, "\u2212")):
-        for x, y in _sign_points(b, w, inside & (np.sign(w20) == sign), region):
-            near = any(np.hypot(*((np.array([x, y]) - q) / scale)) < 0.04 for q in letter_points)
-            ax.annotate(text, (x, y), xytext=(15, 0) if near else (0, 0), textcoords="offset points",
-                        ha="center", va="center", fontsize=15, fontweight="bold", zorder=7)
+    for (x, y), text in region_labels(b, w, region, w20, letters):
+        ax.text(x, y, text, ha="center", va="center", fontsize=15, fontweight="bold", zorder=7,
+                bbox=dict(fc="white", ec="none", alpha=0.6, pad=0.5))
     ax.contour(b, w, np.where(inside, w20, np.nan), levels=[0.0], colors="k", linestyles=":", linewidths=1.8)
     P.singular_lines(ax, circles=False)
-    P.beta_omega_axes(ax, ds, rf"Realisable steady motions: $\mu$={p.mu:g}, $v_{{throw}}$={v_throw:g} m/s; "
+    P.beta_omega_axes(ax, ds, rf"Realisable steady motions: $\mu$={_mu_text(p.mu)}, $v_{{throw}}$={v_throw:g} m/s; "
                               r"$\pm$: sign of $\omega_{20}$, dotted: $\omega_{20}=0$")
     return fig
 
 
-def _sign_points(b, w, part, region):
-    """Inner points of the parts of ``part``, one per connected piece (pieces of each region apart)."""
-    points = []
+def _mu_text(mu: float) -> str:
+    """mu for a title: a number, or the infinity sign (rolling only)."""
+    return r"$\infty$" if np.isinf(mu) else f"{mu:g}"
+
+
+def region_labels(b, w, region, w20, letters) -> list:
+    """One label per (region, sign of omega20) that occurs: "A+", "B−", ... at a point deep
+    inside the largest connected piece of that region with that sign (other pieces unlabelled)."""
+    out = []
     for code in (steady.REGION_A, steady.REGION_B, steady.REGION_C):
-        for piece in P.components(part & (region == code), min_fraction=1e-4):
-            points.append(P.inner_point(b, w, piece))
-    return points
+        for sign, text in ((1, "+"), (-1, "−")):
+            pieces = P.components((region == code) & (np.sign(w20) == sign), min_fraction=0.0)
+            if pieces:
+                out.append((P.inner_point(b, w, pieces[0]), letters[code][0] + text))
+    return out
 
 
 _study("fig8", "Physically realisable steady motions (paper Fig. 8)",

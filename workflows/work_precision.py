@@ -1,11 +1,11 @@
-"""Work-precision of the outcome engine against scipy (DESIGN §7).
+"""Work-precision of the outcome engine against scipy (docs/work-precision.md).
 
 One seeded sample of initial states from the three outcome sections (omega2 = 35, 65,
 105 1/s; omega3 = 10 1/s; beta in [0.8, 1.8] rad; omega1 in [-20, 20] 1/s) is run in every
 scene by each method at each tolerance, in the same process at the same moment: rimroll's
 compiled DP5 and DOP853 and scipy's ``solve_ivp`` RK45, DOP853 and LSODA (same right-hand
 side, same event rules: ``solver.reference``). The reference is rimroll's DOP853 at
-rtol = 1e-12. Recorded per (scene, method, rtol): seconds per trajectory (one thread),
+rtol = 1e-12. Recorded per (scene, integrator, rtol): seconds per trajectory (one thread),
 misclassified fraction, |t_end| error (median, max), median energy drift.
 
 Timings exclude compilation (each kernel is warmed up first). scipy runs use the first
@@ -24,13 +24,14 @@ from matplotlib.figure import Figure
 
 import solver
 from solver import reference
-from study.dataset import setting_of
+from study import plotting as P
 from study.registry import Axis, Study, Var, register
-from workflows.outcome_grids import SCENE_NAMES, scene_table
+from workflows.outcome_grids import scene_axis, scene_index, scene_table
 
-METHODS = ("rimroll_dp5", "rimroll_dop853", "scipy_RK45", "scipy_DOP853", "scipy_LSODA")
+INTEGRATORS = ("rimroll_dp5", "rimroll_dop853", "scipy_rk45", "scipy_dop853", "scipy_lsoda")
+"""Labels of the ``integrator`` coordinate: rimroll's compiled methods, then scipy's solve_ivp."""
 OURS = {"rimroll_dp5": "dp5", "rimroll_dop853": "dop853"}
-SCIPY = {"scipy_RK45": "RK45", "scipy_DOP853": "DOP853", "scipy_LSODA": "LSODA"}
+SCIPY = {"scipy_rk45": "RK45", "scipy_dop853": "DOP853", "scipy_lsoda": "LSODA"}
 REFERENCE_RTOL = 1e-12
 ATOL_OVER_RTOL = 1e-2  # atol = 1e-2 * rtol for every method (state scales ~1 rad, ~10 1/s)
 
@@ -64,16 +65,12 @@ def sample_states(s: dict) -> np.ndarray:
 
 
 def _axes(s: dict) -> list[Axis]:
-    table = scene_table(s)
     rtols = np.geomspace(float(s["rtol_max"]), float(s["rtol_min"]), int(s["n_rtol"]))
     return [
-        Axis("scene", np.arange(4), "1", "physical scene: " + "; ".join(f"{i} {n}" for i, n in enumerate(SCENE_NAMES)),
-             aux={"mu": (table["mu"], "1", "Coulomb friction coefficient of the scene (inf: rolling only)"),
-                  "k_r": (table["k_r"], "s-1", "rolling-resistance rate of the scene"),
-                  "k_d": (table["k_d"], "s-1", "drilling-resistance rate of the scene"),
-                  "t_max": (table["t_max"], "s", "end of the run for states still on the rim")}),
-        Axis("method", np.arange(len(METHODS)), "1", "integration method: " + "; ".join(
-            f"{i} {m}" for i, m in enumerate(METHODS)), aux={"method_name": (np.array(METHODS), "1", "method name")}),
+        scene_axis(s),
+        Axis("integrator", np.array(INTEGRATORS), "", "integration method: rimroll_dp5 / rimroll_dop853 = rimroll's "
+             "compiled Dormand-Prince 5(4) / 8(5,3); scipy_rk45 / scipy_dop853 / scipy_lsoda = scipy.integrate."
+             "solve_ivp with RK45 / DOP853 / LSODA on the same equations and event rules"),
         Axis("rtol", rtols, "1", "relative tolerance of the run (atol = 1e-2 rtol)"),
     ]
 
@@ -117,19 +114,20 @@ def _scores(res, ref, seconds):
 
 
 def _compute(coords, p: solver.Params, s: dict) -> dict:
-    scene, method, rtol = coords
+    scene, integrator, rtol = coords
     shape = scene.shape
     out = {v.name: np.full(shape, np.nan) for v in VARIABLES}
     out["n_trajectories"] = np.zeros(shape, dtype=np.int32)
     states = sample_states(s)
-    for k in np.unique(scene).astype(int):
+    for label in np.unique(scene):
+        k = scene_index(label)
         params, t_max = _scene_params(p, s, k)
         n_scipy = min(int(s["n_scipy"] if params.rolling_only else s["n_scipy_hybrid"]), len(states))
         ref, _ = _ours(states, params, t_max, REFERENCE_RTOL, "dop853")
-        for i in np.unique(method).astype(int):
-            name = METHODS[i]
+        for name in np.unique(integrator):
+            name = str(name)
             for r in np.unique(rtol):
-                where = (scene == k) & (method == i) & (rtol == r)
+                where = (scene == label) & (integrator == name) & (rtol == r)
                 if name in OURS:
                     res, sec = _ours(states, params, t_max, float(r), OURS[name])
                     scores = _scores(res, ref, sec)
@@ -147,43 +145,128 @@ def _compute(coords, p: solver.Params, s: dict) -> dict:
     return out
 
 
+STYLES = {"rimroll_dp5": ("C0", "o-"), "rimroll_dop853": ("C1", "s-"), "scipy_rk45": ("C2", "^--"),
+          "scipy_dop853": ("C3", "v--"), "scipy_lsoda": ("C4", "d--")}
+RTOL_NOTED = ("rimroll_dp5", "scipy_rk45")  # curves whose points carry their log10 rtol
+
+
+def _integrator_dim(ds) -> str:
+    """The file's integrator dimension: ``integrator`` (string labels) or, in older files, ``method``."""
+    return "integrator" if "integrator" in ds.dims else "method"
+
+
+def integrator_names(ds) -> list[str]:
+    """Labels of :data:`INTEGRATORS` along the file's integrator dimension (e.g. rimroll_dp5,
+    scipy_rk45); older files (numeric ``method`` with ``method_name`` such as scipy_RK45, in the
+    order of :data:`INTEGRATORS`) are read as the same labels."""
+    dim = _integrator_dim(ds)
+    if "method_name" in ds.coords:
+        return [str(v).lower() for v in ds["method_name"].values]
+    values = ds[dim].values
+    if values.dtype.kind in "USO":
+        return [str(v).lower() for v in values]
+    return [INTEGRATORS[int(v)] for v in values]
+
+
+def _scene_position(ds, scene) -> int:
+    """Position along ``scene`` of a scene label (e.g. ``"rolling_only"``) or of a position (int),
+    for string-labelled files and older numeric ones alike."""
+    if isinstance(scene, (int, np.integer)):
+        return int(scene)
+    keys = [P.scene_key(v) for v in ds["scene"].values]
+    if scene not in keys:
+        raise ValueError(f"no scene {scene!r} in this file; scenes: {', '.join(keys)}")
+    return keys.index(scene)
+
+
+def _count_text(ds, i: int) -> str:
+    """'n states' of integrator i per scene kind: rolling only / slipping scenes (from n_trajectories)."""
+    dim = _integrator_dim(ds)
+    n = ds["n_trajectories"].isel({dim: i}).max("rtol").values  # per scene
+    mu = ds["mu"].values
+    roll = sorted({int(v) for v in n[np.isinf(mu)]})
+    slip = sorted({int(v) for v in n[np.isfinite(mu)]})
+    return f"{'/'.join(map(str, roll)) or '-'} rolling-only, {'/'.join(map(str, slip)) or '-'} slipping states"
+
+
 def _plot(ds) -> Figure:
-    fig = Figure(figsize=(11.0, 8.5), layout="constrained")
-    axes = fig.subplots(2, 2, sharex=True, sharey=True)
-    styles = {"rimroll_dp5": ("C0", "o-"), "rimroll_dop853": ("C1", "s-"), "scipy_RK45": ("C2", "^--"),
-              "scipy_DOP853": ("C3", "v--"), "scipy_LSODA": ("C4", "d--")}
-    for k, ax in enumerate(axes.flat):
-        for i, name in enumerate(ds["method_name"].values):
-            sel = ds.isel(scene=k, method=i)
+    dim = _integrator_dim(ds)
+    names = integrator_names(ds)
+    n_scene = ds.sizes["scene"]
+    fig = Figure(figsize=(4.0 * n_scene, 8.0), layout="constrained")
+    axes = fig.subplots(2, n_scene, sharey="row", squeeze=False)
+    rtol = ds["rtol"].values
+    for k in range(n_scene):
+        top, bottom = axes[0, k], axes[1, k]
+        for i, name in enumerate(names):
+            sel = ds.isel({"scene": k, dim: i})
+            colour, style = STYLES.get(name, ("0.3", "x:"))
+            label = f"{name} ({_count_text(ds, i)})"
             x = sel["seconds_per_trajectory"].values
             y = sel["t_end_error_median"].values
             ok = np.isfinite(x) & np.isfinite(y) & (y > 0)
             if ok.any():
-                colour, style = styles[str(name)]
-                ax.loglog(x[ok], y[ok], style, color=colour, label=str(name), ms=4)
-        ax.set_title(SCENE_NAMES[k], fontsize=10)
-        ax.grid(True, which="both", alpha=0.3)
-    for ax in axes[1]:
-        ax.set_xlabel("seconds per trajectory (one thread)")
-    for ax in axes[:, 0]:
-        ax.set_ylabel(r"median $|t_{end} - t_{end}^{ref}|$ [s]")
-    handles, labels = axes.flat[0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="outside lower center", ncol=5, fontsize=9, frameon=False)
-    ratio = speed_ratio(ds)
-    extra = f"; rimroll dp5 vs scipy RK45 at rtol 1e-8 (rolling only): {ratio:.0f}x faster" if np.isfinite(ratio) else ""
-    fig.suptitle(f"Work-precision: error against cost, reference rimroll DOP853 at rtol {REFERENCE_RTOL:g}{extra}\n"
-                 f"{int(setting_of(ds, 'n_states'))} states (scipy: {int(setting_of(ds, 'n_scipy'))} rolling only, "
-                 f"{int(setting_of(ds, 'n_scipy_hybrid'))} slipping), one point per rtol", fontsize=10)
+                top.loglog(x[ok], y[ok], style, color=colour, label=label, ms=4)
+                if name in RTOL_NOTED:
+                    for xi, yi, r in zip(x[ok], y[ok], rtol[ok]):
+                        top.annotate(f"{np.log10(r):.0f}", (xi, yi), xytext=(3, 3), textcoords="offset points",
+                                     fontsize=6.5, color=colour)
+            m = sel["misclassified_fraction"].values
+            okm = np.isfinite(m)
+            if okm.any():
+                bottom.semilogx(rtol[okm], m[okm], style, color=colour, label=label, ms=4)
+        top.set_title(P.scene_text(ds["scene"].values[k]), fontsize=10)
+        top.grid(True, which="both", alpha=0.3)
+        top.set_xlabel("seconds per trajectory (one thread)")
+        bottom.set_xlabel("rtol (atol = 1e-2 rtol)")
+        bottom.invert_xaxis()
+        worst = np.nanmax(ds["misclassified_fraction"].values) if np.isfinite(ds["misclassified_fraction"]).any() else 0
+        bottom.set_ylim(-0.002, max(0.05, 1.1 * float(worst)))
+        bottom.grid(True, which="both", alpha=0.3)
+    axes[0, 0].set_ylabel(r"median $|t_{end} - t_{end}^{ref}|$ [s]" "\n(numbers: $\\log_{10}$ rtol)")
+    axes[1, 0].set_ylabel("misclassified fraction of the states")
+    handles, labels = [], []
+    for ax in axes.flat:
+        for h, lbl in zip(*ax.get_legend_handles_labels()):
+            if lbl not in labels:
+                handles.append(h)
+                labels.append(lbl)
+    fig.legend(handles, labels, loc="outside lower center", ncol=3, fontsize=9, frameon=False)
+    fig.suptitle(f"Work-precision: error and misclassification against cost; reference rimroll DOP853 at rtol "
+                 f"{REFERENCE_RTOL:g}", fontsize=11)
     return fig
 
 
-def speed_ratio(ds, scene: int = 0, rtol: float = 1e-8) -> float:
+def speed_ratio(ds, scene: str = "rolling_only", rtol: float = 1e-8) -> float:
     """scipy RK45 seconds per trajectory over rimroll DP5's on the same states, at the rtol nearest ``rtol``."""
-    sel = ds.isel(scene=scene).sel(rtol=rtol, method="nearest")
-    names = list(ds["method_name"].values)
-    ours = float(sel["seconds_per_trajectory_common"].isel(method=names.index("rimroll_dp5")))
-    theirs = float(sel["seconds_per_trajectory_common"].isel(method=names.index("scipy_RK45")))
+    sel = ds.isel(scene=_scene_position(ds, scene)).sel(rtol=rtol, method="nearest")
+    names = integrator_names(ds)
+    dim = _integrator_dim(ds)
+    ours = float(sel["seconds_per_trajectory_common"].isel({dim: names.index("rimroll_dp5")}))
+    theirs = float(sel["seconds_per_trajectory_common"].isel({dim: names.index("scipy_rk45")}))
     return theirs / ours
+
+
+def _derive(ds) -> dict:
+    """``speed_ratio_rk45_dp5`` per scene: the median over rtol of scipy RK45's seconds per trajectory
+    over rimroll DP5's on the same states, with its spread over rtol in the attributes (a timing
+    of one run on a possibly shared machine: compare ratios, not seconds)."""
+    names = integrator_names(ds)
+    if "rimroll_dp5" not in names or "scipy_rk45" not in names:
+        return {}
+    dim = _integrator_dim(ds)
+    common = ds["seconds_per_trajectory_common"].transpose("scene", dim, "rtol").values
+    with np.errstate(all="ignore"):
+        ratio = common[:, names.index("scipy_rk45")] / common[:, names.index("rimroll_dp5")]  # (scene, rtol)
+        med = np.nanmedian(np.where(np.isfinite(ratio), ratio, np.nan), axis=1)
+        lo = np.nanmin(np.where(np.isfinite(ratio), ratio, np.nan), axis=1)
+        hi = np.nanmax(np.where(np.isfinite(ratio), ratio, np.nan), axis=1)
+    attrs = {"units": "1",
+             "long_name": "scipy RK45 seconds per trajectory over rimroll DP5's on the same states (median over rtol)",
+             "ratio_min_over_rtol": lo, "ratio_max_over_rtol": hi,
+             "comment": "one run, one thread each, on the machine of the run: the spread over rtol "
+                        "(ratio_min/max_over_rtol, per scene) bounds what a single number can claim"}
+    return {"speed_ratio_rk45_dp5": (("scene",), med, attrs)}
 
 
 register(Study(
@@ -195,5 +278,6 @@ register(Study(
     variables=VARIABLES,
     compute=_compute,
     plot=_plot,
-    chunks={"scene": 4, "method": len(METHODS)},
+    chunks={"scene": 4, "integrator": len(INTEGRATORS)},
+    derive=_derive,
 ))

@@ -1,0 +1,80 @@
+"""When an existing result may stand for a new request: the run fingerprint rule.
+
+``study run`` records the fingerprint of its plan (:attr:`study.plan.Plan.fingerprint`: the
+study, every setting and parameter, the grid, the chunking and the code version) in the global
+attribute ``run_fingerprint`` of the file it writes. A later run into the same ``--out`` reuses
+the file only if that attribute equals the new plan's fingerprint. A file that cannot be read
+(truncated, not netCDF) is not a result: it is recomputed and replaced atomically. A readable
+file of other inputs is neither reused nor overwritten without ``--force``; the error names
+what differs.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import pathlib
+
+FINGERPRINT_ATTR = "run_fingerprint"
+
+
+@dataclasses.dataclass(frozen=True)
+class Existing:
+    """What is at the output path: ``state`` is 'absent', 'unreadable', 'same' or 'different'."""
+
+    state: str
+    detail: str = ""  # unreadable: why; different: what differs
+
+
+def _read_header(path: pathlib.Path) -> tuple[dict, dict]:
+    """Global attributes and dimension sizes of a netCDF file; touches the last element of every
+    variable so that a file cut short raises here. Any failure raises."""
+    import netCDF4
+
+    with netCDF4.Dataset(path, "r") as nc:
+        attrs = {k: nc.getncattr(k) for k in nc.ncattrs()}
+        sizes = {k: len(d) for k, d in nc.dimensions.items()}
+        for var in nc.variables.values():
+            if var.size:
+                var.set_auto_maskandscale(False)
+                var[tuple(n - 1 for n in var.shape)]
+    return attrs, sizes
+
+
+def _same(a, b) -> bool:
+    try:
+        return float(a) == float(b) or str(a) == str(b)
+    except (TypeError, ValueError):
+        return str(a) == str(b)
+
+
+def differences(file_attrs: dict, file_sizes: dict, request_attrs: dict, request_sizes: dict) -> list[str]:
+    """Human-readable differences of recorded parameters, settings and grid sizes."""
+    out = []
+    keys = sorted(k for k in {*file_attrs, *request_attrs}
+                  if k.startswith(("param_", "setting_")) or k in ("study", "swept", "rimroll_version"))
+    for key in keys:
+        mine, theirs = file_attrs.get(key, "(none)"), request_attrs.get(key, "(none)")
+        if not _same(mine, theirs):
+            out.append(f"{key} {mine} in the file, {theirs} requested")
+    if dict(file_sizes) != dict(request_sizes):
+        out.append(f"grid {dict(file_sizes)} in the file, {dict(request_sizes)} requested")
+    return out
+
+
+def inspect(path, fingerprint: str, request_attrs: dict, request_sizes: dict) -> Existing:
+    """Whether the file at ``path`` is absent, unreadable, the same run, or a different one."""
+    path = pathlib.Path(path)
+    if not path.exists():
+        return Existing("absent")
+    try:
+        attrs, sizes = _read_header(path)
+    except Exception as exc:  # noqa: BLE001  whatever the damage, it is not a result
+        return Existing("unreadable", " ".join(str(exc).split()) or type(exc).__name__)
+    if attrs.get(FINGERPRINT_ATTR) == fingerprint:
+        return Existing("same")
+    diff = differences(attrs, sizes, request_attrs, request_sizes)
+    if FINGERPRINT_ATTR not in attrs:
+        diff.append("the file records no run fingerprint")
+    elif not diff:
+        diff.append("chunking or code version differs")
+    return Existing("different", "; ".join(diff))

@@ -1,0 +1,334 @@
+"""``study trace``: one trajectory as a netCDF time series and a figure.
+
+The trajectory comes from ``solver.trace`` (dense output of every rolling and slipping phase,
+the rules of ``solver.simulate``). Its initial state is given directly (``--state``) or picked
+from an outcome map (``FILE --at omega1=..,beta=..``), with that file's parameters, scene,
+t_max and the map's omega2, omega3. The file holds, over ``time``: the state, the slip
+velocity, F2, the friction use |F_t| / (mu F2), the slip speed, the energy, the phase and the
+ball centre's position; over ``event``: the time and kind of every event; and in its global
+attributes the outcome, t_end and the reason the run ended.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import pathlib
+
+import numpy as np
+import xarray as xr
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.patches import Circle, Patch
+
+import solver
+from solver import trace as tr
+from study import io
+from study import plotting as P
+from study.dataset import git_revision, params_of, rimroll_version, setting_of
+from study.registry import PHYSICAL_KEYS, UserError
+
+STATE_NAMES = ("beta", "omega1", "omega2", "omega3")
+SERIES = {  # name: (units, long_name)
+    "beta": ("rad", "height angle of the contact point on the rim's cross-section"),
+    "omega1": ("s-1", "transversal angular velocity"),
+    "omega2": ("s-1", "orthogonal angular velocity"),
+    "omega3": ("s-1", "circular angular velocity"),
+    "u1": ("m s-1", "slip velocity of the contact point, component 1 (0 while rolling)"),
+    "u3": ("m s-1", "slip velocity of the contact point, component 3 (0 while rolling)"),
+    "alpha": ("rad", "angle travelled around the rim's axis"),
+    "F2": ("N", "normal contact force, (31) rolling, (41) slipping"),
+    "friction_use": ("1", "friction used, |F_t| / (mu F2) (39): 1 while slipping, 0 with mu = inf"),
+    "slip_speed": ("m s-1", "slip speed |u| of the contact point"),
+    "energy": ("J", "total mechanical energy (60), potential m g rho sin(beta)"),
+    "x": ("m", "ball centre, horizontal coordinate (rim's axis at x = y = 0)"),
+    "y": ("m", "ball centre, horizontal coordinate perpendicular to x"),
+    "z": ("m", "ball centre height above the rim's middle plane"),
+}
+EVENT_STYLE = {  # how the figure marks each kind of event
+    "slip_onset": dict(color="tab:red", ls="--", lw=0.9, label="slip onset (39)"),
+    "return_to_rolling": dict(color="tab:green", ls="--", lw=0.9, label="return to rolling"),
+    "omega1_zero": dict(color="0.45", ls=":", lw=0.9, label=r"$\omega_1 = 0$"),
+    "fall": dict(color="k", ls="-", lw=1.3, label="leaves the rim ($F_2 = 0$)"),
+    "periodic": dict(color="tab:purple", ls="-", lw=1.3, label="periodic: second $\\omega_1$ zero"),
+}
+
+
+# ------------------------------------------------------------------ the initial state
+def parse_state(text: str) -> np.ndarray:
+    """'BETA,OMEGA1,OMEGA2,OMEGA3' -> array (4,) [rad, 1/s, 1/s, 1/s]; UserError otherwise."""
+    try:
+        x = np.array([float(v) for v in text.split(",")])
+    except ValueError:
+        x = np.empty(0)
+    if x.shape != (4,) or not np.all(np.isfinite(x)):
+        raise UserError(f"--state {text!r}: expected four finite numbers BETA,OMEGA1,OMEGA2,OMEGA3 [rad, 1/s]")
+    return x
+
+
+def parse_sets(words: list[str]) -> dict:
+    """``--set KEY=VALUE`` words of physical parameters -> {key: float}."""
+    out = {}
+    for word in words:
+        key, sep, value = word.partition("=")
+        if not sep or key not in PHYSICAL_KEYS:
+            raise UserError(f"--set {word!r}: expected KEY=VALUE with KEY one of {' '.join(PHYSICAL_KEYS)}")
+        try:
+            out[key] = float(value)
+        except ValueError:
+            raise UserError(f"--set {word!r}: VALUE must be a number (inf allowed for mu)") from None
+    return out
+
+
+def _params(**values) -> solver.Params:
+    try:
+        return solver.Params(**values)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+
+
+def _parse_at(text: str) -> dict:
+    out = {}
+    for word in filter(None, text.split(",")):
+        key, sep, value = word.partition("=")
+        if not sep:
+            raise UserError(f"--at {text!r}: expected DIM=VALUE,DIM=VALUE,... (e.g. omega1=2,beta=1.1,scene=slipping)")
+        out[key.strip()] = value.strip()
+    return out
+
+
+def _index(ds, dim: str, value: str) -> int:
+    """Index along ``dim`` of ``value``: nearest number, or a label (scene labels work on old files too)."""
+    coord = ds[dim].values
+    if coord.dtype.kind in "fiu":
+        try:
+            return int(np.argmin(np.abs(coord - float(value))))
+        except ValueError:
+            if dim == "scene" and value in P.SCENE_KEYS:
+                return int(np.argmin(np.abs(coord - P.SCENE_KEYS.index(value))))
+    labels = [P.scene_key(v) if dim == "scene" else str(v) for v in coord]
+    if value in labels:
+        return labels.index(value)
+    raise UserError(f"--at {dim}={value}: not a value of the file's {dim} ({', '.join(map(str, labels))})")
+
+
+def from_map(path, at_text: str, sets: dict) -> tuple[np.ndarray, solver.Params, float, dict]:
+    """(state, params, t_max [s], provenance) of the point ``--at`` of an outcome map file."""
+    ds = io.open_result(pathlib.Path(path))
+    if "outcome" not in ds:
+        raise UserError(f"{path}: not an outcome map (no 'outcome' variable); study trace --at needs fig11-13 "
+                        "or outcome-cube results")
+    at = _parse_at(at_text)
+    dims = ds["outcome"].dims
+    unknown = set(at) - set(dims)
+    if unknown:
+        raise UserError(f"--at {','.join(sorted(unknown))}: not a dimension of {path} ({', '.join(dims)})")
+    pick = {}
+    for dim in dims:
+        if dim in at:
+            pick[dim] = _index(ds, dim, at[dim])
+        elif ds.sizes[dim] == 1:
+            pick[dim] = 0
+        else:
+            values = ", ".join(P.scene_key(v) if dim == "scene" else f"{v:g}" for v in ds[dim].values[:8])
+            raise UserError(f"--at needs a value for {dim!r} of {path} (e.g. {values})")
+    point = ds.isel(pick)
+    values = params_of(ds).as_dict()
+    for key in ("mu", "k_r", "k_d", "j"):
+        if key in point.coords:
+            values[key] = float(point[key])
+    values.update(sets)
+    if "rho_over_R" in point.coords:
+        x = float(point["rho_over_R"])
+        others = {k: v for k, v in values.items() if k not in ("r",)}
+        try:
+            params = solver.Params.from_rho_over_R(x, **others)
+        except ValueError as exc:
+            raise UserError(str(exc)) from None
+    else:
+        params = _params(**values)
+    comp = {}
+    for name in STATE_NAMES:
+        comp[name] = float(point[name]) if name in point.coords else float(setting_of(ds, name))
+    state = np.array([comp[n] for n in STATE_NAMES])
+    t_max = float(point["t_max"]) if "t_max" in point.coords else float(setting_of(ds, "t_max"))
+    where = ", ".join(f"{d}={P.scene_key(point[d].values[()]) if d == 'scene' else f'{float(point[d]):g}'}"
+                      for d in dims)
+    prov = {"source_file": str(path), "source_study": str(ds.attrs.get("study", "")), "source_point": where,
+            "source_outcome": int(point["outcome"]), "source_t_end": float(point["t_end"]) if "t_end" in point else np.nan}
+    if "rtol" in ds.attrs or "setting_rtol" in ds.attrs:
+        prov["source_rtol"] = float(setting_of(ds, "rtol"))
+    return state, params, t_max, prov
+
+
+# ------------------------------------------------------------------ the file
+def dataset(res: dict, state, params: solver.Params, t_max: float, rtol: float, atol: float, command: str,
+            extra: dict | None = None) -> xr.Dataset:
+    """The netCDF content of one trace (``solver.trace.trace`` result ``res``)."""
+    now = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat()
+    time = ("time", res["t"], {"units": "s", "long_name": "time since the initial state"})
+    data = {name: ("time", res[name], {"units": u, "long_name": ln}) for name, (u, ln) in SERIES.items()}
+    data["phase"] = ("time", res["phase"].astype(np.int8), {
+        "units": "1", "long_name": "phase of the motion", "flag_values": np.array(list(tr.PHASE_MEANINGS), np.int8),
+        "flag_meanings": " ".join(tr.PHASE_MEANINGS.values())})
+    kinds = list(tr.EVENT_KINDS)
+    codes = np.array([kinds.index(k) if k in kinds else kinds.index("t_max") for k in res["event_kind"]], np.int8)
+    data["event_time"] = ("event", res["event_t"], {"units": "s", "long_name": "time of the event"})
+    data["event_kind"] = ("event", codes, {"units": "1", "long_name": "kind of the event",
+                                           "flag_values": np.arange(len(kinds), dtype=np.int8),
+                                           "flag_meanings": " ".join(kinds)})
+    outcome = int(res["outcome"])
+    meaning = solver.OUTCOME_MEANINGS.get(outcome, f"outcome_{outcome}").split(":")[0]
+    attrs = {"Conventions": "CF-1.10", "title": "One trajectory of a ball on the rim (study trace)", "study": "trace"}
+    attrs.update({f"param_{k}": float(v) for k, v in params.as_dict().items()})
+    attrs["param_rho"] = float(params.rho)
+    attrs.update({f"initial_{n}": float(v) for n, v in zip(STATE_NAMES, state)})
+    attrs.update({"t_max": float(t_max), "rtol": float(rtol), "atol": float(atol), "method": "scipy DOP853",
+                  "outcome": outcome, "outcome_meaning": meaning, "t_end": float(res["t_end"]),
+                  "reason": str(res["reason"]), "half_period": float(res["half_period"]),
+                  "slip_phases": int(res["slip_phases"])})
+    attrs.update(extra or {})
+    version = rimroll_version()
+    attrs["rimroll_version"] = version
+    rev = git_revision()
+    if rev:
+        attrs["git_revision"] = rev
+    attrs["created"] = now
+    attrs["history"] = f"{now} {command} - rimroll {version}" + (f" (git {rev})" if rev else "")
+    return xr.Dataset(data, coords={"time": time}, attrs=attrs)
+
+
+# ------------------------------------------------------------------ the figure
+def _slip_spans(t, phase):
+    """[(t0, t1)] of the slipping stretches of a sampled trace."""
+    slip = np.asarray(phase) == tr.SLIPPING
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], slip.astype(int), [0]])))
+    return [(t[a], t[b - 1]) for a, b in zip(edges[::2], edges[1::2])]
+
+
+def figure(ds) -> Figure:
+    """beta, omega, F2 and energy against time (slip phases shaded, events marked) and the centre's
+    path from above and from the side, rim and ball to scale; outcome, t_end and reason in the title."""
+    fig = Figure(figsize=(13.0, 9.5), layout="constrained")
+    grid = fig.add_gridspec(4, 2, width_ratios=(1.55, 1.0))
+    left = [fig.add_subplot(grid[0, 0])]
+    left += [fig.add_subplot(grid[k, 0], sharex=left[0]) for k in (1, 2, 3)]
+    top, side = fig.add_subplot(grid[0:2, 1]), fig.add_subplot(grid[2:4, 1])
+    t = ds["time"].values
+    a = ds.attrs
+    left[0].plot(t, ds["beta"], color="k", lw=1.1)
+    left[0].set_ylabel(r"$\beta$ [rad]")
+    for name, colour in (("omega1", "C0"), ("omega2", "C1"), ("omega3", "C2")):
+        left[1].plot(t, ds[name], color=colour, lw=1.1, label=rf"$\omega_{name[-1]}$")
+    left[1].set_ylabel(r"$\omega$ [1/s]")
+    left[1].legend(loc="best", fontsize=8, ncol=3)
+    left[2].plot(t, ds["F2"], color="k", lw=1.1)
+    left[2].axhline(0.0, color="0.5", lw=0.6)
+    left[2].set_ylabel(r"$F_2$ [N]")
+    if np.isfinite(a["param_mu"]):
+        twin = left[2].twinx()
+        twin.plot(t, ds["friction_use"].clip(0, 1.2), color="tab:red", lw=0.8, alpha=0.7)
+        twin.set_ylabel(r"$|F_t|/(\mu F_2)$", color="tab:red")
+        twin.set_ylim(0, 1.25)
+    e = ds["energy"].values
+    left[3].plot(t, e - e[0], color="k", lw=1.1)
+    left[3].set_ylabel(r"$E(t) - E(0)$ [J]")
+    left[3].set_xlabel("time $t$ [s]")
+    spans = _slip_spans(t, ds["phase"].values)
+    kinds = list(ds["event_kind"].attrs["flag_meanings"].split())
+    events = [(float(tt), kinds[int(k)]) for tt, k in zip(ds["event_time"].values, ds["event_kind"].values)]
+    shown = set()
+    for ax in left:
+        for t0, t1 in spans:
+            ax.axvspan(t0, max(t1, t0 + 1e-3 * (t[-1] - t[0])), color="tab:red", alpha=0.15, lw=0)
+        for tt, kind in events:
+            if kind in EVENT_STYLE:
+                ax.axvline(tt, **{k: v for k, v in EVENT_STYLE[kind].items() if k != "label"})
+                shown.add(kind)
+        ax.grid(alpha=0.3)
+        ax.set_xlim(t[0], t[-1])
+    handles = [Line2D([], [], **EVENT_STYLE[k]) for k in EVENT_STYLE if k in shown]
+    if spans:
+        handles.insert(0, Patch(color="tab:red", alpha=0.15, label="slipping"))
+    if handles:
+        left[0].legend(handles=handles, loc="best", fontsize=8)
+    _paths(top, side, ds)
+    state = ", ".join(f"{a[f'initial_{n}']:g}" for n in STATE_NAMES)
+    scene = r"$\mu=\infty$" if np.isinf(a["param_mu"]) else rf"$\mu={a['param_mu']:g}$"
+    scene += (rf", $k_r={a['param_k_r']:g}$ 1/s" if a["param_k_r"] else "") + (
+        rf", $k_d={a['param_k_d']:g}$ 1/s" if a["param_k_d"] else "")
+    label = P.OUTCOME_PALETTE.label(int(a["outcome"]))
+    why = {"fall": "left the rim, F2 = 0", "periodic": "second transversal zero of omega1",
+           "t_max": "reached t_max"}.get(str(a["reason"]), str(a["reason"]).replace("_", " "))
+    fig.suptitle(f"{label} at t_end = {a['t_end']:.6g} s ({why})\n"
+                 rf"from ($\beta$, $\omega_1$, $\omega_2$, $\omega_3$) = ({state}); {scene}", fontsize=11)
+    return fig
+
+
+def _paths(top, side, ds) -> None:
+    a = ds.attrs
+    R, rim_a, r, rho = a["param_R"], a["param_a"], a["param_r"], a["param_rho"]
+    x, y, z = ds["x"].values, ds["y"].values, ds["z"].values
+    colour = P.OUTCOME_PALETTE.colour(int(a["outcome"]))
+    # from above: the rim is a ring of radii R - a .. R + a; the centre's path; the ball at start and end
+    for radius in (R - rim_a, R + rim_a):
+        top.add_patch(Circle((0, 0), radius, fill=False, ec="0.3", lw=1.0))
+    top.plot(x, y, color="k", lw=0.9)
+    for k, style in ((0, dict(ls="--")), (-1, dict(ls="-"))):
+        top.add_patch(Circle((x[k], y[k]), r, fill=False, ec=colour, lw=1.2, **style))
+    top.plot(x[:1], y[:1], "o", color="k", ms=3)
+    top.set_aspect("equal")
+    lim = R + rim_a + 2 * r
+    top.set_xlim(-lim, lim)
+    top.set_ylim(-lim, lim)
+    top.set_title("centre path from above (rim and ball to scale; ball dashed at the start)", fontsize=9)
+    top.set_xlabel("x [m]")
+    top.set_ylabel("y [m]")
+    # from the side: the rim's cross-section (a circle of radius a at distance R), the centre's
+    # path in (distance from the axis, height), the ball at start (dashed) and end
+    d = np.hypot(x, y)
+    side.add_patch(Circle((R, 0), rim_a, fc="0.6", ec="0.3"))
+    side.add_patch(Circle((R, 0), rho, fill=False, ec="0.75", ls=":", lw=0.8))
+    side.plot(d, z, color="k", lw=0.9)
+    for k, style in ((0, dict(ls="--")), (-1, dict(ls="-"))):
+        side.add_patch(Circle((d[k], z[k]), r, fill=False, ec=colour, lw=1.2, **style))
+    side.set_aspect("equal")
+    side.set_xlim(R - rho - r - 0.02, R + rho + r + 0.02)
+    side.set_ylim(-rho - r - 0.02, rho + r + 0.02)
+    side.axvline(R, color="0.8", lw=0.6)
+    side.set_title("centre path from the side (rim's cross-section grey)", fontsize=9)
+    side.set_xlabel("distance from the rim's axis [m]")
+    side.set_ylabel("height [m]")
+
+
+# ------------------------------------------------------------------ the command
+def run(args, command: str) -> int:
+    """``study trace``: compute, write ``<out>/<name>.nc`` and ``.png``, print where."""
+    sets = parse_sets(args.sets)
+    if (args.state is None) == (args.file is None):
+        raise UserError("give either --state BETA,OMEGA1,OMEGA2,OMEGA3 or a results FILE with --at DIM=VALUE,...")
+    if args.file is not None:
+        if not args.at:
+            raise UserError(f"{args.file}: say which point of the map with --at, e.g. --at omega1=2,beta=1.1,scene=slipping")
+        state, params, t_max, extra = from_map(args.file, args.at, sets)
+    else:
+        if args.at:
+            raise UserError("--at picks a point of a results FILE; with --state give the state itself")
+        state, params, t_max, extra = parse_state(args.state), _params(**sets), 20.0, {}
+    if args.t_max is not None:
+        t_max = args.t_max
+    if not (np.isfinite(t_max) and t_max > 0):
+        raise UserError(f"--t-max must be a positive number of seconds; got {t_max}")
+    if not (1e-14 <= args.rtol <= 1e-2) or not args.atol > 0:
+        raise UserError(f"--rtol must lie in [1e-14, 1e-2] and --atol be > 0; got {args.rtol}, {args.atol}")
+    if args.samples < 2:
+        raise UserError(f"--samples must be >= 2; got {args.samples}")
+    nc = pathlib.Path(args.out) / f"{args.name}.nc"
+    if nc.exists() and not args.force:
+        raise UserError(f"{nc} exists; use --force to replace it or --name to write another")
+    res = tr.trace(state, params, t_max=t_max, rtol=args.rtol, atol=args.atol, n=args.samples)
+    ds = dataset(res, state, params, t_max, args.rtol, args.atol, command, extra)
+    io.write_dataset(ds, nc, (ds.sizes["time"],))
+    png = io.write_figure(figure(io.open_result(nc)), nc.with_suffix(".png"))
+    label = solver.OUTCOME_MEANINGS.get(res["outcome"], str(res["outcome"])).split(":")[0]
+    print(f"wrote {nc} and {png}: {label} at t_end = {res['t_end']:.6g} s ({res['reason']})")
+    return 0

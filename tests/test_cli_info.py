@@ -1,0 +1,77 @@
+"""Inspecting studies before running them: study list order, study info NAME, run NAME --help, --version."""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+
+from study import registry
+from study.cli import main, natural_order
+
+
+def test_list_is_in_natural_order(capsys):
+    assert main(["list"]) == 0
+    names = [line.split()[0] for line in capsys.readouterr().out.splitlines()]
+    assert sorted(names) == sorted(registry.names())
+    figs = [n for n in names if re.fullmatch(r"fig\d+", n)]
+    assert names[: len(figs)] == figs  # the paper's figures first
+    assert [int(n[3:]) for n in figs] == sorted(int(n[3:]) for n in figs)  # fig9 before fig11
+    rest = names[len(figs):]
+    assert rest == sorted(rest)
+
+
+def test_natural_order_compares_numbers_as_numbers():
+    assert natural_order(["fig11", "b", "fig9", "a", "fig10"]) == ["fig9", "fig10", "fig11", "a", "b"]
+
+
+def test_info_of_a_study_name(capsys):
+    assert main(["info", "fig8"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("fig8: " + registry.get("fig8").title)
+    assert re.search(r"v_throw\s+10\s+\[m s-1\]", out)  # setting, default, units
+    assert re.search(r"n_beta0\s+721\s+\(--quick 121\)", out)
+    assert "grid: beta0 721 x omega30 560 = 403760 points" in out
+    assert "grid with --quick: beta0 121 x omega30 80 = 9680 points" in out
+    assert "run time" in out and "sweepable" in out
+
+
+def test_info_of_a_cube_names_its_sweepable_settings(capsys):
+    assert main(["info", "outcome-cube"]) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"k_r\s+0,0\.01,0\.02\s+\(--quick 0,0\.02\).*\(sweepable\)", out)
+    assert "compiles the simulation kernels" in out
+
+
+def test_info_of_neither_file_nor_study_is_a_user_error(capsys):
+    assert main(["info", "no-such-thing"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("study: error:") and "fig8" in err and len(err.splitlines()) == 1
+
+
+def test_run_help_lists_the_studys_settings(capsys):
+    assert main(["run", "fig11", "--help"]) == 0
+    out = capsys.readouterr().out
+    assert "--quick" in out and "--set" in out  # the run options
+    assert re.search(r"mu_slip\s+1\s+\[1\]", out) and re.search(r"t_max_dissipative\s+60\s+\[s\]", out)
+
+
+def test_version(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["--version"])
+    assert exc.value.code == 0
+    from study.dataset import rimroll_version
+
+    assert capsys.readouterr().out.startswith(f"study (rimroll) {rimroll_version()}")
+
+
+def test_info_does_not_offer_parameters_that_run_refuses(capsys, tmp_path):
+    """fig11 ignores mu, k_r, k_d (its scenes set them; ``Study.ignores``): study info lists them as
+    not used instead of as settings, and --set of one is indeed refused."""
+    assert main(["info", "fig11"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert not any(re.match(r"\s+(mu|k_r|k_d)\s", line) for line in lines)
+    assert any("not used" in line and "mu, k_r, k_d" in line for line in lines)
+    assert any(re.match(r"\s+mu_slip\s+1\s", line) for line in lines)
+    assert main(["run", "fig11", "--quick", "--set", "mu=2", "--out", str(tmp_path)]) == 2
+    assert "mu" in capsys.readouterr().err

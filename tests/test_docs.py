@@ -1,0 +1,44 @@
+"""The repository documents itself: every study and output in docs/, no citation of a design
+document a user of the repository does not have, and CF flags that cf_xarray understands."""
+
+from __future__ import annotations
+
+import pathlib
+import re
+
+import pytest
+
+from study import registry
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+USER_FACING = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md")), *sorted((ROOT / "study").glob("*.py")),
+               *sorted((ROOT / "workflows").glob("*.py"))]
+DESIGN_CITATION = re.compile(r"DESIGN\s*(§|\(?\d)")
+
+
+@pytest.mark.parametrize("path", USER_FACING, ids=lambda p: p.relative_to(ROOT).as_posix())
+def test_no_citation_of_the_internal_design_document(path):
+    hits = [line for line in path.read_text().splitlines() if DESIGN_CITATION.search(line)]
+    assert not hits, hits
+
+
+def test_long_names_cite_docs_or_the_paper_only():
+    for name in registry.names():
+        for var in registry.get(name).variables:
+            assert "DESIGN" not in var.long_name, (name, var.name)
+
+
+def test_every_study_and_variable_is_documented():
+    text = (ROOT / "docs" / "studies.md").read_text()
+    sections = dict(re.findall(r"^## `([^`]+)`: .*?\n(.*?)(?=^## |\Z)", text, re.M | re.S))
+    assert set(sections) == set(registry.names()), "run python docs/gen_studies.py"
+    for name in registry.names():
+        for var in registry.get(name).variables:
+            assert f"| `{var.name}` | {var.units} |" in sections[name], (name, var.name)
+
+
+def test_docs_links_resolve():
+    for path in [ROOT / "README.md", *(ROOT / "docs").glob("*.md")]:
+        for target in re.findall(r"\]\(([^)#]+)(?:#[^)]*)?\)", path.read_text()):
+            if "://" not in target:
+                assert (path.parent / target).exists(), (path.name, target)

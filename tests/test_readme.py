@@ -1,0 +1,86 @@
+"""The README works as written: its install blocks match CI, and "Your first hour" runs."""
+
+from __future__ import annotations
+
+import os
+import pathlib
+import re
+import subprocess
+import sys
+
+import numpy as np
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+README = (ROOT / "README.md").read_text()
+FENCE = re.compile(r"^```(\w*)\n(.*?)^```", re.M | re.S)
+
+
+def blocks(text: str) -> list[tuple[str, str]]:
+    """(language, code) of every fenced block of ``text``, in order."""
+    return [(m.group(1), m.group(2)) for m in FENCE.finditer(text)]
+
+
+def section(title: str) -> str:
+    start = README.index(f"\n## {title}\n")
+    end = README.find("\n## ", start + 1)
+    return README[start:end if end > 0 else None]
+
+
+def _commands(code: str) -> list[str]:
+    return [line.split("  #")[0].strip() for line in code.splitlines() if line.strip() and not line.startswith("#")]
+
+
+def test_readme_starts_with_the_install_block_and_the_test_block():
+    head = README[: README.index("\n## ")]
+    first, second = blocks(head)
+    assert len(blocks(head)) == 2 and first[0] == second[0] == "bash"
+    install = " ".join(_commands(first[1]))
+    for step in ("python3 -m venv .venv", ". .venv/bin/activate", "pip install .", "study run fig8 --quick"):
+        assert step in install  # a virtual environment: system pip refuses to install (PEP 668)
+    assert install.index("python3 -m venv .venv") < install.index("pip install .") < install.index("study run")
+    assert _commands(second[1]) == ['. .venv/bin/activate && pip install ".[test]" && python -m pytest -q']
+
+
+def test_ci_runs_exactly_the_readme_test_command():
+    ci = [line.strip() for line in (ROOT / ".ci" / "run").read_text().splitlines()
+          if line.strip() and not line.startswith("#")]
+    test_command = _commands(blocks(README[: README.index("\n## ")])[1][1])[0]
+    assert ci[-1] == test_command  # the last thing CI does is the README's command, verbatim
+    assert "python3 -m venv .venv" in ci  # the README's environment, made from this checkout's files
+    assert not any("pip install" in line for line in ci[:-1])  # nothing installed outside the README's way
+
+
+def test_your_first_hour_runs_as_written(tmp_path, monkeypatch):
+    """Every block of "Your first hour", in order, in an empty directory: bash with ``study`` on
+    PATH (this checkout), Python in one namespace, as a user pasting them would."""
+    code = blocks(section("Your first hour"))
+    assert [lang for lang, _ in code].count("python") >= 4 and [lang for lang, _ in code].count("bash") >= 3
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    shim = bin_dir / "study"
+    shim.write_text(f'#!/bin/sh\nexec "{sys.executable}" -m study "$@"\n')
+    shim.chmod(0o755)
+    work = tmp_path / "work"
+    work.mkdir()
+    env = dict(os.environ, PATH=f"{bin_dir}{os.pathsep}{os.environ['PATH']}", PYTHONPATH=str(ROOT),
+               MPLBACKEND="Agg")
+    monkeypatch.chdir(work)
+    monkeypatch.setenv("MPLBACKEND", "Agg")
+    namespace: dict = {}
+    for lang, text in code:
+        if lang == "bash":
+            run = subprocess.run(["bash", "-euo", "pipefail", "-c", text], cwd=work, env=env,
+                                 capture_output=True, text=True, timeout=900)
+            assert run.returncode == 0, f"{text}\n{run.stdout}\n{run.stderr}"
+        else:
+            exec(compile(text, "README.md", "exec"), namespace)
+    # what the snippets say they show
+    assert (work / "results" / "fig11.nc").is_file() and (work / "results" / "t_end_by_scene.png").is_file()
+    ds = namespace["ds"]
+    assert list(ds["scene"].values) == ["rolling_only", "slipping", "drilling", "rolling_resistance"]
+    periodic = namespace["periodic"]
+    assert int(periodic.sel(scene="rolling_only")) > 0 and int(periodic.sel(scene="drilling")) == 0
+    assert float(namespace["changed"]) < 0.05
+    scored = namespace["scored"]
+    assert scored.dims == ("mu",) and np.allclose(scored["mu"], [0.25, 0.5, 1.0, 2.0])
+    assert ((scored >= 0) & (scored <= 1)).all()

@@ -1,0 +1,97 @@
+"""``study trace`` and ``solver.trace``: one trajectory, sampled from the dense output of each phase.
+
+The trace is an independent integration (scipy DOP853, phase by phase) of the same physics as
+``solver.simulate``; it must end where simulate ends, with the same outcome.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import xarray as xr
+
+import solver
+from solver import outcomes
+from solver.trace import SLIPPING, trace
+from study.cli import main
+
+SCENES = {
+    "rolling_only": (solver.Params(mu=float("inf")), 20.0),
+    "slipping": (solver.Params(mu=1.0), 20.0),
+    "drilling": (solver.Params(mu=1.0, k_d=0.02), 60.0),
+    "rolling_resistance": (solver.Params(mu=1.0, k_r=0.02), 60.0),
+}
+STATES = np.array([[1.1, 2.0, 65.0, 10.0], [1.2, 0.5, 65.0, 10.0], [1.0, 5.0, 35.0, 10.0], [1.5, -3.0, 105.0, 10.0]])
+
+
+@pytest.mark.parametrize("scene", list(SCENES))
+def test_trace_ends_where_simulate_ends_with_the_same_outcome(scene):
+    params, t_max = SCENES[scene]
+    ref = solver.simulate(STATES, params, t_max=t_max, rtol=1e-10, atol=1e-12)
+    for i, x in enumerate(STATES):
+        tr = trace(x, params, t_max=t_max, n=200)
+        assert tr["outcome"] == ref["outcome"][i], (scene, x)
+        assert tr["t_end"] == pytest.approx(ref["t_end"][i], rel=1e-6, abs=1e-9)
+        assert tr["slip_phases"] == ref["slip_phases"][i]
+        assert tr["t"][0] == 0.0 and tr["t"][-1] == pytest.approx(tr["t_end"], abs=1e-12)
+        assert tr["event_kind"][-1] == tr["reason"]
+        if tr["outcome"] in (outcomes.FALL_IN, outcomes.FALL_OUT):
+            assert tr["F2"][-1] == pytest.approx(0.0, abs=1e-6)  # it ends where the contact is lost
+        assert (tr["beta"][-1], tr["omega1"][-1]) == pytest.approx(
+            (ref["beta_end"][i], ref["omega1_end"][i]), rel=1e-5, abs=1e-6)
+
+
+def test_energy_is_flat_along_a_conservative_rolling_trace():
+    params = solver.Params(mu=float("inf"))
+    tr = trace(STATES[1], params, t_max=20.0, rtol=1e-10, atol=1e-12)
+    assert tr["outcome"] == outcomes.PERIODIC_ROLLING
+    e = tr["energy"]
+    assert np.max(np.abs(e - e[0])) / abs(e[0]) < 1e-8
+    # and it moves: the state is not a steady motion
+    assert np.ptp(tr["omega1"]) > 0.1
+
+
+def test_slip_phases_are_marked_and_use_all_the_friction():
+    params, t_max = SCENES["slipping"]
+    tr = trace(STATES[0], params, t_max=t_max)
+    slip = tr["phase"] == SLIPPING
+    assert slip.any() and (~slip).any()
+    np.testing.assert_allclose(tr["friction_use"][slip], 1.0)
+    assert np.all(tr["friction_use"][~slip] <= 1.0 + 1e-6)  # rolling stays inside the cone (39)
+    assert list(tr["event_kind"]).count("slip_onset") == tr["slip_phases"]
+
+
+def test_study_trace_writes_file_and_figure_and_picks_a_map_point(tmp_path, capsys):
+    assert main(["trace", "--state", "1.2,0.5,65,10", "--set", "mu=inf", "--out", str(tmp_path)]) == 0
+    ds = xr.open_dataset(tmp_path / "trace.nc")
+    assert ds.attrs["outcome_meaning"] == "periodic_rolling" and ds.attrs["reason"] == "periodic"
+    assert float(ds["time"][-1]) == pytest.approx(ds.attrs["t_end"])
+    for name in ("beta", "F2", "friction_use", "slip_speed", "energy", "phase", "event_time"):
+        assert ds[name].attrs["units"] and ds[name].attrs["long_name"]
+    assert (tmp_path / "trace.png").is_file()
+    assert main(["plot", str(tmp_path / "trace.nc")]) == 0
+    # a point of an outcome map: the file's scene parameters, t_max, omega2 and omega3
+    assert main(["run", "fig12", "--quick", "--out", str(tmp_path), "--no-progress"]) == 0
+    assert main(["trace", str(tmp_path / "fig12.nc"), "--at", "omega1=0.5,beta=1.2,scene=rolling_resistance",
+                 "--out", str(tmp_path), "--name", "point"]) == 0
+    pt = xr.open_dataset(tmp_path / "point.nc")
+    fig12 = xr.open_dataset(tmp_path / "fig12.nc")
+    cell = fig12.sel(omega1=0.5, beta=1.2, method="nearest").isel(scene=3)
+    assert pt.attrs["param_k_r"] == 0.02 and pt.attrs["param_mu"] == 1.0 and pt.attrs["t_max"] == 60.0
+    assert (pt.attrs["initial_beta"], pt.attrs["initial_omega1"]) == (float(cell["beta"]), float(cell["omega1"]))
+    assert pt.attrs["initial_omega2"] == 65.0
+    assert pt.attrs["outcome"] == int(cell["outcome"])  # same state and scene as the map's cell
+    capsys.readouterr()
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["trace"], "either --state"),
+    (["trace", "--state", "1,2,3"], "four finite numbers"),
+    (["trace", "--state", "1,2,65,10", "--set", "mu=-1"], "mu"),
+    (["trace", "--state", "1,2,65,10", "--set", "nope=1"], "KEY=VALUE"),
+    (["trace", "--state", "1,2,65,10", "--rtol", "1"], "--rtol"),
+])
+def test_trace_user_errors_are_one_line(argv, words, capsys, tmp_path):
+    assert main([*argv, "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("study: error:") and words in err and "\n" not in err

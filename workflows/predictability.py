@@ -1,0 +1,363 @@
+"""Predictability of a shot: how sharp the outcome boundaries are, and what noise does to a throw.
+
+- ``predictability``: on each Fig. 11-13 section (``omega2`` swept: 35, 65, 105 1/s) and in each
+  scene of the outcome studies, the outcome grid, the entropy of each 5 x 5 box, and which
+  points are eps-uncertain (the outcome changes when beta or omega1 moves by +-eps grid
+  steps); derived from the whole grid: the basin entropies S_b, S_bb, the uncertain fraction
+  f(eps) over eps = 2^-n_fine ... 2^n_coarse grid steps and the uncertainty exponent alpha
+  (fit of log f against log eps) with its error and the boundary dimension D = 2 - alpha.
+  Whole eps are read from the grid; eps below one step are simulated on a stratified sample
+  (``solver.predictability.section_uncertainty``).
+- ``make-probability``: the probability of each outcome of a throw whose arriving state is
+  normal around each nominal state of the (beta, omega1) section, with spread
+  sigma * (sigma_beta, sigma_omega1, sigma_omega2, sigma_omega3), Wilson intervals and the
+  deterministic outcome beside it. Sweepable over sigma, mu, k_r, k_d, omega2, omega3.
+
+Outcome codes and names come from ``solver.OUTCOME_MEANINGS`` and colours from the one outcome
+palette of every figure (``study.plotting.OUTCOME_PALETTE``): a new outcome gets its own
+probability variable and colour without an edit here.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from matplotlib.ticker import FixedLocator, FuncFormatter, NullLocator
+
+import solver
+from solver import outcomes
+from solver import predictability as pred
+from study import plotting as P
+from study.dataset import setting_of
+from study.registry import Axis, Study, Var, register
+from workflows import outcome_grids
+
+# ================================================================ outcome names and colours
+OUTCOME_NAMES = {code: meaning.split(":")[0] for code, meaning in solver.OUTCOME_MEANINGS.items()}
+PALETTE = P.OUTCOME_PALETTE  # the one outcome palette of every outcome figure
+
+
+def _outcome_map(ax, w1, beta, codes):
+    """Draw an outcome grid (beta x omega1) in the outcome palette; returns legend handles."""
+    cmap, norm = PALETTE.cmap_norm()
+    ax.pcolormesh(w1, beta, codes, cmap=cmap, norm=norm, shading="nearest", rasterized=True)
+    return PALETTE.handles(np.unique(codes))
+
+
+def _outcome_var() -> Var:
+    return Var("outcome", "1", "deterministic outcome of the nominal state", dtype="int8",
+               flag_values=outcomes.OUTCOME_FLAG_VALUES, flag_meanings=outcomes.OUTCOME_FLAG_MEANINGS)
+
+
+def _section_states(beta, omega1, s):
+    return np.stack([beta, omega1, np.full_like(beta, s["omega2"]), np.full_like(beta, s["omega3"])], axis=-1)
+
+
+# ================================================================ predictability
+PRED_SETTINGS = {
+    **{k: v for k, v in outcome_grids.SETTINGS.items()},
+    "omega2": (35.0, 65.0, 105.0),  # [1/s] the sections of Figs. 11, 12, 13
+    "box": 5,  # points per side of an entropy box
+    "n_fine": 3,  # eps = 1/2, 1/4, 1/8 grid steps: simulated
+    "n_coarse": 2,  # eps = 1, 2, 4 grid steps: read from the grid
+    "n_sample": 2000,  # points drawn from the grid's certain part for the eps < 1 test
+    "seed": 0,
+}
+PRED_QUICK = {**outcome_grids.QUICK, "n_sample": 200, "n_coarse": 1}
+
+
+def eps_values(n_fine: int, n_coarse: int) -> np.ndarray:
+    """eps [grid steps] of the predictability study: 2^-n_fine ... 2^n_coarse."""
+    return 2.0 ** np.arange(-int(n_fine), int(n_coarse) + 1)
+
+
+def _pred_axes(s):
+    if s["n_fine"] < 0 or s["n_coarse"] < 0 or s["n_fine"] + s["n_coarse"] < 2:
+        raise ValueError(f"n_fine, n_coarse must be >= 0 with at least 3 eps in all; got {s['n_fine']}, "
+                         f"{s['n_coarse']}")
+    if s["box"] < 2 or s["box"] > min(s["n_beta"], s["n_omega1"]):
+        raise ValueError(f"box must be >= 2 and fit the grid ({s['n_beta']} x {s['n_omega1']}); got {s['box']}")
+    if s["n_sample"] < 0:
+        raise ValueError(f"n_sample must be >= 0; got {s['n_sample']}")
+    if s["n_fine"] + s["n_coarse"] + 1 > 31:
+        raise ValueError("at most 31 eps (the uncertain flags are bits of an int32)")
+    return outcome_grids._axes(s)
+
+
+def _scene(coords, p, s):
+    """Params and t_max of the chunk's scene (chunks hold one scene; ``scene`` holds labels)."""
+    k = outcome_grids.scene_index(coords[0].flat[0])
+    table = outcome_grids.scene_table(s)
+    return p.replace(mu=table["mu"][k], k_r=table["k_r"][k], k_d=table["k_d"][k]), float(table["t_max"][k])
+
+
+def _pred_compute(coords, p, s):
+    _, beta, omega1 = coords
+    params, t_max = _scene(coords, p, s)
+    states = _section_states(beta[0], omega1[0], s)
+    sim = dict(t_max=t_max, rtol=s["rtol"], atol=s["atol"], method=s["method"], workers=1)
+    res = solver.simulate(states, params, **sim)
+    codes = res["outcome"]
+    box = int(s["box"])
+    per_box = pred.box_entropy(codes, box)
+    entropy = np.full(codes.shape, np.nan)
+    nb, nw = per_box.shape
+    entropy[: nb * box, : nw * box] = np.repeat(np.repeat(per_box, box, axis=0), box, axis=1)
+    eps = eps_values(s["n_fine"], s["n_coarse"])
+    scale = np.array([beta[0, 1, 0] - beta[0, 0, 0], omega1[0, 0, 1] - omega1[0, 0, 0], 0.0, 0.0])
+    uncertain, weight = pred.section_uncertainty(states, codes, params, eps, scale, n_sample=int(s["n_sample"]),
+                                                 seed=int(s["seed"]), **sim)
+    bits = (uncertain.astype(np.int64) << np.arange(eps.size)[:, None, None]).sum(axis=0)
+    return {"outcome": codes[None], "box_entropy": entropy[None], "uncertain": bits[None].astype(np.int32),
+            "sample_weight": weight[None], "status": res["status"][None]}
+
+
+PRED_VARIABLES = [
+    _outcome_var(),
+    Var("box_entropy", "1", "Shannon entropy [nats] of the outcome fractions in the box (box x box grid points) "
+        "holding this point; NaN outside whole boxes"),
+    Var("uncertain", "1", "bit i set: the outcome changes when beta or omega1 moves by +-eps[i] grid steps "
+        "(eps[i] = 2**(i - n_fine)); bits of eps < 1 are known where sample_weight > 0", dtype="int32"),
+    Var("sample_weight", "1", "grid points this point stands for in the eps < 1 test (0: not simulated)"),
+    Var("status", "1", "integration status of the nominal state", dtype="int8",
+        flag_values=outcomes.STATUS_FLAG_VALUES, flag_meanings=outcomes.STATUS_FLAG_MEANINGS),
+]
+
+
+def _lead(ds, name):
+    """``ds[name]`` as (lead..., beta, omega1) numpy plus the lead dims."""
+    da = ds[name]
+    lead = [d for d in da.dims if d not in ("beta", "omega1")]
+    return da.transpose(*lead, "beta", "omega1").values, lead
+
+
+def _pred_derive(ds):
+    codes, lead = _lead(ds, "outcome")
+    bits, _ = _lead(ds, "uncertain")
+    weight, _ = _lead(ds, "sample_weight")
+    shape = codes.shape[:-2]
+    eps = eps_values(setting_of(ds, "n_fine"), setting_of(ds, "n_coarse"))
+    box = int(setting_of(ds, "box"))
+    flat = lambda a: a.reshape((-1,) + a.shape[-2:])
+    n = int(np.prod(shape, dtype=int))
+    s_b, s_bb, n_bb = np.empty(n), np.empty(n), np.empty(n, dtype=np.int32)
+    f, f_err = np.empty((n, eps.size)), np.empty((n, eps.size))
+    alpha, alpha_err = np.empty(n), np.empty(n)
+    for i, (c, b, w) in enumerate(zip(flat(codes), flat(bits), flat(weight))):
+        be = pred.basin_entropy(c, box)
+        s_b[i], s_bb[i], n_bb[i] = be.S_b, be.S_bb, be.n_boundary_boxes
+        for j, e in enumerate(eps):
+            f[i, j], f_err[i, j] = pred.sampled_fraction((b >> j) & 1, w if e < 1 else None)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            n_eff = np.where(f_err[i] > 0, f[i] * (1 - f[i]) / f_err[i] ** 2, 0.0)
+        ex = pred.uncertainty_exponent(eps, f[i], n_eff)
+        alpha[i], alpha_err[i] = ex.alpha, ex.alpha_err
+    lead, dims_eps = tuple(lead), tuple(lead) + ("eps",)
+    r = lambda a: a.reshape(shape)
+    re = lambda a: a.reshape(shape + (eps.size,))
+    return {
+        "eps": (("eps",), eps, {"units": "1", "long_name": "perturbation size in grid steps of beta and omega1"}),
+        "S_b": (lead, r(s_b), {"units": "1", "long_name": "basin entropy: mean box entropy over all boxes [nats]"}),
+        "S_bb": (lead, r(s_bb), {"units": "1", "long_name": "boundary basin entropy: mean box entropy over boxes "
+                                 "with more than one outcome [nats]; above ln 2 = 0.693 the boundary is fractal"}),
+        "n_boundary_boxes": (lead, r(n_bb), {"units": "1", "long_name": "boxes holding more than one outcome"}),
+        "f": (dims_eps, re(f), {"units": "1", "long_name": "fraction of states whose outcome changes under a "
+                                "+-eps perturbation of beta or omega1 (uncertain fraction f(eps))"}),
+        "f_err": (dims_eps, re(f_err), {"units": "1", "long_name": "standard error of f (binomial, stratified)"}),
+        "alpha": (lead, r(alpha), {"units": "1", "long_name": "uncertainty exponent: slope of log f against "
+                                   "log eps (1: smooth boundary, < 1: fractal)"}),
+        "alpha_err": (lead, r(alpha_err), {"units": "1", "long_name": "standard error of alpha"}),
+        "D": (lead, r(2 - alpha), {"units": "1", "long_name": "box dimension of the outcome boundaries in the "
+                                   "(beta, omega1) section, 2 - alpha"}),
+    }
+
+
+def _pred_plot(ds):
+    sections = ds["omega2"].values if "omega2" in ds.dims else [float(setting_of(ds, "omega2"))]
+    rows = len(sections)
+    fig, _ = P.new_figure(15.0, 3.9 * rows + 0.8)
+    fig.clear()
+    axes = np.atleast_2d(fig.subplots(rows, 3, squeeze=False))
+    scenes = [P.scene_text(v) for v in ds["scene"].values]
+    styles = ("o-", "s--", "^-.", "v:")
+    w1, beta = ds["omega1"].values, ds["beta"].values
+    emax = np.log(max(2, len(OUTCOME_NAMES)))
+    for r, om in enumerate(sections):
+        sec = ds.sel(omega2=om) if "omega2" in ds.dims else ds
+        ax = axes[r, 0]
+        eps = sec["eps"].values
+        for k in range(sec.sizes["scene"]):
+            sc = sec.isel(scene=k)
+            f, err = sc["f"].values, sc["f_err"].values
+            a, ae = float(sc["alpha"]), float(sc["alpha_err"])
+            colour = f"C{k}"
+            ok = f > 0
+            ax.errorbar(eps[ok], f[ok], yerr=err[ok], fmt=styles[k % 4], color=colour, ms=4, lw=1.2, capsize=2,
+                        label=rf"{scenes[k] if k < len(scenes) else k}: $\alpha$={a:.3f}$\pm${ae:.3f}")
+            if np.isfinite(a) and ok.sum() >= 2:
+                # the fitted line through the weighted centre of the points
+                le, lf = np.log(eps[ok]), np.log(f[ok])
+                c = lf.mean() - a * le.mean()
+                ax.plot(eps, np.exp(c) * eps ** a, "-", color=colour, lw=0.6, alpha=0.7)
+        ax.plot(eps, f[ok][-1] * eps / eps[ok][-1] if ok.any() else eps * np.nan, "k:", lw=0.8, label="slope 1")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.xaxis.set_major_locator(FixedLocator(eps))
+        ax.xaxis.set_major_formatter(FuncFormatter(lambda e, _: f"{e:g}" if e >= 1 else f"1/{1 / e:g}"))
+        ax.xaxis.set_minor_locator(NullLocator())
+        ax.set_xlabel(r"perturbation $\varepsilon$ [grid steps of $\beta$, $\omega_1$]")
+        ax.set_ylabel(r"uncertain fraction $f(\varepsilon)$")
+        ax.set_title(rf"$\omega_2$={om:g} 1/s: $f(\varepsilon)\sim\varepsilon^\alpha$", fontsize=10)
+        ax.grid(alpha=0.3, which="both")
+        ax.legend(fontsize=7.5, loc="upper left")
+        for col, k in ((1, 0), (2, 1)):
+            ax = axes[r, col]
+            sc = sec.isel(scene=k)
+            ent = sc["box_entropy"].transpose("beta", "omega1").values
+            mesh = ax.pcolormesh(w1, beta, ent, cmap="magma_r", vmin=0, vmax=emax, shading="nearest",
+                                 rasterized=True)
+            ax.set_title(rf"box entropy, {scenes[k]}: $S_b$={float(sc['S_b']):.4f}, "
+                         rf"$S_{{bb}}$={float(sc['S_bb']):.3f} (ln 2 = 0.693)", fontsize=9)
+            ax.set_xlabel(r"$\omega_1$ [1/s]")
+            ax.set_ylabel(r"$\beta$ [rad]")
+        fig.colorbar(mesh, ax=axes[r, 1:], label="box entropy [nats]", shrink=0.9)
+    box = int(setting_of(ds, "box"))
+    fig.suptitle(f"{ds.attrs['title']}\nuncertain fraction f (whole eps read from the grid, eps < 1 simulated on a "
+                 f"stratified sample; lines: fitted slopes) and entropy of {box} x {box} boxes", fontsize=11)
+    return fig
+
+
+register(Study(
+    name="predictability",
+    title="Predictability of the outcome sections (Figs. 11-13): basin entropy and uncertainty exponent",
+    settings=PRED_SETTINGS,
+    quick=PRED_QUICK,
+    sweepable=("omega2",),
+    axes=_pred_axes,
+    variables=PRED_VARIABLES,
+    compute=_pred_compute,
+    plot=_pred_plot,
+    chunks={"scene": 1, "beta": 1 << 30, "omega1": 1 << 30},  # a chunk is one scene's whole section
+    derive=_pred_derive,
+    ignores={k: "each of the four scenes sets its own mu, k_r and k_d; change mu_slip or k_dissipation"
+             for k in ("mu", "k_r", "k_d")},
+))
+
+
+# ================================================================ make-probability
+PROB_SETTINGS = {
+    "omega2": 35.0, "omega3": 10.0,  # [1/s] the Fig. 11 section
+    "beta_min": 0.8, "beta_max": 1.8, "n_beta": 240,  # [rad]
+    "omega1_max": 20.0, "n_omega1": 360,  # [1/s]
+    "mu": float("inf"),  # rolling only unless set
+    "sigma": 1.0,  # noise level: multiplies the four spreads below
+    "sigma_beta": 0.02,  # [rad] about 1.1 degrees, 2.6 mm of the contact point on the rim's tube
+    "sigma_omega1": 1.0, "sigma_omega2": 2.0, "sigma_omega3": 1.0,  # [1/s]
+    "n_samples": 64, "seed": 0, "confidence": 0.95,
+    "t_max": 20.0, "rtol": 1e-6, "atol": 1e-9, "method": "dp5",
+}
+PROB_QUICK = {"n_beta": 24, "n_omega1": 36, "n_samples": 16}
+
+
+def _prob_axes(s):
+    if s["n_beta"] < 2 or s["n_omega1"] < 2:
+        raise ValueError(f"n_beta and n_omega1 must be >= 2; got {s['n_beta']}, {s['n_omega1']}")
+    if s["n_samples"] < 1:
+        raise ValueError(f"n_samples must be >= 1; got {s['n_samples']}")
+    if not 0 < s["confidence"] < 1:
+        raise ValueError(f"confidence must lie in (0, 1); got {s['confidence']}")
+    spreads = [s[k] for k in ("sigma_beta", "sigma_omega1", "sigma_omega2", "sigma_omega3")]
+    if not all(np.isfinite(v) and v >= 0 for v in spreads):
+        raise ValueError(f"sigma_beta, sigma_omega1, sigma_omega2, sigma_omega3 must be finite and >= 0; got {spreads}")
+    w = float(s["omega1_max"])
+    return [Axis("beta", np.linspace(s["beta_min"], s["beta_max"], int(s["n_beta"])), "rad",
+                 "nominal initial height angle of the contact point on the rim's cross-section"),
+            Axis("omega1", np.linspace(-w, w, int(s["n_omega1"])), "s-1", "nominal initial transversal angular velocity")]
+
+
+def sigma_of(s) -> np.ndarray:
+    """Standard deviations (rad, 1/s, 1/s, 1/s) of the arriving state: sigma times the sigma_* settings."""
+    return float(s["sigma"]) * np.array([s["sigma_beta"], s["sigma_omega1"], s["sigma_omega2"], s["sigma_omega3"]])
+
+
+def _prob_compute(coords, p, s):
+    beta, omega1 = coords
+    states = _section_states(beta, omega1, s)
+    sim = dict(t_max=s["t_max"], rtol=s["rtol"], atol=s["atol"], method=s["method"], workers=1)
+    res = pred.make_probability(states, p, sigma_of(s), n_samples=int(s["n_samples"]), seed=int(s["seed"]),
+                                confidence=float(s["confidence"]), **sim)
+    out = {"outcome": solver.simulate(states, p, **sim)["outcome"], "n_failed": res["n_failed"]}
+    codes = res["codes"].tolist()
+    for code, name in OUTCOME_NAMES.items():
+        i = codes.index(code)
+        out[f"p_{name}"] = res["probability"][..., i]
+        out[f"p_{name}_lower"] = res["lower"][..., i]
+        out[f"p_{name}_upper"] = res["upper"][..., i]
+    return out
+
+
+def _prob_variables():
+    out = [_outcome_var()]
+    for name in OUTCOME_NAMES.values():
+        out += [Var(f"p_{name}", "1", f"probability of {name} when the arriving state is normal around the "
+                    "nominal one (Monte Carlo, common random numbers)"),
+                Var(f"p_{name}_lower", "1", f"lower end of the Wilson confidence interval of p_{name}"),
+                Var(f"p_{name}_upper", "1", f"upper end of the Wilson confidence interval of p_{name}")]
+    out.append(Var("n_failed", "1", "samples whose integration status is not ok (counted by their outcome)",
+                   dtype="int32"))
+    return out
+
+
+def _first_outer(da):
+    for d in list(da.dims):
+        if d not in ("beta", "omega1"):
+            da = da.isel({d: 0})
+    return da.transpose("beta", "omega1")
+
+
+def _prob_plot(ds):
+    fig, _ = P.new_figure(16.0, 5.2)
+    fig.clear()
+    axes = fig.subplots(1, 3, sharey=True)
+    w1, beta = ds["omega1"].values, ds["beta"].values
+    codes = _first_outer(ds["outcome"]).values
+    handles = _outcome_map(axes[0], w1, beta, codes)
+    axes[0].set_title("deterministic outcome (sigma = 0)", fontsize=10)
+    axes[0].legend(handles=handles, fontsize=8, loc="lower left")
+    p_in = _first_outer(ds["p_fall_in"]).values
+    mesh = axes[1].pcolormesh(w1, beta, p_in, cmap="RdBu", vmin=0, vmax=1, shading="nearest", rasterized=True)
+    axes[1].contour(w1, beta, p_in, levels=[0.5], colors="k", linewidths=1.2)
+    inside = (codes == outcomes.FALL_IN).astype(float)
+    if 0 < inside.mean() < 1:
+        axes[1].contour(w1, beta, inside, levels=[0.5], colors="yellow", linewidths=0.8, linestyles="--")
+    fig.colorbar(mesh, ax=axes[1], label="P(fall in)")
+    axes[1].set_title("P(fall in): black P = 0.5, yellow dashed the deterministic boundary", fontsize=10)
+    stay = sum(_first_outer(ds[f"p_{name}"]).values for code, name in OUTCOME_NAMES.items()
+               if code not in (outcomes.FALL_IN, outcomes.FALL_OUT))
+    mesh = axes[2].pcolormesh(w1, beta, stay, cmap="Greens", vmin=0, vmax=1, shading="nearest", rasterized=True)
+    fig.colorbar(mesh, ax=axes[2], label="P(stays on the rim)")
+    axes[2].set_title("P(periodic rolling or still on the rim)", fontsize=10)
+    for ax in axes:
+        ax.set_xlabel(r"nominal $\omega_1$ [1/s]")
+    axes[0].set_ylabel(r"nominal $\beta$ [rad]")
+    s = {k: float(setting_of(ds, k)) for k in ("sigma_beta", "sigma_omega1", "sigma_omega2", "sigma_omega3")}
+    level = float(ds["sigma"][0]) if "sigma" in ds.dims else float(setting_of(ds, "sigma"))
+    outer = [f"{d}={float(ds[d][0]):g}" for d in ds["p_fall_in"].dims if d not in ("beta", "omega1")]
+    fig.suptitle(rf"Make probability at $\omega_2$={float(ds['omega2'][0]) if 'omega2' in ds.dims else float(setting_of(ds, 'omega2')):g} 1/s: "
+                 rf"$\sigma$ = {level:g} x ({s['sigma_beta']:g} rad, {s['sigma_omega1']:g}, {s['sigma_omega2']:g}, "
+                 rf"{s['sigma_omega3']:g} 1/s), {int(setting_of(ds, 'n_samples'))} samples per state"
+                 + (f"; first of the sweep: {', '.join(outer)}" if outer else ""), fontsize=11)
+    return fig
+
+
+register(Study(
+    name="make-probability",
+    title="Make probability of a throw with a normal spread of the arriving state over the (beta, omega1) section",
+    settings=PROB_SETTINGS,
+    quick=PROB_QUICK,
+    sweepable=("sigma", "mu", "k_r", "k_d", "omega2", "omega3"),
+    axes=_prob_axes,
+    variables=_prob_variables(),
+    compute=_prob_compute,
+    plot=_prob_plot,
+    chunks={"beta": 12},
+))
