@@ -61,7 +61,7 @@ _announced = False
 
 def kernels_cached() -> bool:
     """Whether the simulation kernels are compiled in this process or cached on disk."""
-    return bool(kernels.run_chunk.signatures) or any(_jit.cache_dir().glob("kernels.run_chunk-*.nbi"))
+    return bool(kernels.run_chunk.signatures) or any(_jit.cache_dir().glob("**/kernels.run_chunk-*.nbi"))
 
 
 def _announce_compile():

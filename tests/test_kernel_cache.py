@@ -60,3 +60,10 @@ def test_a_first_compile_is_announced_on_stderr_once(monkeypatch, capsys):
     err = capsys.readouterr().err
     assert err.count("compiling the simulation kernels, first run only") == 1
     assert str(_jit.cache_dir()) in err
+
+
+def test_the_cache_index_of_the_chunk_driver_is_found_after_a_run():
+    from solver import simulate as run
+
+    run([[1.1, 2.0, 35.0, 10.0]], solver.Params(mu=float("inf")), t_max=0.1)
+    assert any(_jit.cache_dir().glob("**/kernels.run_chunk-*.nbi"))
