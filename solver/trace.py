@@ -4,7 +4,8 @@
 module shows how, for one. It integrates the same physics, the compiled right-hand sides and
 switching maps (``solver.rolling``, ``solver.slipping``, ``solver.switching``,
 ``solver.kinematics``, ``solver.flight``), phase by phase with scipy ``solve_ivp`` and its dense
-output, under the rules of ``solver.simulate`` (paper Sect. 5.2.2):
+output, under the rules of ``solver.simulate`` (paper Sect. 5.2.2; the steady-motion test and what counts
+as a transversal omega1 zero are ``solver.rules``, shared with the engine):
 
 * rolling: stop where F2 (31) crosses zero downward (fall: in or out by the free flight of the
   centre), where the friction margin (39) crosses zero downward (slip onset: the launch of
@@ -29,14 +30,14 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
-from solver import flight, kinematics, rolling, slipping, switching
-from solver.outcomes import ON_RIM_AT_T_MAX, PERIODIC_ROLLING
+from solver import flight, kinematics, rolling, rules, slipping, switching
+from solver.outcomes import ON_RIM_AT_T_MAX, PERIODIC_ROLLING, STEADY_MOTION
 from solver.params import P_MU, P_R_BALL, P_R_RIM, P_RHO, Params
 
 ROLLING, SLIPPING = 0, 1
 PHASE_MEANINGS = {ROLLING: "rolling", SLIPPING: "slipping"}
 
-EVENT_KINDS = ("start", "slip_onset", "return_to_rolling", "omega1_zero", "fall", "periodic", "t_max")
+EVENT_KINDS = ("start", "slip_onset", "return_to_rolling", "omega1_zero", "fall", "periodic", "t_max", "steady_motion")
 """Kinds of the events of a trace, in the order of their integer codes."""
 
 _SAMPLES_PER_STEP = 16  # dense-output samples per step when searching a missed downward crossing
@@ -143,13 +144,16 @@ def trace_phases(state, params: Params, t_max: float = 20.0, rtol: float = 1e-10
                 slip_phases += 1
                 events.append((t, "slip_onset"))
                 continue
+            if t == 0.0 and rules.on_steady_motion(y[0], y[1], y[2], y[3], p):  # solver.rules, as simulate
+                outcome, reason = STEADY_MOTION, "steady_motion"
+                break
             if t >= t_max:
                 break
             evs = [_event(f2_roll, -1, True)]
             if hybrid:
                 evs.append(_event(margin, -1, True))
             if conservative:
-                evs.append(_event(lambda y: y[1], 0, 2))
+                evs.append(_event(lambda y: y[1], 0, 2))  # (a touching zero may stop it early: rare)
             sol = solve_ivp(fun_roll, (t, t_max), y, method=method, rtol=rtol, atol=atol, events=evs,
                             dense_output=True)
             if sol.status < 0:
@@ -158,7 +162,9 @@ def trace_phases(state, params: Params, t_max: float = 20.0, rtol: float = 1e-10
             cands = [(float(sol.t_events[0][0]), "fall")] if sol.t_events[0].size else []
             if hybrid and sol.t_events[1].size:
                 cands.append((float(sol.t_events[1][0]), "slip_onset"))
-            zeros = sol.t_events[-1] if conservative else np.empty(0)
+            zeros = np.array([z for z, yz in zip(sol.t_events[-1], sol.y_events[-1])  # transversal ones only
+                              if rules.transversal_omega1_zero(yz[0], yz[1], yz[2], yz[3], p, rtol)]
+                             ) if conservative else np.empty(0)
             if zeros.size >= 2:
                 cands.append((float(zeros[1]), "periodic"))
             for value, kind in ((f2_roll, "fall"), (margin, "slip_onset")) if hybrid else ((f2_roll, "fall"),):
