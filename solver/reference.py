@@ -8,7 +8,7 @@ bisection) and the bookkeeping of phases written out here.
 
 Rolling-only scenes. Each state is one ``solve_ivp`` call on the rolling equations (plus alpha)
 with two scipy events: F2 (31) crossing zero downward (terminal) and, in conservative scenes,
-omega1 crossing zero (terminal at its second occurrence). Then DESIGN §4: F2 < 0 at t = 0 falls
+omega1 crossing zero (terminal at its second occurrence). Then the rules (docs/outcome-engine.md): F2 < 0 at t = 0 falls
 at once; a fall is classified by the free flight of ``solver.flight``; two omega1 crossings give
 ``periodic_rolling`` with half_period = t2 - t1; otherwise the ball is on the rim at t_max.
 

@@ -1,6 +1,6 @@
-"""``solver.simulate``: classify rolling initial states by the rules of DESIGN §4.
+"""``solver.simulate``: classify rolling initial states by the rules of docs/outcome-engine.md.
 
-Validates the arguments, picks the scene from ``Params`` (DESIGN §3) and the method's table,
+Validates the arguments, picks the scene from ``Params`` (docs/outcome-engine.md, Scenes) and the method's table,
 flattens the states and hands contiguous chunks to the compiled, ``nogil`` chunk driver on a
 pool of threads (one per core by default): every core works, and callers that already run
 threads (dask) can pass ``workers=1``.

@@ -12,7 +12,7 @@ Codes (int8; CF ``flag_values`` / ``flag_meanings`` in files):
 2 periodic                  omega1 has two transversal zeros within t_max: periodic with period
                             2 (t2 - t1) (Prop. 4); ``half_period`` = t2 - t1
 3 non_periodic_pendulum     omega2 = omega3 = 0 and E > m g rho (Prop. 6; the paper prints m g r,
-                            the conserved energy has m g rho, DESIGN §8): omega1 never changes sign
+                            the conserved energy has m g rho, docs/outcome-studies.md): omega1 never changes sign
 4 undetermined              none of the above within t_max: a connection of unstable equilibria
                             (homoclinic/heteroclinic), a quasi-periodic solution (stable region of
                             Fig. 9 only), the separatrix E = m g rho of the pendulum, a slow
