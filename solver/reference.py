@@ -94,7 +94,7 @@ def _first_dip(sol, F2, t_mins, t_end):
     return None
 
 
-def _event(value, terminal, direction):
+def scipy_event(value, terminal, direction):
     """A ``solve_ivp`` event function (t, y) -> value(y), with its terminal and direction attributes."""
     def event(t, y):
         return value(y)
@@ -106,7 +106,7 @@ def _event(value, terminal, direction):
 
 def _omega1_zero():
     """omega1 = 0 either way; the run stops at the second zero (Prop. 4: periodic)."""
-    return _event(lambda y: y[1], terminal=2, direction=0)
+    return scipy_event(lambda y: y[1], terminal=2, direction=0)
 
 
 def _transversal_pair(t_w1, y_w1, p, rtol, t_start=None):
@@ -144,7 +144,7 @@ def _reference_rolling(state, params: Params, t_max, rtol, atol, method):
         alpha_dot, _ = kinematics.angle_rates.py_func(y[0], y[1], y[3], 0.0, 0.0, p)
         return [b, w1, w2, w3, alpha_dot]
 
-    fall = _event(lambda y: F2(y[0], y[1], y[3], p), terminal=True, direction=-1)
+    fall = scipy_event(lambda y: F2(y[0], y[1], y[3], p), terminal=True, direction=-1)
     omega1_zero = _omega1_zero()
 
     def f2_rate(t, y):
@@ -283,10 +283,10 @@ def reference_hybrid(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, 
         yy = np.ascontiguousarray(y, dtype=float)
         return switching.try_return(yy, p, sw, t_max - t, out)
 
-    fall_roll = _event(fall_roll_value, terminal=True, direction=-1)
-    slip_onset = _event(margin_value, terminal=True, direction=-1)
+    fall_roll = scipy_event(fall_roll_value, terminal=True, direction=-1)
+    slip_onset = scipy_event(margin_value, terminal=True, direction=-1)
     omega1_zero = _omega1_zero()
-    fall_slip = _event(fall_slip_value, terminal=True, direction=-1)
+    fall_slip = scipy_event(fall_slip_value, terminal=True, direction=-1)
 
     def f2_min_roll(t, y):  # dF2/dt = 0 upward: an interior minimum of F2 (31)
         b, w1, _, w3 = rolling_rhs(y[0], y[1], y[2], y[3], p)

@@ -31,6 +31,7 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
 from solver import flight, kinematics, rolling, rules, slipping, switching
+from solver.reference import scipy_event
 from solver.outcomes import ON_RIM_AT_T_MAX, PERIODIC_ROLLING, STEADY_MOTION
 from solver.params import P_MU, P_R_BALL, P_R_RIM, P_RHO, Params
 
@@ -67,15 +68,6 @@ def _first_down(sol, ts, t1, value):
             f = lambda s: value(sol(s))
             return brentq(f, t[k], t[k + 1], xtol=1e-15) if f(t[k]) > 0 > f(t[k + 1]) else t[k + 1]
     return None
-
-
-def _event(value, direction, terminal):
-    def ev(t, y):
-        return value(y)
-
-    ev.direction = direction
-    ev.terminal = terminal
-    return ev
 
 
 def trace_phases(state, params: Params, t_max: float = 20.0, rtol: float = 1e-10, atol: float = 1e-12,
@@ -149,11 +141,11 @@ def trace_phases(state, params: Params, t_max: float = 20.0, rtol: float = 1e-10
                 break
             if t >= t_max:
                 break
-            evs = [_event(f2_roll, -1, True)]
+            evs = [scipy_event(f2_roll, terminal=True, direction=-1)]
             if hybrid:
-                evs.append(_event(margin, -1, True))
+                evs.append(scipy_event(margin, terminal=True, direction=-1))
             if conservative:
-                evs.append(_event(lambda y: y[1], 0, 2))  # (a touching zero may stop it early: rare)
+                evs.append(scipy_event(lambda y: y[1], terminal=2, direction=0))  # a touching zero may stop it early
             sol = solve_ivp(fun_roll, (t, t_max), y, method=method, rtol=rtol, atol=atol, events=evs,
                             dense_output=True)
             if sol.status < 0:
@@ -204,7 +196,8 @@ def trace_phases(state, params: Params, t_max: float = 20.0, rtol: float = 1e-10
 
                 ret.direction, ret.terminal = -1, True
                 sol = solve_ivp(fun_slip, (t, t_max), y, method=method, rtol=rtol, atol=atol,
-                                events=[_event(f2_slip, -1, True), ret], dense_output=True)
+                                events=[scipy_event(f2_slip, terminal=True, direction=-1), ret],
+                                dense_output=True)
                 sol_ev = sol.t_events  # the return event: a jump of refused() from +1 to -1
                 if sol.status < 0:
                     raise RuntimeError(f"trace: slipping phase from t = {t:g} s failed: {sol.message}")

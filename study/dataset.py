@@ -117,13 +117,20 @@ def global_attrs(study: Study, params: solver.Params, settings: dict, command: s
             attrs[f"setting_{name}"] = _attr_value(value)
     if swept:
         attrs["swept"] = " ".join(swept)
-    attrs["rimroll_version"] = version
-    rev = git_revision()
-    if rev:
-        attrs["git_revision"] = rev
-    attrs["created"] = now
-    attrs["history"] = f"{now} {command} - rimroll {version}" + (f" (git {rev})" if rev else "")
+    attrs.update(provenance(command, now, version))
     return attrs
+
+
+def provenance(command: str, now: str, version: str | None = None) -> dict:
+    """rimroll_version, git_revision (when known), created and history attributes of a file."""
+    version = version or rimroll_version()
+    rev = git_revision()
+    out = {"rimroll_version": version}
+    if rev:
+        out["git_revision"] = rev
+    out["created"] = now
+    out["history"] = f"{now} {command} - rimroll {version}" + (f" (git {rev})" if rev else "")
+    return out
 
 
 REFERENCES = ("M. Antali, V. Havas, S. J. Hogan, G. Stepan: Nonlinear dynamics of a basketball rolling "

@@ -24,7 +24,7 @@ import solver
 from solver import trace as tr
 from study import io
 from study import plotting as P
-from study.dataset import git_revision, params_of, rimroll_version, setting_of
+from study.dataset import params_of, provenance, setting_of
 from study.registry import PHYSICAL_KEYS, UserError
 
 STATE_NAMES = ("beta", "omega1", "omega2", "omega3")
@@ -187,13 +187,7 @@ def dataset(res: dict, state, params: solver.Params, t_max: float, rtol: float, 
                   "reason": str(res["reason"]), "half_period": float(res["half_period"]),
                   "slip_phases": int(res["slip_phases"])})
     attrs.update(extra or {})
-    version = rimroll_version()
-    attrs["rimroll_version"] = version
-    rev = git_revision()
-    if rev:
-        attrs["git_revision"] = rev
-    attrs["created"] = now
-    attrs["history"] = f"{now} {command} - rimroll {version}" + (f" (git {rev})" if rev else "")
+    attrs.update(provenance(command, now))
     return xr.Dataset(data, coords={"time": time}, attrs=attrs)
 
 
