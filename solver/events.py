@@ -92,13 +92,19 @@ def fires(e, sign, value, active, direction):
 
 
 @kernel(inline=True)
+def hermite_coefficients(a, b, da, db):
+    """(a2, a3) of the cubic Hermite interpolant a + da theta + a2 theta^2 + a3 theta^3 on [0, 1]
+    with values a, b and theta-slopes da, db at its ends."""
+    return 3.0 * (b - a) - 2.0 * da - db, 2.0 * (a - b) + da + db
+
+
+@kernel(inline=True)
 def hermite(a, b, da, db):
     """The cubic Hermite interpolant on theta in [0, 1] of values a, b and theta-slopes da, db.
 
     Returns (its minimum over [0, 1], the theta of that minimum, its cubic coefficient a3).
     """
-    a2 = 3.0 * (b - a) - 2.0 * da - db
-    a3 = 2.0 * (a - b) + da + db
+    a2, a3 = hermite_coefficients(a, b, da, db)
     lo = a
     th_lo = 0.0
     if b < lo:
@@ -157,9 +163,7 @@ def hermite_at(g0, r0, g1, r1, h, theta):
     """The cubic Hermite interpolant of values g0, g1 and time derivatives r0, r1 on a step of
     length h [s], at theta in [0, 1]."""
     da = h * r0
-    db = h * r1
-    a2 = 3.0 * (g1 - g0) - 2.0 * da - db
-    a3 = 2.0 * (g0 - g1) + da + db
+    a2, a3 = hermite_coefficients(g0, g1, da, h * r1)
     return g0 + theta * (da + theta * (a2 + theta * a3))
 
 

@@ -14,16 +14,21 @@ from solver.params import P_R_BALL, P_R_RIM, P_RHO
 
 
 @kernel
-def angle_rates(beta, omega1, omega3, u1, u3, p):
-    """Rates of the contact angles (19)-(20): (alpha_dot, beta_dot) [rad/s].
+def alpha_rate(beta, omega3, u1, p):
+    """Rate of the angle around the rim (19): alpha_dot = (u1 - r omega3) / (R - rho cos beta) [rad/s]."""
+    return (u1 - p[P_R_BALL] * omega3) / (p[P_R_RIM] - p[P_RHO] * np.cos(beta))
 
-    alpha_dot = (u1 - r omega3) / (R - rho cos beta),  beta_dot = (u3 + r omega1) / rho.
-    """
-    r = p[P_R_BALL]
-    rho = p[P_RHO]
-    alpha_dot = (u1 - r * omega3) / (p[P_R_RIM] - rho * np.cos(beta))
-    beta_dot = (u3 + r * omega1) / rho
-    return alpha_dot, beta_dot
+
+@kernel
+def beta_rate(omega1, u3, p):
+    """Rate of the height angle (20): beta_dot = (u3 + r omega1) / rho [rad/s]."""
+    return (u3 + p[P_R_BALL] * omega1) / p[P_RHO]
+
+
+@kernel
+def angle_rates(beta, omega1, omega3, u1, u3, p):
+    """Rates of the contact angles (19)-(20): (alpha_dot, beta_dot) [rad/s]."""
+    return alpha_rate(beta, omega3, u1, p), beta_rate(omega1, u3, p)
 
 
 @kernel

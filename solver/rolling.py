@@ -36,7 +36,7 @@ def rolling_rhs(beta, omega1, omega2, omega3, p):
     s = np.sin(beta)
     c = np.cos(beta)
     D = R - rho * c
-    _, beta_dot = kinematics.angle_rates(beta, omega1, omega3, 0.0, 0.0, p)
+    beta_dot = kinematics.beta_rate(omega1, 0.0, p)
     omega1_dot = (
         ((1.0 + j) * r * omega3 * omega3 * s - j * r * omega2 * omega3 * c) / ((1.0 + j) * D)
         - g * c / (r * (1.0 + j))

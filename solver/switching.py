@@ -185,7 +185,7 @@ def leave_slipping(y, p, rate, t_left):
     u3 = y[5]
     dt = min(np.hypot(u1, u3) / (-rate), t_left)
     b, d1, d2, d3, _, _ = slipping.slipping_rhs(y[0], y[1], y[2], y[3], u1, u3, p)
-    alpha_dot, _ = kinematics.angle_rates(y[0], y[1], y[3], u1, u3, p)
+    alpha_dot = kinematics.alpha_rate(y[0], y[3], u1, p)
     alpha = y[6] + dt * alpha_dot
     y[0] += dt * b
     y[1] += dt * d1

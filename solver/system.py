@@ -8,7 +8,7 @@ handed as functions:
 
 alpha, the cyclic angle (19), is stored last and only integrated to report revolutions; it never
 feeds back and is left out of the error norm. Its rate, like every rate of the contact angles,
-comes from ``solver.kinematics.angle_rates`` (19)-(20).
+comes from ``solver.kinematics`` (19)-(20).
 
 Per phase, ``*_rhs(y, p, K, s)`` writes the rates of y into row s of the 2-D array K (the one
 right-hand side of the phase), and ``*_events(y, f, p, aux, hybrid, g, gr)`` writes the event
@@ -116,7 +116,7 @@ def rolling_rhs(y, p, K, s):
     w1 = y[1]
     w3 = y[3]
     b, d1, d2, d3 = rolling.rolling_rhs(beta, w1, y[2], w3, p)
-    alpha_dot, _ = kinematics.angle_rates(beta, w1, w3, 0.0, 0.0, p)
+    alpha_dot = kinematics.alpha_rate(beta, w3, 0.0, p)
     K[s, 0] = b
     K[s, 1] = d1
     K[s, 2] = d2
@@ -133,7 +133,7 @@ def slipping_rhs(y, p, K, s):
     u1 = y[I_U1]
     u3 = y[I_U3]
     b, d1, d2, d3, du1, du3 = slipping.slipping_rhs(beta, w1, y[2], w3, u1, u3, p)
-    alpha_dot, _ = kinematics.angle_rates(beta, w1, w3, u1, u3, p)
+    alpha_dot = kinematics.alpha_rate(beta, w3, u1, p)
     K[s, 0] = b
     K[s, 1] = d1
     K[s, 2] = d2
