@@ -16,7 +16,7 @@ is printed in each panel next to the grid-only ``classify`` label.
 
     python docs/subcell_bands.py [--out docs/img]
 
-writes ``subcell_bands.png`` and prints the numbers. Takes about half a minute on one core.
+writes ``subcell_bands.png`` and prints the numbers. Takes about ten seconds.
 """
 
 from __future__ import annotations
