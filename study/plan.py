@@ -47,6 +47,7 @@ class Plan:
     outer: tuple  # Axis per swept setting
     grid: tuple  # the study's grid axes
     block: tuple  # chunk length per grid axis
+    backend: str | None = None  # solver backend of a study with a ``backend`` setting, as resolved here
 
     @property
     def axes(self) -> list[Axis]:
@@ -144,14 +145,41 @@ def code_digest(study: Study) -> str:
     return h.hexdigest()
 
 
-def make_plan(study: Study, quick: bool = False, sets=()) -> Plan:
-    """Resolve settings and ``--set`` sweeps into a validated :class:`Plan` (UserError if bad)."""
+def resolve_backend(settings: dict, local: bool = True) -> str | None:
+    """The concrete backend ('cpu' or 'cuda') of a study's ``backend`` setting, written back into
+    ``settings`` (so the fingerprint and the attributes say what ran); None without the setting.
+
+    'auto' is decided here, on the machine that plans the run. 'cuda' is checked here too when
+    the run is ``local`` (a missing extra or device is one line before any work); on a
+    ``--scheduler`` cluster the workers check it.
+    """
+    if "backend" not in settings:
+        return None
+    from solver import backends
+
+    try:
+        if settings["backend"] == "auto" or (settings["backend"] == "cuda" and local):
+            settings["backend"] = backends.resolve(settings["backend"]).name
+    except backends.BackendUnavailable as exc:
+        raise UserError(str(exc)) from None
+    return settings["backend"]
+
+
+def make_plan(study: Study, quick: bool = False, sets=(), local: bool = True) -> Plan:
+    """Resolve settings and ``--set`` sweeps into a validated :class:`Plan` (UserError if bad).
+
+    ``local``: the run computes on this machine (not on a ``--scheduler`` cluster); see
+    :func:`resolve_backend`. With a GPU backend the numeric grid axes are not split: a chunk is a
+    whole section (one launch), however the study chunks its grid for the CPU.
+    """
     settings, order, grid_values = sweep.resolve(study, quick, sets)
     base = sweep.base_settings(settings)
     for key in SWEEP_KEYS:
         if key not in order and isinstance(base.get(key), float):
             sweep.check_value(key, base[key])
     checks.check_settings(study.name, base, physical=(*PHYSICAL_KEYS, *SWEEP_KEYS))
+    backend = resolve_backend(settings, local)
+    base = sweep.base_settings(settings)
     outer = sweep.outer_axes(settings, order)
     # Params of the scalar settings; a swept key stays at its first value there
     params = sweep.params_from(base)
@@ -164,8 +192,10 @@ def make_plan(study: Study, quick: bool = False, sets=()) -> Plan:
     for i, a in enumerate(grid):
         n = a.values.size
         size = n if whole else study.chunks.get(a.name, runner.DEFAULT_CHUNK if i == 0 else n)
+        if backend == "cuda" and not a.categorical:
+            size = n  # a whole section per chunk: one launch
         block.append(max(1, min(int(size), n)))
-    plan = Plan(study, settings, params, tuple(outer), tuple(grid), tuple(block))
+    plan = Plan(study, settings, params, tuple(outer), tuple(grid), tuple(block), backend)
     checks.check_size(study.name, plan.n_chunks, math.prod(plan.shape))
     return plan
 
