@@ -9,10 +9,9 @@ whatever the size of the cube.
 
 With the CUDA backend (a study's ``backend`` setting) each worker process uses one GPU: locally
 one single-threaded worker per visible GPU (processes when there are several), on a
-``--scheduler`` cluster whatever workers it has; :class:`OneGPUPerWorker` gives worker number i
-the device i (modulo the devices it sees), through ``solver.cuda_backend``'s
-``RIMROLL_CUDA_DEVICE``. A worker started with one device visible (``CUDA_VISIBLE_DEVICES``, as
-dask-cuda does) uses that one.
+``--scheduler`` cluster whatever workers it has; ``study.gpu_workers`` gives worker number i the
+device i (modulo the devices it sees). A worker started with one device visible
+(``CUDA_VISIBLE_DEVICES``, as dask-cuda does) uses that one.
 
 Every wait is bounded by ``timeout`` seconds (``study run --timeout``): a ``--scheduler`` address
 must answer dask's identity call in that time (an HTTP server, a socket that never answers or
@@ -106,22 +105,6 @@ def timed_chunk(job):
     return job.k, arrays, time.perf_counter() - t0
 
 
-class OneGPUPerWorker:
-    """dask WorkerPlugin: the worker named i (an integer, as LocalCluster names them) computes on
-    CUDA device i modulo the devices it sees; other names keep device 0 (``solver.cuda_backend``)."""
-
-    name = "rimroll-one-gpu-per-worker"
-
-    def setup(self, worker):
-        from solver.backends import DEVICE_ENV
-
-        try:
-            index = int(worker.name)
-        except (TypeError, ValueError):
-            return
-        os.environ[DEVICE_ENV] = str(index)
-
-
 def gpu_workers(workers: int | None) -> int:
     """Local GPU workers of a CUDA run: one per visible device, at most ``workers`` (UserError if none)."""
     from solver import backends
@@ -149,8 +132,10 @@ def client(workers: int | None = None, scheduler: str | None = None, timeout: fl
            gpu: bool = False):
     """A dask.distributed Client: the cluster at ``scheduler`` (which must answer and have a worker
     within ``timeout`` s), else threads in this process. ``gpu``: the run uses the CUDA backend,
-    one GPU per worker (:class:`OneGPUPerWorker`; locally one worker per GPU)."""
+    one GPU per worker (``study.gpu_workers.OneGPUPerWorker``; locally one worker per GPU)."""
     from distributed import Client, LocalCluster
+
+    from study.gpu_workers import OneGPUPerWorker
 
     for name in ("distributed", "distributed.scheduler", "distributed.nanny"):
         logging.getLogger(name).setLevel(logging.ERROR)

@@ -48,9 +48,9 @@ RUN = dict(t_max=20.0, rtol=1e-8, atol=1e-10, method="dp5")
 STEPS, SWITCHES = 1_000_000, 10_000
 
 
-def section_states() -> np.ndarray:
-    b0, b1, nb = SECTION["beta"]
-    w0, w1, nw = SECTION["omega1"]
+def section_states(nb: int = SECTION["beta"][2], nw: int = SECTION["omega1"][2]) -> np.ndarray:
+    b0, b1, _ = SECTION["beta"]
+    w0, w1, _ = SECTION["omega1"]
     B, W = np.meshgrid(np.linspace(b0, b1, nb), np.linspace(w0, w1, nw), indexing="ij")
     return np.stack([B, W, np.full_like(B, SECTION["omega2"]), np.full_like(B, SECTION["omega3"])], -1).reshape(-1, 4)
 
@@ -89,7 +89,7 @@ def kernel_time(cb, cuda, scene: int, states: np.ndarray, params, repeat: int) -
         launch()
         stop.record()
         stop.synchronize()
-        times.append(cuda.event_elapsed_time(start, stop))
+        times.append(start.elapsed_time(stop))
     return {"best_ms": min(times), "median_ms": statistics.median(times), "runs": repeat}
 
 
@@ -120,16 +120,17 @@ def main(argv=None) -> int:
     ap.add_argument("--block", default="128", help="comma-separated threads per block to compare")
     ap.add_argument("--skip-cpu", action="store_true", help="do not run the CPU engine for the comparison")
     ap.add_argument("--out", default=None, help="write the results as JSON here")
+    ap.add_argument("--grid", default="240,360", help="section grid n_beta,n_omega1 (smaller: a smoke test)")
     args = ap.parse_args(argv)
 
     device = backends.cuda_device()  # one line and exit 1 without the extra or a device
-    from numba import cuda
+    from numba import cuda, types
 
     from solver import cuda_backend as cb
 
     caps = [int(v) for v in args.max_registers.split(",")]
     blocks = [int(v) for v in args.block.split(",")]
-    states = section_states()
+    states = section_states(*(int(v) for v in args.grid.split(",")))
     rolling, slipping = solver.Params(mu=np.inf), solver.Params(mu=1.0)
     s_roll, s_slip = scene_of(rolling), scene_of(slipping)
     report = {"device": device, "host": platform.node(), "cpu_cores": os.cpu_count(), "section_states": len(states),
@@ -145,7 +146,7 @@ def main(argv=None) -> int:
             cb.compile_kernel(s_roll, RUN["method"])
             cfg["compile_rolling_s"] = time.perf_counter() - t0
             k = cb.kernel(s_roll, RUN["method"])
-            sig = next(iter(k.overloads))
+            sig = types.void(*cb.SIGNATURE)
             cfg["registers"] = _safe(lambda: k.get_regs_per_thread(sig))
             cfg["local_bytes_per_thread"] = _safe(lambda: k.get_local_mem_per_thread(sig))
             cfg["rolling_end_to_end"] = timed(lambda: solver.simulate(states, rolling, **RUN, backend="cuda"),

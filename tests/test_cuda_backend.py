@@ -35,6 +35,14 @@ needs_numba_cuda = pytest.mark.skipif(not HAS_NUMBA_CUDA, reason="numba-cuda is 
 STATE = np.array([[1.2, 1.0, 35.0, 10.0], [0.9, -5.0, 35.0, 10.0]])
 
 
+@pytest.fixture(scope="module")
+def simulated_run(tmp_path_factory) -> dict:
+    """tests/cuda_sim_probe.py under the simulator: 24 states per scene, and batches of 7."""
+    if not HAS_NUMBA_CUDA:
+        pytest.skip("numba-cuda is not installed (pip install 'rimroll[test]' or 'rimroll[gpu]')")
+    return _probe(tmp_path_factory.mktemp("sim"), 24, 7)
+
+
 def _probe(tmp_path, n: int, max_batch: int) -> dict:
     """Run tests/cuda_sim_probe.py under the simulator; its saved arrays."""
     out = tmp_path / "sim.npz"
@@ -53,12 +61,11 @@ def _same(a: np.ndarray, b: np.ndarray, rtol: float) -> np.ndarray:
     return (a == b) | (np.isnan(a) & np.isnan(b)) | close
 
 
-@needs_numba_cuda
-def test_simulator_gives_the_cpu_engines_results_in_every_scene(tmp_path):
+def test_simulator_gives_the_cpu_engines_results_in_every_scene(simulated_run):
     """A few dozen states per scene: same outcome, status, counts; t_end and every float within 1e-12."""
     from solver.simulate import FLOAT_FIELDS, INT_FIELDS
 
-    saved = _probe(tmp_path, 24, 7)
+    saved = simulated_run
     assert str(saved["device"]) == f"cuda ({backends.SIMULATOR_NAME})"
     labels = sorted({k.split("/")[0] for k in saved if k.count("/") == 2})
     assert labels == ["drilling", "rolling_only", "rolling_resistance", "slipping"]
@@ -77,10 +84,9 @@ def test_simulator_gives_the_cpu_engines_results_in_every_scene(tmp_path):
     assert len(kinds) >= 3, f"the sample reaches only outcomes {kinds}"
 
 
-@needs_numba_cuda
-def test_simulator_batches_equal_one_launch(tmp_path):
+def test_simulator_batches_equal_one_launch(simulated_run):
     """Batches of 7 states on two alternating streams give the rows of one launch, in order."""
-    saved = _probe(tmp_path, 24, 7)
+    saved = simulated_run
     from solver.kernels import RF_T_END, RI_N_STEPS, RI_OUTCOME
 
     res_f, res_i = saved["batched/res_f"], saved["batched/res_i"]
@@ -157,6 +163,27 @@ def test_study_run_without_device_exits_with_one_line(tmp_path):
     assert proc.returncode == 2 and "does not run solver.simulate" in proc.stderr
     proc = _study("run", "fig11", "--quick", "--out", str(tmp_path), "--set", "backend=gpu")
     assert proc.returncode == 2 and "allowed backends are cpu, cuda, auto" in proc.stderr
+
+
+@needs_numba_cuda
+def test_study_run_on_the_simulated_device_matches_the_cpu_run(tmp_path):
+    """``study run fig11 --backend cuda`` under the simulator: one chunk per section (a launch), the
+    CPU run's numbers, and the backend and device in the file's attributes."""
+    from study import io
+
+    sets = ["--quick", "--set", "n_beta=30", "--set", "n_omega1=8", "--no-progress"]
+    proc = _study("run", "fig11", *sets, "--backend", "cuda", "--out", str(tmp_path / "gpu"),
+                  env={"NUMBA_ENABLE_CUDASIM": "1"})
+    assert proc.returncode == 0, proc.stderr
+    proc = _study("run", "fig11", *sets, "--out", str(tmp_path / "cpu"))
+    assert proc.returncode == 0, proc.stderr
+    gpu, cpu = io.open_result(tmp_path / "gpu" / "fig11.nc"), io.open_result(tmp_path / "cpu" / "fig11.nc")
+    assert gpu.attrs["setting_backend"] == "cuda" and cpu.attrs["setting_backend"] == "cpu"
+    assert gpu.attrs["source"].endswith(f"; backend cuda on {backends.SIMULATOR_NAME}")
+    assert gpu["outcome"].encoding["chunksizes"] == (1, 30, 8)  # a whole section per chunk
+    assert cpu["outcome"].encoding["chunksizes"] == (1, 24, 8)  # the study's CPU chunking
+    for name in ("outcome", "status", "t_end", "f2_min", "slip_time", "boundary_type"):
+        np.testing.assert_array_equal(gpu[name].values, cpu[name].values, err_msg=name)
 
 
 def test_auto_records_the_backend_in_the_file(tmp_path):
@@ -252,7 +279,7 @@ def _device_or_skip():
     return name
 
 
-SECTIONS = {"fig11": 35.0, "fig12": 65.0, "fig13": 105.0}
+SECTIONS = {"fig11": 35.0, "fig12": 65.0, "fig13": 105.0}  # omega2 [1/s] of the sections (workflows/outcome_grids.py)
 
 
 @gpu
@@ -260,19 +287,17 @@ SECTIONS = {"fig11": 35.0, "fig12": 65.0, "fig13": 105.0}
 def test_full_section_matches_the_cpu_engine(figure):
     """Fig. 11-13 sections (240 x 360 states) in all four scenes: outcomes identical on >= 99.99% of
     states, every difference a boundary state (a neighbour has another outcome on the CPU), t_end
-    within 1e-9 relative where the outcomes agree."""
+    within 1e-9 relative where the outcomes agree. (solver only: runs without the study layer's
+    dependencies.)"""
     _device_or_skip()
-    from workflows import outcome_grids as og
+    from cuda_sim_probe import OMEGA3, SCENES
 
-    s = dict(og.SETTINGS, omega2=SECTIONS[figure])
-    beta = np.linspace(s["beta_min"], s["beta_max"], s["n_beta"])
-    omega1 = np.linspace(-s["omega1_max"], s["omega1_max"], s["n_omega1"])
+    beta, omega1 = np.linspace(0.8, 1.8, 240), np.linspace(-20.0, 20.0, 360)
     B, W1 = np.meshgrid(beta, omega1, indexing="ij")
-    states = np.stack([B, W1, np.full_like(B, s["omega2"]), np.full_like(B, s["omega3"])], axis=-1)
-    table = og.scene_table(s)
-    for k, label in enumerate(og.SCENES):
-        params = solver.Params(mu=table["mu"][k], k_r=table["k_r"][k], k_d=table["k_d"][k])
-        kw = dict(t_max=table["t_max"][k], rtol=s["rtol"], atol=s["atol"], method=s["method"])
+    states = np.stack([B, W1, np.full_like(B, SECTIONS[figure]), np.full_like(B, OMEGA3)], axis=-1)
+    for label, (changes, t_max) in SCENES.items():
+        params = solver.Params(**changes)
+        kw = dict(t_max=t_max, rtol=1e-8, atol=1e-10, method="dp5")
         cpu = solver.simulate(states, params, **kw)
         dev = solver.simulate(states, params, **kw, backend="cuda")
         differ = dev["outcome"] != cpu["outcome"]
@@ -280,10 +305,12 @@ def test_full_section_matches_the_cpu_engine(figure):
         o = np.pad(cpu["outcome"], 1, mode="edge")
         boundary = ((o[1:-1, 1:-1] != o[:-2, 1:-1]) | (o[1:-1, 1:-1] != o[2:, 1:-1])
                     | (o[1:-1, 1:-1] != o[1:-1, :-2]) | (o[1:-1, 1:-1] != o[1:-1, 2:]))
-        assert boundary[differ].all(), f"{figure} {label}: a differing state off the boundaries: {np.argwhere(differ & ~boundary)}"
+        assert boundary[differ].all(), f"{figure} {label}: differing states off the boundaries: " \
+                                       f"{np.argwhere(differ & ~boundary).tolist()}"
         same = ~differ
         ok = _same(dev["t_end"][same], cpu["t_end"][same], 1e-9)
         assert ok.all(), f"{figure} {label}: t_end differs by more than 1e-9 on {(~ok).sum()} states"
+        np.testing.assert_array_equal(dev["status"][same], cpu["status"][same])
 
 
 @gpu
