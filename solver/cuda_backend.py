@@ -106,9 +106,15 @@ def register_ufuncs() -> None:
 
 
 if not SIMULATED:
-    register_ufuncs()
+    try:
+        register_ufuncs()
+    except (ImportError, AttributeError, TypeError) as exc:  # a numba-cuda without that table
+        from solver.backends import BackendUnavailable
 
-    @cuda.jit(device=True, inline="always")
+        raise BackendUnavailable(f"backend 'cuda': this numba-cuda has no table of scalar ufuncs to extend "
+                                 f"({type(exc).__name__}: {exc}); install numba-cuda >= 0.30") from None
+
+    @cuda.jit(device=True)
     def native(a):
         """An array argument as the trajectory kernel takes it (on the device: itself)."""
         return a
@@ -224,6 +230,16 @@ def batch_size(m: int, free_bytes: float, max_batch: int | None = None) -> int:
     return batch
 
 
+def _configure(k, blocks: int, stream):
+    """The launch of kernel k on ``blocks`` blocks in ``stream``. A small input is a small grid by
+    nature, so numba-cuda's low-occupancy warning (fewer than 128 blocks) is not passed on."""
+    import warnings
+
+    with warnings.catch_warnings():  # process-wide for an instant; this runs under _LOCK
+        warnings.filterwarnings("ignore", message=r"Grid size \d+ will likely result in GPU under-utilization")
+        return k[blocks, THREADS_PER_BLOCK, stream]
+
+
 class _Slot:
     """One of the two in-flight batches: a stream, pinned host buffers and device buffers."""
 
@@ -296,9 +312,8 @@ def run(scene: int, method: str, states: np.ndarray, p: np.ndarray, t_max: float
                 drain(slot)  # its previous batch is back before its buffers are reused
                 slot.h_states[:n] = states[lo:hi]
                 slot.d_states[:n].copy_to_device(slot.h_states[:n], stream=slot.stream)
-                blocks = -(-n // THREADS_PER_BLOCK)
-                k[blocks, THREADS_PER_BLOCK, slot.stream](slot.d_states, n, d_p, t_max, rtol, atol, max_steps,
-                                                          max_switches, d_sw, slot.d_f, slot.d_i)
+                launch = _configure(k, -(-n // THREADS_PER_BLOCK), slot.stream)
+                launch(slot.d_states, n, d_p, t_max, rtol, atol, max_steps, max_switches, d_sw, slot.d_f, slot.d_i)
                 slot.d_f[:n].copy_to_host(slot.h_f[:n], stream=slot.stream)
                 slot.d_i[:n].copy_to_host(slot.h_i[:n], stream=slot.stream)
                 slot.rows = (lo, hi)
