@@ -69,13 +69,6 @@ OVERLAP_BATCHES = 4
 BYTES_PER_STATE = 8 * (4 + N_RF + N_RI)
 """Device (and pinned host) bytes per state: the initial state and its two result rows."""
 
-SCENE_KERNELS = {
-    kernels.SCENE_ROLLING_CONSERVATIVE: kernels.trajectory_rolling_conservative,
-    kernels.SCENE_ROLLING_DISSIPATIVE: kernels.trajectory_rolling_dissipative,
-    kernels.SCENE_HYBRID_CONSERVATIVE: kernels.trajectory_hybrid_conservative,
-    kernels.SCENE_HYBRID_DISSIPATIVE: kernels.trajectory_hybrid_dissipative,
-}
-"""The CPU engine's named scene kernels, which the launchers call (and numba-cuda compiles)."""
 
 UFUNC_LOOPS = {  # numpy ufunc: (loop, math function whose numba-cuda lowering implements it)
     np.sqrt: ("d->d", math.sqrt),
@@ -132,7 +125,7 @@ def launcher(scene: int, method: str):
     thread k < m integrates row k of ``states`` (m, 4) and writes rows k of ``res_f`` (m, N_RF)
     and ``res_i`` (m, N_RI), exactly as ``kernels.run_chunk`` does for one row.
     """
-    trajectory = SCENE_KERNELS[scene]
+    trajectory = kernels.SCENE_KERNELS[scene]  # the CPU engine's named scene kernel
     tab = TABLEAUS[method]
     A, E, P = tab.A, tab.E, tab.P  # constants of the kernel
     n_stages, err_mode, error_order = tab.n_stages, tab.err_mode, tab.error_order

@@ -3,10 +3,14 @@
 A scene (docs/outcome-engine.md) is fixed by two flags, ``hybrid`` (finite mu:
 rolling/slipping switching of Sect. 5.2.2) and ``conservative`` (k_r = k_d = 0: periodic
 detection, Prop. 4). Each scene has its own named kernel (``trajectory_rolling_conservative``,
-...) that calls the one inlined body :func:`trajectory` with its flags as literals. The step
-loop of a phase, :func:`run_phase`, is compiled once per phase system (rolling, slipping) and
-shared by the scenes, with the flags as run-time arguments: a per-scene copy of it would
-multiply the first compile by four for a saving of a few predictable branches per step.
+...) that calls the one inlined body :func:`trajectory` with its flags as literals, so a
+rolling-only kernel holds no slipping phase at all. The step loop of a phase, :func:`run_phase`,
+is the expensive part of the first compile (~7 s of CPU per specialisation) and is compiled
+three times, not eight: rolling with and without the friction-cone events (``hybrid`` literal:
+the cone needs the contact forces at every step), slipping once (it only happens with
+``hybrid``); ``conservative`` (one sign test of omega1 per step) is a run-time argument there.
+:func:`run_chunk` takes the scene kernel as an argument, so a process compiles only the scenes
+it runs (a rolling-only ``simulate`` compiles one kernel and one step loop).
 
 A trajectory is a loop over phases and reads as the rules do (``solver.rules``):
 
@@ -340,16 +344,18 @@ def trajectory(hybrid, conservative, x0, p, t_max, rtol, atol, A, E, P, n_stages
                 break
             # ---------------- one phase to its terminal event ----------------
             if rolling_phase:
-                end, dt_return = run_phase(system.rolling_rhs, system.rolling_events, True, hybrid, conservative,
+                end, dt_return = run_phase(system.rolling_rhs, system.rolling_events, True, hybrid, bool(conservative),
                                            system.ROLLING_DIRECTION, system.ROLLING_TRACK_MIN, system.ROLLING_ACTION,
                                            active_roll, N_ROLLING, p, sw, t_max, rtol, atol_roll, A, E, P, n_stages,
                                            err_mode, error_order, max_steps, W, K, Q, G, sign, search, res_f, res_i)
-            else:
-                end, dt_return = run_phase(system.slipping_rhs, system.slipping_events, False, hybrid, conservative,
+            elif hybrid:  # only hybrid scenes slip: numba drops this branch from the rolling-only kernels
+                end, dt_return = run_phase(system.slipping_rhs, system.slipping_events, False, True, bool(conservative),
                                            system.SLIPPING_DIRECTION, system.SLIPPING_TRACK_MIN,
                                            system.SLIPPING_ACTION, active_slip, N_SLIPPING, p, sw, t_max, rtol, atol_slip,
                                            A, E, P, n_stages, err_mode, error_order, max_steps, W, K, Q, G, sign,
                                            search, res_f, res_i)
+            else:
+                break  # unreachable: a rolling-only trajectory never leaves rolling
             if end == END_PERIODIC:
                 res_i[RI_OUTCOME] = PERIODIC_ROLLING
                 break
@@ -426,10 +432,16 @@ def trajectory_hybrid_dissipative(x0, p, t_max, rtol, atol, A, E, P, n_stages, e
                max_switches, sw, W, K, Q, G, sign, search, act_r, act_s, res_f, res_i)
 
 
+
+SCENE_KERNELS = (trajectory_rolling_conservative, trajectory_rolling_dissipative, trajectory_hybrid_conservative,
+                 trajectory_hybrid_dissipative)
+"""The scene kernel of each ``SCENE_*`` code (``SCENE_KERNELS[scene]``)."""
+
 @kernel
-def run_chunk(scene, states, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order, max_steps,
+def run_chunk(trajectory_kernel, states, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order, max_steps,
               max_switches, sw, res_f, res_i):
-    """Simulate every row of ``states`` (m, 4) in the given scene; results into rows of res_f, res_i."""
+    """Simulate every row of ``states`` (m, 4) with ``trajectory_kernel`` (one of the scene kernels
+    in :data:`SCENE_KERNELS`); results into rows of res_f, res_i. Compiled once per scene kernel."""
     W = np.zeros((N_W, N_MAX))
     K = np.zeros((A.shape[0], N_MAX))
     Q = np.zeros((N_MAX, P.shape[1]))
@@ -439,20 +451,5 @@ def run_chunk(scene, states, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, 
     act_r = np.ones(N_EVENTS, dtype=np.bool_)
     act_s = np.ones(N_EVENTS, dtype=np.bool_)
     for k in range(states.shape[0]):
-        x0 = states[k]
-        if scene == SCENE_ROLLING_CONSERVATIVE:
-            trajectory_rolling_conservative(x0, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order,
-                                            max_steps, max_switches, sw, W, K, Q, G, sign, search, act_r, act_s,
-                                            res_f[k], res_i[k])
-        elif scene == SCENE_ROLLING_DISSIPATIVE:
-            trajectory_rolling_dissipative(x0, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order,
-                                           max_steps, max_switches, sw, W, K, Q, G, sign, search, act_r, act_s,
-                                           res_f[k], res_i[k])
-        elif scene == SCENE_HYBRID_CONSERVATIVE:
-            trajectory_hybrid_conservative(x0, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order,
-                                           max_steps, max_switches, sw, W, K, Q, G, sign, search, act_r, act_s,
-                                           res_f[k], res_i[k])
-        else:
-            trajectory_hybrid_dissipative(x0, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order,
-                                          max_steps, max_switches, sw, W, K, Q, G, sign, search, act_r, act_s,
-                                          res_f[k], res_i[k])
+        trajectory_kernel(states[k], p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order, max_steps,
+                          max_switches, sw, W, K, Q, G, sign, search, act_r, act_s, res_f[k], res_i[k])

@@ -6,14 +6,14 @@ dissipative. Physics and switching maps are the engine's own compiled functions
 independent is the integration (scipy), the event location (scipy's events, ``brentq``,
 bisection) and the bookkeeping of phases written out here.
 
-Rolling-only scenes. Each state is one ``solve_ivp`` call on the rolling equations (plus alpha)
-with two scipy events: F2 (31) crossing zero downward (terminal) and, in conservative scenes,
-omega1 crossing zero (terminal at its second occurrence). Then the rules (docs/outcome-engine.md): F2 < 0 at t = 0 falls
-at once; a fall is classified by the free flight of ``solver.flight``; two omega1 crossings give
-``periodic_rolling`` with half_period = t2 - t1; otherwise the ball is on the rim at t_max.
+One loop of phases serves every scene (:func:`integrate`) and also ``solver.trace``, which
+samples the dense output of the phases it records. In rolling-only scenes there is one rolling
+phase (the hybrid scenes' rolling phase below, without the slip onset): F2 < 0 at t = 0 falls at once; a fall is classified by the free flight of
+``solver.flight``; two transversal omega1 zeros give ``periodic_rolling`` with half_period =
+t2 - t1; otherwise the ball is on the rim at t_max.
 
 Hybrid scenes (finite mu; the rules of ``solver.switching`` and ``solver.kernels``). One
-``solve_ivp`` call per phase:
+``solve_ivp`` call per phase (plus, rarely, a second one, below):
 
 * a phase starts with its checks, in the engine's order: F2 < 0 (31)/(41): fall now (free flight
   with the slip velocity of a slipping ball); rolling outside the friction cone (39): slip now
@@ -22,7 +22,9 @@ Hybrid scenes (finite mu; the rules of ``solver.switching`` and ``solver.kernels
 * rolling phase events: fall (F2 (31) down), slip onset (friction margin (39) down, then
   ``enter_slipping`` at the event state) and, in conservative scenes, omega1 zero crossings:
   two within ONE rolling phase give ``periodic_rolling`` (the count restarts at every rolling
-  phase, so no slip lies between them);
+  phase, so no slip lies between them). scipy's event stops the run at its second zero of
+  omega1, a touching (non-transversal) zero included; when that stop leaves fewer than two
+  transversal zeros, the phase is integrated again without stopping at omega1 zeros;
 * slipping phase events: fall (F2 (41) down: free flight with the slip velocities) and the
   return, an event function that is +1 while ``switching.try_return`` refuses the return and
   -1 once it allows it; the first allowed time on the dense output (also at the phase start)
@@ -41,14 +43,16 @@ dense output, GRAZE_SAMPLES points per step.
 Rules that are not integration — the steady-motion test at t = 0, what counts as a transversal
 omega1 zero, the free flight — are ``solver.rules``, the same functions the engine calls.
 
-Results per state: outcome, t_end, half_period, nfev (right-hand-side evaluations), slip_phases,
-slip_time [s] (0 in rolling-only scenes) and energy_drift, |E(t_end) - E(0)| / max(|E(0)|,
-m g rho), as ``solver.simulate`` reports it.
+Results per state: outcome, t_end, half_period, nfev (right-hand-side evaluations of every
+``solve_ivp`` call), slip_phases, slip_time [s] (0 in rolling-only scenes) and energy_drift,
+|E(t_end) - E(0)| / max(|E(0)|, m g rho), as ``solver.simulate`` reports it.
 
 Used by the tests and by the work-precision study as the independent baseline.
 """
 
 from __future__ import annotations
+
+import dataclasses
 
 import numpy as np
 from scipy.integrate import solve_ivp
@@ -57,6 +61,14 @@ from scipy.optimize import brentq
 from solver import kinematics, rolling, rules, slipping, switching
 from solver.outcomes import ON_RIM_AT_T_MAX, PERIODIC_ROLLING, STEADY_MOTION
 from solver.params import P_G, P_M, P_RHO, Params
+
+ROLLING, SLIPPING = 0, 1
+PHASE_MEANINGS = {ROLLING: "rolling", SLIPPING: "slipping"}
+
+EVENT_KINDS = ("start", "slip_onset", "return_to_rolling", "omega1_zero", "fall", "periodic", "t_max", "steady_motion")
+"""Kinds of the events :func:`integrate` records, in the order of their integer codes in a trace
+file. A run that ends for another reason (``too_many_switches``, ``integration_failed``) ends
+with a ``t_max`` event; its ``reason`` says why."""
 
 GRAZE_SAMPLES = 32
 RETURN_XTOL_EPS = 4.0  # bracket of the first allowed return time, in machine epsilons of t
@@ -109,18 +121,9 @@ def _omega1_zero():
     return scipy_event(lambda y: y[1], terminal=2, direction=0)
 
 
-def _transversal_pair(t_w1, y_w1, p, rtol, t_start=None):
-    """Times of the first two transversal omega1 zeros (``solver.rules``) among scipy's, or None.
-
-    ``t_start``: the phase starts on omega1 = 0 with a transversal slope (a first crossing at t).
-    """
-    times = [] if t_start is None else [t_start]
-    for t, y in zip(t_w1, y_w1):
-        if rules.transversal_omega1_zero(y[0], y[1], y[2], y[3], p, rtol):
-            times.append(float(t))
-        if len(times) == 2:
-            return times
-    return None
+def _transversal_zeros(t_w1, y_w1, p, rtol) -> list[float]:
+    """Times of the transversal omega1 zeros (``solver.rules``) among scipy's omega1 events."""
+    return [float(t) for t, y in zip(t_w1, y_w1) if rules.transversal_omega1_zero(y[0], y[1], y[2], y[3], p, rtol)]
 
 
 def _starts_crossing(y, p, rtol):
@@ -130,66 +133,6 @@ def _starts_crossing(y, p, rtol):
 
 def _energy_drift(E0, E1, p):
     return abs(E1 - E0) / max(abs(E0), p[P_M] * p[P_G] * p[P_RHO])
-
-
-def _reference_rolling(state, params: Params, t_max, rtol, atol, method):
-    """Rolling-only scenes (mu = inf): dict(outcome, t_end, half_period, nfev, y_end)."""
-    p = params.as_array()
-    rhs = rolling.rolling_rhs.py_func
-    F2 = rolling.normal_force.py_func
-    F2_rate = rolling.normal_force_rate.py_func
-
-    def fun(t, y):
-        b, w1, w2, w3 = rhs(y[0], y[1], y[2], y[3], p)
-        alpha_dot, _ = kinematics.angle_rates.py_func(y[0], y[1], y[3], 0.0, 0.0, p)
-        return [b, w1, w2, w3, alpha_dot]
-
-    fall = scipy_event(lambda y: F2(y[0], y[1], y[3], p), terminal=True, direction=-1)
-    omega1_zero = _omega1_zero()
-
-    def f2_rate(t, y):
-        b, w1, _, w3 = rhs(y[0], y[1], y[2], y[3], p)
-        return F2_rate(y[0], y[1], y[3], b, w1, w3, p)
-
-    f2_rate.terminal = False
-    f2_rate.direction = 1  # dF2/dt crosses 0 upward: an interior minimum of F2
-
-    y0 = np.array([*np.asarray(state, float), 0.0])
-    if fall(0.0, y0) < 0:
-        return {"outcome": int(rules.fall_outcome.py_func(y0[0], y0[1], y0[3], 0.0, 0.0, p)),
-                "t_end": 0.0, "half_period": np.nan, "nfev": 0, "y_end": y0}
-    if rules.on_steady_motion(y0[0], y0[1], y0[2], y0[3], p):
-        return {"outcome": STEADY_MOTION, "t_end": 0.0, "half_period": np.nan, "nfev": 0, "y_end": y0}
-    events = [fall, f2_rate] if params.dissipative else [fall, f2_rate, omega1_zero]
-    t_start = 0.0 if _starts_crossing(y0, p, rtol) else None
-    if t_start is not None:
-        omega1_zero.terminal = 1  # scipy does not report a zero at the initial point
-    sol = solve_ivp(fun, (0.0, t_max), y0, method=method, rtol=rtol, atol=atol, events=events, dense_output=True)
-    pair = None
-    if len(events) > 2:
-        pair = _transversal_pair(sol.t_events[2], sol.y_events[2], p, rtol, t_start)
-        if pair is None and sol.status == 1 and not sol.t_events[0].size:
-            # a touching zero stopped the run: go on to t_max without stopping at omega1 zeros
-            omega1_zero.terminal = False
-            sol = solve_ivp(fun, (0.0, t_max), y0, method=method, rtol=rtol, atol=atol, events=events,
-                            dense_output=True)
-            pair = _transversal_pair(sol.t_events[2], sol.y_events[2], p, rtol, t_start)
-    t_fall = sol.t_events[0]
-    t_w1 = np.array(pair if pair is not None else [])
-    t_dip = _first_dip(sol, lambda y: fall(0.0, y), sol.t_events[1], float(sol.t[-1]))
-    if t_dip is not None and not (t_fall.size and t_fall[0] <= t_dip):
-        y = sol.sol(t_dip)
-        outcome = int(rules.fall_outcome.py_func(y[0], y[1], y[3], 0.0, 0.0, p))
-        return {"outcome": outcome, "t_end": float(t_dip), "half_period": np.nan, "nfev": sol.nfev, "y_end": y}
-    if t_fall.size and (t_w1.size < 2 or t_fall[0] <= t_w1[1]):
-        y = sol.y_events[0][0]
-        outcome = int(rules.fall_outcome.py_func(y[0], y[1], y[3], 0.0, 0.0, p))
-        return {"outcome": outcome, "t_end": float(t_fall[0]), "half_period": np.nan, "nfev": sol.nfev, "y_end": y}
-    if t_w1.size >= 2:
-        return {"outcome": PERIODIC_ROLLING, "t_end": float(t_w1[1]), "half_period": float(t_w1[1] - t_w1[0]),
-                "nfev": sol.nfev, "y_end": sol.sol(t_w1[1])}
-    return {"outcome": ON_RIM_AT_T_MAX, "t_end": float(sol.t[-1]), "half_period": np.nan, "nfev": sol.nfev,
-            "y_end": sol.y[:, -1]}
 
 
 # ------------------------------------------------------------------------------ hybrid scenes
@@ -233,21 +176,35 @@ def _first_down(sol, t_end, value):
     return _root(lambda t: value(sol.sol(t)), hit[0], hit[1])
 
 
-def reference_hybrid(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, method="DOP853", *,
-                     switching_tolerances=None, max_switches=10_000):
-    """One rolling initial state in a hybrid scene (finite mu) by ``solve_ivp``, phase by phase.
+@dataclasses.dataclass
+class Phase:
+    """One phase of a run: kind (ROLLING/SLIPPING), [t0, t1] [s] and scipy's dense output
+    ``sol`` (an ``OdeSolution`` on [t0, >= t1]; state (beta, omega1, omega2, omega3, alpha)
+    while rolling, (beta, omega1, omega2, omega3, u1, u3, alpha) while slipping)."""
+
+    kind: int
+    t0: float
+    t1: float
+    sol: object
+
+
+def integrate(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, method="DOP853", *,
+              switching_tolerances=None, max_switches=10_000) -> dict:
+    """One rolling initial state by ``solve_ivp``, phase by phase, in any scene.
 
     Returns dict(outcome, t_end, half_period, nfev, slip_phases, slip_time, energy_drift,
-    switches, y_end, steps_rolling, steps_slipping) with y_end the state at t_end in the layout
-    of its phase, and steps_* the accepted ``solve_ivp`` steps taken in each kind of phase up to
-    the phase's end (the cost a method needs for the accuracy asked, without the engine's
-    overheads: ``tests/benchmark_slipping.py`` compares them across methods).
+    switches, y_end, steps_rolling, steps_slipping, reason, phases, events): y_end the state at
+    t_end in the layout of its phase; steps_* the accepted ``solve_ivp`` steps taken in each
+    kind of phase up to the phase's end (the cost a method needs for the accuracy asked, without
+    the engine's overheads: ``tests/benchmark_slipping.py`` compares them across methods);
+    ``reason`` the kind of the event that ended the run (or ``too_many_switches``,
+    ``integration_failed``); ``phases`` the :class:`Phase` list and ``events`` the (t [s], kind)
+    list, kinds of :data:`EVENT_KINDS` (``solver.trace`` samples them).
     """
-    if params.rolling_only:
-        raise ValueError("reference_hybrid needs a finite mu (a hybrid scene)")
     p = params.as_array()
     sw = switching.default_tolerances(**(switching_tolerances or {}))
     conservative = not params.dissipative
+    hybrid = not params.rolling_only
     u_stop = sw[switching.SW_U_STOP]
 
     rolling_rhs = rolling.rolling_rhs
@@ -308,11 +265,44 @@ def reference_hybrid(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, 
     refused.terminal = True
     refused.direction = -1
 
+    # the rolling phase's events by name; only the terminal ones other than omega1 stop it early
+    roll_events = {"fall": fall_roll, "minimum": f2_min_roll}
+    if hybrid:
+        roll_events["slip"] = slip_onset
+    if conservative:
+        roll_events["omega1"] = omega1_zero
+    at = {name: i for i, name in enumerate(roll_events)}
+
+    def rolling_phase(t, y):
+        """solve_ivp of one rolling phase from (t, y): (solution, its transversal omega1 zeros, the
+        pair of omega1 crossings that makes it periodic or None, rhs evaluations)."""
+        t_start = t if conservative and _starts_crossing(y, p, rtol) else None
+        omega1_zero.terminal = 1 if t_start is not None else 2
+
+        def run():
+            sol = solve_ivp(fun_roll, (t, t_max), y, method=method, rtol=rtol, atol=atol,
+                            events=list(roll_events.values()), dense_output=True)
+            if not conservative:
+                return sol, [], None
+            zeros = _transversal_zeros(sol.t_events[at["omega1"]], sol.y_events[at["omega1"]], p, rtol)
+            crossings = ([t_start] if t_start is not None else []) + zeros
+            return sol, zeros, (crossings[:2] if len(crossings) >= 2 else None)
+
+        sol, zeros, pair = run()
+        nfev = sol.nfev
+        others = [at[k] for k in ("fall", "slip") if k in at]
+        if pair is None and sol.status == 1 and not any(sol.t_events[i].size for i in others):
+            omega1_zero.terminal = False  # a touching zero stopped it: on to t_max past omega1 zeros
+            sol, zeros, pair = run()
+            nfev += sol.nfev
+        return sol, zeros, pair, nfev
+
     y = np.array([*np.asarray(state, float), 0.0])
     phase_slipping = False
     t = 0.0
     E0 = rolling.energy(y[0], y[1], y[2], y[3], p)
     outcome = ON_RIM_AT_T_MAX
+    reason = "t_max"
     half_period = np.nan
     nfev = 0
     steps = [0, 0]  # accepted steps in rolling, slipping phases
@@ -320,6 +310,7 @@ def reference_hybrid(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, 
     slip_phases = 0
     slip_time = 0.0
     t_slip0 = 0.0
+    phases, events = [], [(0.0, "start")]
 
     def to_slipping(y5):
         y7 = np.empty(7)
@@ -332,78 +323,78 @@ def reference_hybrid(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, 
         if not phase_slipping:
             # ---------------- rolling phase ----------------
             if fall_roll_value(y) < 0.0:
-                outcome = int(rules.fall_outcome(y[0], y[1], y[3], 0.0, 0.0, p))
+                outcome, reason = int(rules.fall_outcome(y[0], y[1], y[3], 0.0, 0.0, p)), "fall"
                 break
-            if margin_value(y) < 0.0:
+            if hybrid and margin_value(y) < 0.0:
                 switches += 1
                 if switches > max_switches:
+                    reason = "too_many_switches"
                     break
                 y = to_slipping(y)
                 phase_slipping = True
                 slip_phases += 1
                 t_slip0 = t
+                events.append((t, "slip_onset"))
                 continue
             if t == 0.0 and rules.on_steady_motion(y[0], y[1], y[2], y[3], p):
-                outcome = STEADY_MOTION
+                outcome, reason = STEADY_MOTION, "steady_motion"
                 break
             if t >= t_max:
                 break
-            t_start = t if conservative and _starts_crossing(y, p, rtol) else None
-            omega1_zero.terminal = 1 if t_start is not None else 2
-            events = [fall_roll, slip_onset, f2_min_roll] + ([omega1_zero] if conservative else [])
-            sol = solve_ivp(fun_roll, (t, t_max), y, method=method, rtol=rtol, atol=atol, events=events,
-                            dense_output=True)
-            nfev += sol.nfev
+            sol, zeros, pair, n = rolling_phase(t, y)
+            nfev += n
             t_stop = float(sol.t[-1])
             # candidates (time, rule index): scipy's events and the sampled dips, earliest first
             cands = []
-            if sol.t_events[0].size:
-                cands.append((float(sol.t_events[0][0]), 0))
-            if sol.t_events[1].size:
-                cands.append((float(sol.t_events[1][0]), 1))
-            pair = _transversal_pair(sol.t_events[3], sol.y_events[3], p, rtol, t_start) if conservative else None
+            if sol.t_events[at["fall"]].size:
+                cands.append((float(sol.t_events[at["fall"]][0]), 0))
+            if hybrid and sol.t_events[at["slip"]].size:
+                cands.append((float(sol.t_events[at["slip"]][0]), 1))
             if pair is not None:
-                t_w1 = np.array(pair)
-                cands.append((float(t_w1[1]), 2))
-            t_dip = _first_dip(sol, fall_roll_value, sol.t_events[2], t_stop)
+                cands.append((pair[1], 2))
+            t_dip = _first_dip(sol, fall_roll_value, sol.t_events[at["minimum"]], t_stop)
             if t_dip is not None:
                 cands.append((t_dip, 0))
-            t_dip = _first_down(sol, t_stop, margin_value)
+            t_dip = _first_down(sol, t_stop, margin_value) if hybrid else None
             if t_dip is not None:
                 cands.append((t_dip, 1))
             t_ev, rule = min(cands) if cands else (t_stop, -1)
             steps[0] += _steps_before(sol, t_ev)
+            phases.append(Phase(ROLLING, t, t_ev, sol.sol))
+            events += [(z, "omega1_zero") for z in zeros if z <= t_ev]
             if not cands:
                 t = t_stop
                 y = sol.y[:, -1]
+                reason = "integration_failed" if sol.status < 0 else "t_max"
                 break
             t = t_ev
             y = sol.sol(t_ev)
             if rule == 0:
-                outcome = int(rules.fall_outcome(y[0], y[1], y[3], 0.0, 0.0, p))
+                outcome, reason = int(rules.fall_outcome(y[0], y[1], y[3], 0.0, 0.0, p)), "fall"
                 break
             if rule == 2:
-                outcome = PERIODIC_ROLLING
-                half_period = float(t_w1[1] - t_w1[0])
+                outcome, reason = PERIODIC_ROLLING, "periodic"
+                half_period = float(pair[1] - pair[0])
                 break
             switches += 1  # the friction cone is left: slip at the event state
             if switches > max_switches:
+                reason = "too_many_switches"
                 break
             y = to_slipping(y)
             phase_slipping = True
             slip_phases += 1
             t_slip0 = t
+            events.append((t, "slip_onset"))
         else:
             # ---------------- slipping phase ----------------
             if fall_slip_value(y) < 0.0:
-                outcome = int(rules.fall_outcome(y[0], y[1], y[3], y[4], y[5], p))
+                outcome, reason = int(rules.fall_outcome(y[0], y[1], y[3], y[4], y[5], p)), "fall"
                 break
             if t >= t_max:
                 break
             t_ret = None
             if np.hypot(y[4], y[5]) <= u_stop and return_dt(t, y) >= 0.0:
                 t_ret = t  # allowed at the start already
-                sol = None
             else:
                 sol = solve_ivp(fun_slip, (t, t_max), y, method=method, rtol=rtol, atol=atol,
                                 events=[fall_slip, refused, f2_min_slip], dense_output=True)
@@ -423,14 +414,16 @@ def reference_hybrid(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, 
                     cands.append((t_allowed, 1))
                 t_ev, rule = min(cands) if cands else (t_stop, -1)
                 steps[1] += _steps_before(sol, t_ev)
+                phases.append(Phase(SLIPPING, t, t_ev, sol.sol))
                 if not cands:
                     t = t_stop
                     y = sol.y[:, -1]
+                    reason = "integration_failed" if sol.status < 0 else "t_max"
                     break
                 if rule == 0:
                     t = t_ev
                     y = sol.sol(t_ev)
-                    outcome = int(rules.fall_outcome(y[0], y[1], y[3], y[4], y[5], p))
+                    outcome, reason = int(rules.fall_outcome(y[0], y[1], y[3], y[4], y[5], p)), "fall"
                     break
                 t_ret = t_ev
                 y = sol.sol(t_ev)
@@ -440,21 +433,33 @@ def reference_hybrid(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, 
             switches += 1
             if switches > max_switches:
                 t = t_ret
+                reason = "too_many_switches"
                 break
             y = out[:5].copy()
             t = t_ret + dt
             slip_time += t - t_slip0
             phase_slipping = False
+            events.append((t, "return_to_rolling"))
 
     if phase_slipping:
         slip_time += t - t_slip0
         E1 = slipping.energy(y[0], y[1], y[2], y[3], y[4], y[5], p)
     else:
         E1 = rolling.energy(y[0], y[1], y[2], y[3], p)
+    events.append((t, reason if reason in EVENT_KINDS else "t_max"))
     return {"outcome": int(outcome), "t_end": float(t), "half_period": half_period, "nfev": int(nfev),
             "slip_phases": slip_phases, "slip_time": float(slip_time), "energy_drift": _energy_drift(E0, E1, p),
             "switches": switches, "y_end": np.asarray(y, float), "steps_rolling": steps[0],
-            "steps_slipping": steps[1]}
+            "steps_slipping": steps[1], "reason": reason, "phases": phases, "events": events}
+
+
+def reference_hybrid(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, method="DOP853", *,
+                     switching_tolerances=None, max_switches=10_000):
+    """:func:`integrate` in a hybrid scene (finite mu); ValueError in a rolling-only one."""
+    if params.rolling_only:
+        raise ValueError("reference_hybrid needs a finite mu (a hybrid scene)")
+    return integrate(state, params, t_max, rtol, atol, method, switching_tolerances=switching_tolerances,
+                     max_switches=max_switches)
 
 
 def _steps_before(sol, t_end):
@@ -532,20 +537,12 @@ def _first_allowed(sol, t_end, u_stop, return_dt):
 def reference_one(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, method="DOP853"):
     """Outcome of one rolling initial state by ``solve_ivp`` in any scene.
 
-    Returns dict(outcome, t_end, half_period, nfev, slip_phases, slip_time, energy_drift).
+    Returns dict(outcome, t_end, half_period, nfev, slip_phases, slip_time, energy_drift,
+    steps_rolling, steps_slipping).
     """
-    if not params.rolling_only:
-        res = reference_hybrid(state, params, t_max, rtol, atol, method)
-        res.pop("y_end")
-        res.pop("switches")
-        return res
-    res = _reference_rolling(state, params, t_max, rtol, atol, method)
-    y0 = np.asarray(state, float)
-    p = params.as_array()
-    y1 = res.pop("y_end")
-    E0 = rolling.energy(y0[0], y0[1], y0[2], y0[3], p)
-    E1 = rolling.energy(y1[0], y1[1], y1[2], y1[3], p)
-    res.update(slip_phases=0, slip_time=0.0, energy_drift=_energy_drift(E0, E1, p))
+    res = integrate(state, params, t_max, rtol, atol, method)
+    for key in ("y_end", "switches", "reason", "phases", "events"):
+        res.pop(key)
     return res
 
 

@@ -55,24 +55,32 @@ DEFAULT_MAX_SWITCHES = 10_000
 _CHUNKS_PER_WORKER = 8  # chunks per thread: balances fast falls against long periodic runs
 
 
-COLD_COMPILE_S = 90
-"""Measured first compile of the four scene kernels on 2 cores [s] (printed, not enforced)."""
-_announced = False
+COLD_COMPILE_S = {kernels.SCENE_ROLLING_CONSERVATIVE: 25, kernels.SCENE_ROLLING_DISSIPATIVE: 25,
+                  kernels.SCENE_HYBRID_CONSERVATIVE: 35, kernels.SCENE_HYBRID_DISSIPATIVE: 35}
+"""Measured first compile of each scene's kernel on 2 cores [s], in a fresh process (printed, not
+enforced); a scene compiled after another one reuses the step loops they share."""
+_announced = set()
 
 
-def kernels_cached() -> bool:
-    """Whether the simulation kernels are compiled in this process or cached on disk."""
-    return bool(kernels.run_chunk.signatures) or any(_jit.cache_dir().glob("**/kernels.run_chunk-*.nbi"))
+def kernels_cached(scene: int | None = None) -> bool:
+    """Whether the kernel of ``scene`` (default: every scene) is compiled in this process or cached on disk."""
+    scenes = range(len(kernels.SCENE_KERNELS)) if scene is None else (scene,)
+    for k in scenes:
+        func = kernels.SCENE_KERNELS[k]
+        name = func.py_func.__name__
+        if not (func.signatures or any(_jit.cache_dir().glob(f"**/kernels.{name}-*.nbi"))):
+            return False
+    return True
 
 
-def _announce_compile():
-    """One line on stderr before the first compile in this environment: a long silence otherwise."""
-    global _announced
-    if _announced or _jit._DISABLE or kernels_cached():
+def _announce_compile(scene: int):
+    """One line on stderr before a scene's first compile in this environment: a long silence otherwise."""
+    if scene in _announced or _jit._DISABLE or kernels_cached(scene):
         return
-    _announced = True
-    sys.stderr.write(f"rimroll: compiling the simulation kernels, first run only: about {COLD_COMPILE_S} s "
-                     f"on 2 cores (cached in {_jit.cache_dir()})\n")
+    _announced.add(scene)
+    name = kernels.SCENE_KERNELS[scene].py_func.__name__.removeprefix("trajectory_")
+    sys.stderr.write(f"rimroll: compiling the simulation kernel of the {name} scene, first run only: about "
+                     f"{COLD_COMPILE_S[scene]} s on 2 cores (cached in {_jit.cache_dir()})\n")
     sys.stderr.flush()
 
 
@@ -177,10 +185,11 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
         cuda_backend.run(scene, method, flat, p, t_max, rtol, atol, max_steps, max_switches, sw, res_f, res_i)
         return _fields(flat, shape, res_f, res_i, params)
 
-    _announce_compile()
+    _announce_compile(scene)
+    trajectory_kernel = kernels.SCENE_KERNELS[scene]
 
     def run(lo, hi):
-        kernels.run_chunk(scene, flat[lo:hi], p, t_max, rtol, atol, tab.A, tab.E, tab.P, tab.n_stages,
+        kernels.run_chunk(trajectory_kernel, flat[lo:hi], p, t_max, rtol, atol, tab.A, tab.E, tab.P, tab.n_stages,
                           tab.err_mode, tab.error_order, max_steps, max_switches, sw, res_f[lo:hi], res_i[lo:hi])
 
     n_chunks = min(m, workers * _CHUNKS_PER_WORKER) if workers > 1 else min(m, 1)

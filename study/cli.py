@@ -1,7 +1,7 @@
 """The ``study`` command line: list, run, plot and describe named studies.
 
-Only argument parsing and orchestration live here; the work is done by ``study.runner``,
-``study.dataset`` and ``study.io``. Every user error is one line ``study: error: ...`` on
+Only argument parsing and orchestration live here; settings are resolved by ``study.settings``
+into a ``study.plan`` and every run goes through ``study.execute``. Every user error is one line ``study: error: ...`` on
 stderr and exit status 2.
 """
 
@@ -12,12 +12,9 @@ import pathlib
 import shlex
 import sys
 
-from study import checks, fanout, io, registry, reuse, runguard
-from study.assemble import assemble
-from study.dataset import global_attrs
+from study import checks, execute, fanout, io, registry, reuse, runguard
 from study.parts import PartStore
 from study.plan import make_plan
-from study.progress import ProgressLine
 from study.registry import UserError
 
 EXIT_USAGE = 2
@@ -74,7 +71,10 @@ def _parser() -> argparse.ArgumentParser:
                      help="compute the slices (outcome sections at rtol 1e-12, DOP853) and write them")
     ref.add_argument("--out", default=None, help="directory to write (default: a source checkout's study/reference_slices; "
                                                   "required when rimroll is installed)")
-    ref.add_argument("--only", action="append", default=[], metavar="STUDY", help="build only this study's slice")
+    ref.add_argument("--only", action="append", default=[], metavar="STUDY", help="build only this study's slices")
+    ref.add_argument("--grid", action="append", default=[], choices=("default", "quick"),
+                     help="build only the slice of this grid: a sub-grid of the default grid, or the whole "
+                          "--quick grid (default: both)")
     ref.add_argument("--workers", type=int, default=None, help="local threads (default: one per core)")
     ref.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None)
     p.set_defaults(run_parser=run)
@@ -177,9 +177,7 @@ def _cmd_run(args, command: str) -> int:
     out = pathlib.Path(args.out)
     runguard.check_out(out)
     nc = out / f"{study.name}.nc"
-    swept = tuple(a.name for a in plan.outer)
-    request = dict(global_attrs(study, plan.params, plan.settings, command, swept),
-                   **{reuse.FINGERPRINT_ATTR: plan.fingerprint})
+    request = execute.file_attrs(plan, command)
     sizes = {a.name: a.values.size for a in plan.axes}
     if not args.force and (found := _reusable(study, nc, plan, request, sizes)) is not None:
         return found
@@ -188,19 +186,8 @@ def _cmd_run(args, command: str) -> int:
     with store.lock(), runguard.saved_on_stop(store, plan):
         if not args.force and (found := _reusable(study, nc, plan, request, sizes, quiet=True)) is not None:
             return found  # a run that held the lock just finished it
-        store.sweep_stale()  # parts of this study's earlier inputs: no live run owns them
-        done = store.valid(plan.n_chunks, plan.expected)
-        todo = [k for k in range(plan.n_chunks) if k not in done]
-        runguard.announce(plan, len(todo))
-        line = ProgressLine(plan.n_chunks, study.name, resumed=len(done), enabled=progress)
-        gpu = plan.backend == "cuda"
-        with fanout.client(args.workers, args.scheduler, args.timeout, gpu=gpu) as client:
-            stats = fanout.run(plan, store, todo, client, line, timeout=args.timeout)
-            device = fanout.devices(client) if gpu else None
-        attrs = dict(global_attrs(study, plan.params, plan.settings, command, swept, device=device),
-                     **{reuse.FINGERPRINT_ATTR: plan.fingerprint})
-        assemble(plan, store, nc, attrs)
-        store.remove()
+        stats = execute.produce(plan, store, nc, command, workers=args.workers, scheduler=args.scheduler,
+                                timeout=args.timeout, progress=progress)
     png = _draw(study, nc)
     resumed = f" ({stats.resumed} of {stats.total} chunks resumed)" if stats.resumed else ""
     print(f"wrote {nc}" + (f" and {png}" if png else "") + resumed)
@@ -309,17 +296,21 @@ def _cmd_info(args) -> int:
 
 def _cmd_verify(args) -> int:
     """Exit 0: agrees with the reference within tolerance; 1: it does not (or nothing is
-    common); 2 (UserError): not a readable rimroll result, or no reference for its study."""
+    common); 2 (UserError): not a readable rimroll result, or no reference for its study.
+
+    A study has a slice of its default grid and one of its ``--quick`` grid; the file is compared
+    with the one sharing the most points with it (the default slice on a tie)."""
     from study import compare, reference
 
     ds = io.open_result(pathlib.Path(args.file))
     name = str(ds.attrs["study"])
-    path = reference.reference_path(name, args.reference)
-    if not path.is_file():
-        known = sorted(p.stem for p in path.parent.glob("*.nc"))
-        raise UserError(f"no reference slice for study {name!r} in {path.parent} (slices: {', '.join(known) or 'none'})")
-    ref = io.open_result(path)
-    report = compare.compare(ds, ref)
+    paths = reference.candidates(name, args.reference)
+    if not paths:
+        where = reference.reference_path(name, args.reference).parent
+        known = sorted(p.stem for p in where.glob("*.nc"))
+        raise UserError(f"no reference slice for study {name!r} in {where} (slices: {', '.join(known) or 'none'})")
+    reports = [(compare.compare(ds, io.open_result(path)), path) for path in paths]
+    report, path = max(reports, key=lambda rp: rp[0].n_common)  # max keeps the first of equals
     for line in compare.format_report(report, args.file, str(path)):
         print(line)
     return 0 if report.ok else 1
@@ -330,7 +321,8 @@ def _cmd_reference(args, command: str) -> int:
 
     checks.check_workers(args.workers)
     progress = sys.stderr.isatty() if args.progress is None else args.progress
-    for path in reference.build(args.out, args.only or None, args.workers, command, progress):
+    grids = args.grid or reference.GRIDS
+    for path in reference.build(args.out, args.only or None, args.workers, command, progress, grids):
         print(f"wrote {path} ({path.stat().st_size / 1024:.0f} KiB)")
     return 0
 

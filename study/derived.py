@@ -48,9 +48,3 @@ def derived_variables(study: Study, ds: xr.Dataset) -> dict[str, tuple[tuple, np
             raise ValueError(f"study {study.name!r}: derived variable {name!r} needs units and long_name")
         out[name] = (dims, values, {**attrs, "rimroll_derived": 1})
     return out
-
-
-def with_derived(study: Study, ds: xr.Dataset) -> xr.Dataset:
-    """``ds`` plus the study's derived variables (in-memory path: ``study.reference.recompute``)."""
-    extra = derived_variables(study, ds)
-    return ds.assign({name: xr.Variable(dims, values, attrs) for name, (dims, values, attrs) in extra.items()})

@@ -28,8 +28,6 @@ import os
 import time
 import uuid
 
-import dask
-
 from study.parts import PartStore
 from study.plan import Plan, compute_chunk
 from study.progress import ProgressLine

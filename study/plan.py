@@ -1,5 +1,9 @@
 """The plan of one run: resolved settings, outer (swept) and grid axes, chunks, per-chunk jobs.
 
+Every study runs through a plan: ``study run``, the reference slices and the in-memory results
+of ``study.execute.compute`` all make one with :func:`make_plan` (settings resolved by
+``study.settings``) and hand it to ``study.execute``.
+
 The cube's dimensions are the outer axes (one per swept setting) followed by the study's grid
 axes. A chunk is one point of the outer axes times a block of the grid (outer axes are chunked
 by 1, so a chunk's Params and settings are constants); chunks are numbered in C order. The
@@ -20,11 +24,13 @@ import pathlib
 import numpy as np
 
 import solver
-from study import checks, runner, sweep
+from study import checks
 from study.dataset import rimroll_version
-from study.registry import PHYSICAL_KEYS, SWEEP_KEYS, Axis, Study, UserError
+from study.registry import PHYSICAL_KEYS, Axis, Study
+from study.settings import base_settings, params_from, resolve
 
 SOLVER_DIR = pathlib.Path(solver.__file__).resolve().parent
+DEFAULT_CHUNK = 64  # points per chunk along the first grid axis when the study does not say
 
 
 @dataclasses.dataclass(frozen=True)
@@ -98,10 +104,10 @@ class Plan:
     def settings_at(self, k: int) -> tuple[dict, solver.Params]:
         """Scalar settings and Params of chunk ``k`` (swept values substituted)."""
         region = self.region(k)
-        s = sweep.base_settings(self.settings)
+        s = base_settings(self.settings)
         for a, sl in zip(self.outer, region):
             s[a.name] = float(a.values[sl.start])
-        params = sweep.params_from(s) if self.outer else self.params
+        params = params_from(s) if self.outer else self.params
         s.update(params.as_dict())
         return s, params
 
@@ -166,36 +172,24 @@ def resolve_backend(settings: dict, local: bool = True) -> str | None:
 
 
 def make_plan(study: Study, quick: bool = False, sets=(), local: bool = True) -> Plan:
-    """Resolve settings and ``--set`` sweeps into a validated :class:`Plan` (UserError if bad).
+    """Resolve settings and ``--set`` sweeps (``study.settings``) into a validated :class:`Plan`
+    (UserError if bad).
 
     ``local``: the run computes on this machine (not on a ``--scheduler`` cluster); see
     :func:`resolve_backend`. With a GPU backend the numeric grid axes are not split: a chunk is a
     whole section (one launch), however the study chunks its grid for the CPU.
     """
-    settings, order, grid_values = sweep.resolve(study, quick, sets)
-    base = sweep.base_settings(settings)
-    for key in SWEEP_KEYS:
-        if key not in order and isinstance(base.get(key), float):
-            sweep.check_value(key, base[key])
-    checks.check_settings(study.name, base, physical=(*PHYSICAL_KEYS, *SWEEP_KEYS))
-    backend = resolve_backend(settings, local)
-    base = sweep.base_settings(settings)
-    outer = sweep.outer_axes(settings, order)
-    # Params of the scalar settings; a swept key stays at its first value there
-    params = sweep.params_from(base)
-    grid = sweep.regrid(runner.build_axes(study, base), grid_values)
-    names = [a.name for a in outer] + [a.name for a in grid]
-    if len(set(names)) != len(names):
-        raise UserError(f"study {study.name!r}: a swept setting has the name of a grid axis: {names}")
+    r = resolve(study, quick, sets)
+    backend = resolve_backend(r.settings, local)
     whole = any(v.outer for v in study.variables)
     block = []
-    for i, a in enumerate(grid):
+    for i, a in enumerate(r.grid):
         n = a.values.size
-        size = n if whole else study.chunks.get(a.name, runner.DEFAULT_CHUNK if i == 0 else n)
+        size = n if whole else study.chunks.get(a.name, DEFAULT_CHUNK if i == 0 else n)
         if backend == "cuda" and not a.categorical:
             size = n  # a whole section per chunk: one launch
         block.append(max(1, min(int(size), n)))
-    plan = Plan(study, settings, params, tuple(outer), tuple(grid), tuple(block), backend)
+    plan = Plan(study, r.settings, r.params, r.outer, r.grid, tuple(block), backend)
     checks.check_size(study.name, plan.n_chunks, math.prod(plan.shape))
     return plan
 

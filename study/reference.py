@@ -1,26 +1,32 @@
 """Stored reference slices: small, precise results of every map and outcome study.
 
-The slices ship inside the package (``study/reference_slices/<study>.nc``, package data found
-with ``importlib.resources``), so ``study verify`` works after ``pip install .``.
-``study reference --build`` writes them to ``--out DIR``; without ``--out`` only in a source
-checkout (never into an installed package): each
-study on a coarse **sub-grid of its default grid** (every axis: ``points`` values picked from
-the default axis, ends included: a 36 x 24 sub-grid of each outcome section in all four scenes,
-121 x 80 of the steady maps, 40 x 30 of fig9), so a full-resolution run shares every reference
-point; the outcome sections at rtol = 1e-12 with DOP853 (``PRECISE``). The regression
-tests (``tests/test_reference_slices.py``) recompute each slice at the study's default
-settings (:func:`recompute`) and compare with ``study.compare``; ``study verify FILE``
-compares any result file with the slice of its study.
+The slices ship inside the package (``study/reference_slices/``, package data found with
+``importlib.resources``), so ``study verify`` works after ``pip install .``. Each study has two
+(:data:`GRIDS`), made by ``study reference --build`` with the study's own plan and fan-out:
+
+* ``<study>.nc``, the **default** slice: a coarse sub-grid of the study's default grid (every
+  axis: ``points`` values picked from the default axis, ends included: a 36 x 24 sub-grid of
+  each outcome section in all four scenes, 121 x 80 of the steady maps, 40 x 30 of fig9), so a
+  full-resolution run shares every reference point;
+* ``quick/<study>.nc``, the **quick** slice: the whole ``--quick`` grid, so that a first
+  ``study run NAME --quick`` can be verified on every one of its points (a quick grid is not a
+  sub-grid of the default one: the two share only their corners).
+
+Both at the study's settings, the outcome sections at rtol = 1e-12 with DOP853 (``PRECISE``).
+``study verify FILE`` compares a file with the slice of its study that shares the most points
+with it (:func:`candidates`); the regression tests (``tests/test_reference_slices.py``)
+recompute each slice at the study's default precision (:func:`recompute`) and compare with
+``study.compare``. ``study reference --build`` writes ``--out DIR``; without ``--out`` only in a
+source checkout (never into an installed package).
 
 Every file records how it was made in global attributes: ``reference_command``,
-``reference_settings`` (the ``--quick --set ...`` of the run), ``reference_rtol``,
+``reference_settings`` (the ``--quick``/``--set`` of the run), ``reference_rtol``,
 ``reference_atol``, ``reference_method`` and the usual provenance (``rimroll_version``,
 ``git_revision``, ``created``, ``history``).
 """
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import importlib.resources
 import os
@@ -31,22 +37,22 @@ import tempfile
 import numpy as np
 import xarray as xr
 
-from study import fanout, io, registry
-from study.assemble import assemble
-from study.dataset import coords_of, global_attrs
-from study.derived import with_derived
+from study import execute, fanout, registry
 from study.parts import PartStore
-from study.plan import Plan, compute_chunk, make_plan
-from study.progress import ProgressLine
+from study.plan import Plan, make_plan
 
 ENV_DIR = "RIMROLL_REFERENCE_DIR"
 PACKAGE_DIR = "reference_slices"  # package data of ``study``
 PRECISE = ("rtol=1e-12", "atol=1e-14", "method=dop853")  # outcome studies: the engine's tightest setting
+GRIDS = ("default", "quick")
+"""The two slices of a study: a sub-grid of its default grid, and its whole ``--quick`` grid
+(in the subdirectory ``quick/``)."""
 
 
 @dataclasses.dataclass(frozen=True)
 class Spec:
-    """How one reference slice is made: ``--quick`` plus ``sets`` (grid) plus ``precise``."""
+    """How the reference slices of one study are made: the default grid's sub-grid (``points``)
+    or the ``--quick`` grid, plus the reference's ``precise`` settings."""
 
     name: str
     points: dict  # grid axis -> number of values picked from the default axis (ends included)
@@ -62,6 +68,15 @@ class Spec:
             idx = np.unique(np.round(np.linspace(0, full[axis].size - 1, n)).astype(int))
             out.append(f"{axis}=" + ",".join(repr(float(v)) for v in full[axis][idx]))
         return tuple(out)
+
+    def plan(self, grid: str = "default", precise: bool = True) -> Plan:
+        """The plan of a slice (``precise``: the reference; else the study's own precision on the
+        same grid)."""
+        _check_grid(grid)
+        extra = self.precise if precise else ()
+        if grid == "quick":
+            return make_plan(registry.get(self.name), quick=True, sets=extra)
+        return make_plan(registry.get(self.name), sets=[*self.sets, *extra])
 
 
 MAPS = {"beta0": 121, "omega30": 80}
@@ -107,42 +122,43 @@ def default_build_dir() -> pathlib.Path:
     return target
 
 
-def reference_path(study: str, directory=None) -> pathlib.Path:
-    return pathlib.Path(directory or reference_dir()) / f"{study}.nc"
+def reference_path(study: str, directory=None, grid: str = "default") -> pathlib.Path:
+    """Path of the ``grid`` slice of ``study`` in ``directory`` (default :func:`reference_dir`)."""
+    _check_grid(grid)
+    root = pathlib.Path(directory or reference_dir())
+    return root / f"{study}.nc" if grid == "default" else root / grid / f"{study}.nc"
 
 
-def plan_of(name: str, precise: bool) -> Plan:
-    """The plan of a slice: the reference (``precise``) or the study's defaults on the same grid."""
-    spec = SPECS[name]
-    return make_plan(registry.get(name), sets=[*spec.sets, *(spec.precise if precise else ())])
+def candidates(study: str, directory=None) -> list[pathlib.Path]:
+    """The stored slices of ``study`` in ``directory``, default grid first (``study verify`` takes
+    the one sharing the most points with the file)."""
+    return [p for p in (reference_path(study, directory, g) for g in GRIDS) if p.is_file()]
 
 
-def recompute(name: str, precise: bool = False, workers: int = 2) -> xr.Dataset:
-    """The slice of ``name`` computed in memory (no files), derived variables included."""
-    from concurrent.futures import ThreadPoolExecutor
-
-    plan = plan_of(name, precise)
-    study = plan.study
-    arrays = {v.name: np.empty(plan.outer_shape if v.outer else plan.shape, dtype=v.dtype) for v in study.variables}
-    with ThreadPoolExecutor(max_workers=workers) as pool:
-        for k, part in enumerate(pool.map(lambda k: compute_chunk(plan.job(k)), range(plan.n_chunks))):
-            region = plan.region(k)
-            for v in study.variables:
-                arrays[v.name][region[: len(plan.outer)] if v.outer else region] = part[v.name]
-    dims = [a.name for a in plan.axes]
-    outer_dims = dims[: len(plan.outer)]
-    data = {v.name: (outer_dims if v.outer else dims, arrays[v.name], v.attrs) for v in study.variables}
-    attrs = global_attrs(study, plan.params, plan.settings, f"study.reference.recompute({name!r}, precise={precise})")
-    return with_derived(study, xr.Dataset(data, coords=coords_of(plan.axes), attrs=attrs))
+def _check_grid(grid: str) -> None:
+    if grid not in GRIDS:
+        raise registry.UserError(f"no reference grid {grid!r}; known: {', '.join(GRIDS)}")
 
 
-def _provenance(name: str, plan: Plan, command: str) -> dict:
-    spec = SPECS[name]
+def recompute(name: str, precise: bool = False, workers: int = 2, grid: str = "default") -> xr.Dataset:
+    """The ``grid`` slice of ``name`` computed in memory through the study's plan and fan-out
+    (``study.execute.compute``), derived variables included; ``precise``: at the reference's
+    precision, else at the study's own."""
+    plan = SPECS[name].plan(grid, precise)
+    return execute.compute(plan, f"study.reference.recompute({name!r}, precise={precise}, grid={grid!r})", workers)
+
+
+def _provenance(spec: Spec, grid: str, plan: Plan, command: str) -> dict:
     s = plan.settings
+    sets = shlex.join([*(f"--set={x}" for x in spec.precise)])
+    if grid == "quick":
+        how = " ".join(filter(None, ["--quick", sets])) + " on the whole --quick grid"
+    else:
+        how = sets + " on the sub-grid " + ", ".join(f"{k}: {n} of the default values (ends included)"
+                                                     for k, n in spec.points.items())
     return {
         "reference_command": command,
-        "reference_settings": shlex.join([*(f"--set={x}" for x in spec.precise)]) + " on the sub-grid "
-                              + ", ".join(f"{k}: {n} of the default values (ends included)" for k, n in spec.points.items()),
+        "reference_settings": how,
         "reference_rtol": str(s.get("rtol", "n/a")),
         "reference_atol": str(s.get("atol", "n/a")),
         "reference_method": str(s.get("method", spec.method)),
@@ -151,42 +167,26 @@ def _provenance(name: str, plan: Plan, command: str) -> dict:
 
 
 def build(out=None, names=None, workers: int | None = None, command: str = "study reference --build",
-          progress: bool = False) -> list[pathlib.Path]:
-    """Compute the reference slices ``names`` (default: all) into ``out`` (default: the checkout's
-    ``study/reference_slices``; refused in an installed package)."""
+          progress: bool = False, grids=GRIDS) -> list[pathlib.Path]:
+    """Compute the slices ``names`` (default: all) on ``grids`` (default: both) into ``out``
+    (default: the checkout's ``study/reference_slices``; refused in an installed package)."""
     out = pathlib.Path(out) if out is not None else default_build_dir()
     names = list(names or SPECS)
     unknown = [n for n in names if n not in SPECS]
     if unknown:
         raise registry.UserError(f"no reference slice for {', '.join(unknown)}; known: {', '.join(SPECS)}")
+    for grid in grids:
+        _check_grid(grid)
     out.mkdir(parents=True, exist_ok=True)
     written = []
     with fanout.client(workers) as client, tempfile.TemporaryDirectory(dir=out, prefix=".reference-") as tmp:
         for name in names:
-            plan = plan_of(name, precise=True)
-            store = PartStore(tmp, name, plan.fingerprint)
-            with store.lock():
-                line = ProgressLine(plan.n_chunks, name, enabled=progress)
-                fanout.run(plan, store, list(range(plan.n_chunks)), client, line)
-                attrs = global_attrs(plan.study, plan.params, plan.settings, command,
-                                     tuple(a.name for a in plan.outer))
-                attrs.update(_provenance(name, plan, command))
-                path = out / f"{name}.nc"
-                assemble(plan, store, path, attrs)
-                store.remove()
-            written.append(path)
+            for grid in grids:
+                plan = SPECS[name].plan(grid)
+                path = reference_path(name, out, grid)
+                store = PartStore(pathlib.Path(tmp) / grid, name, plan.fingerprint)
+                with store.lock():
+                    execute.produce(plan, store, path, command, client=client, progress=progress,
+                                    extra_attrs=_provenance(SPECS[name], grid, plan, command))
+                written.append(path)
     return written
-
-
-@contextlib.contextmanager
-def open_reference(study: str, directory=None):
-    """The stored slice of ``study`` (loaded), or None if there is none."""
-    path = reference_path(study, directory)
-    if not path.is_file():
-        yield None
-        return
-    ds = io.open_result(path)
-    try:
-        yield ds
-    finally:
-        ds.close()

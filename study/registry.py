@@ -1,17 +1,17 @@
 """The registry of named studies: what a study declares, and the table of studies by name.
 
 A study (see ``study/CONTRACT.md``) is pure computation on numpy arrays plus metadata. This
-module only holds the declarations; ``study.runner`` evaluates them and ``study.io`` writes them.
-Studies are found through the entry-point group ``rimroll.studies`` (:func:`study_modules`).
+module only holds the declarations; ``study.settings`` resolves their settings, ``study.plan``
+and ``study.execute`` run them. Studies are found through the entry-point group
+``rimroll.studies`` of the installed distributions (rimroll's own: ``workflows``); ``study``
+never imports a studies module by name.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import importlib
 import importlib.util
 import os
-import pathlib
 import re
 import sys
 from typing import Any, Callable
@@ -198,36 +198,35 @@ ENTRY_POINT_GROUP = "rimroll.studies"
 """Entry-point group naming the modules that register studies on import (rimroll's own:
 ``workflows``, declared in pyproject.toml); another package can add studies the same way."""
 
-_PYPROJECT = pathlib.Path(__file__).resolve().parent.parent / "pyproject.toml"
 
-
-def study_modules() -> list[str]:
-    """Modules that register studies: the ``rimroll.studies`` entry points of installed
-    distributions, plus (running from a checkout that is not installed) the same group read from
-    the checkout's pyproject.toml. ``study`` never imports a studies module by name."""
+def study_entry_points() -> list:
+    """The installed ``rimroll.studies`` entry points (``importlib.metadata``)."""
     from importlib.metadata import entry_points
 
-    modules = [ep.value.split(":")[0] for ep in entry_points(group=ENTRY_POINT_GROUP)]
-    if _PYPROJECT.is_file():
-        text = _PYPROJECT.read_text()
-        section = re.search(r'^\[project\.entry-points\."' + re.escape(ENTRY_POINT_GROUP) + r'"\]\s*$(.*?)(?=^\[|\Z)',
-                            text, re.M | re.S)
-        if section:
-            modules += [m.split(":")[0] for m in re.findall(r'^\s*[\w.-]+\s*=\s*"([^"]+)"', section.group(1), re.M)]
-    return list(dict.fromkeys(modules))
+    return list(entry_points(group=ENTRY_POINT_GROUP))
 
 
 _loaded_entry_points = False
 
 
-def _load_workflows() -> None:
+def _load_studies() -> None:
+    """Import the modules of the entry points (once per process: a scan costs milliseconds) and
+    of ``$RIMROLL_STUDY_MODULES``; :class:`UserError` if they register no study at all."""
     global _loaded_entry_points
-    if not _loaded_entry_points:  # once per process: scanning entry points costs milliseconds
-        for module in study_modules():
-            importlib.import_module(module)  # registers its studies on import
+    if not _loaded_entry_points:
+        for ep in study_entry_points():
+            try:
+                ep.load()  # registers its studies on import
+            except ImportError as exc:
+                raise UserError(f"cannot load the studies of entry point {ep.name} = {ep.value} "
+                                f"(group {ENTRY_POINT_GROUP}): {exc}") from None
         _loaded_entry_points = True
     for path in filter(None, os.environ.get(PLUGIN_ENV, "").split(os.pathsep)):
         _load_module_file(path)
+    if not _REGISTRY:
+        raise UserError(f"no studies found: no installed package declares the entry-point group "
+                        f"{ENTRY_POINT_GROUP!r} (install rimroll into this Python environment with "
+                        "pip install . or pip install -e .)")
 
 
 def _load_module_file(path: str) -> None:
@@ -245,13 +244,13 @@ def _load_module_file(path: str) -> None:
 
 def names() -> list[str]:
     """Names of all registered studies, sorted."""
-    _load_workflows()
+    _load_studies()
     return sorted(_REGISTRY)
 
 
 def get(name: str) -> Study:
     """The registered study called ``name``; :class:`UserError` listing known names otherwise."""
-    _load_workflows()
+    _load_studies()
     try:
         return _REGISTRY[name]
     except KeyError:

@@ -28,15 +28,61 @@ def test_importing_the_study_layer_imports_no_workflows_module():
     assert "study" in loaded and "workflows" not in loaded
 
 
+def test_import_study_and_its_command_line_load_no_workflows_module():
+    """``import study`` and the CLI module alone (what ``study --help`` costs) import no studies."""
+    assert "workflows" not in _loaded_after("import study")
+    assert "workflows" not in _loaded_after("import study.cli")
+
+
 def test_study_sources_never_name_the_workflows_package():
     for path in (ROOT / "study").glob("*.py"):
         assert not re.search(r"^\s*(import|from)\s+workflows\b", path.read_text(), re.M), path.name
 
 
+def test_study_modules_import_no_cycle():
+    """The modules of ``study`` import each other without a cycle (read from their sources: every
+    ``from study import x`` / ``from study.x import`` / ``import study.x``, at any depth)."""
+    sources = {p.stem: p.read_text() for p in (ROOT / "study").glob("*.py") if p.stem != "__main__"}
+    edges = {}
+    for name, text in sources.items():
+        found = set(re.findall(r"^\s*(?:from|import)\s+study\.(\w+)", text, re.M))
+        for group in re.findall(r"^\s*from\s+study\s+import\s+\(?([\w\s,]+?)\)?\s*$", text, re.M):
+            found |= {w.split(" as ")[0].strip() for w in group.split(",")}
+        edges[name] = {m for m in found if m in sources and m != name}
+    state = {}
+
+    def visit(node, path):
+        if state.get(node) == "done":
+            return
+        assert state.get(node) != "open", f"import cycle: {' -> '.join(path + [node])}"
+        state[node] = "open"
+        for nxt in sorted(edges[node]):
+            visit(nxt, path + [node])
+        state[node] = "done"
+
+    for node in sorted(edges):
+        visit(node, [])
+
+
 def test_studies_are_found_through_the_entry_point_group():
     from study import registry
 
-    assert "workflows" in registry.study_modules()
     pyproject = (ROOT / "pyproject.toml").read_text()
     assert '[project.entry-points."rimroll.studies"]' in pyproject
+    assert "workflows" in {ep.value for ep in registry.study_entry_points()}  # installed metadata
     assert {"fig8", "fig11", "work-precision"} <= set(registry.names())
+
+
+def test_no_entry_points_is_one_line_error(monkeypatch, capsys):
+    """An environment where no package declares the group (rimroll not installed): one line, exit 2."""
+    from study import registry
+    from study.cli import main
+
+    monkeypatch.setattr(registry, "_REGISTRY", {})
+    monkeypatch.setattr(registry, "_loaded_entry_points", False)
+    monkeypatch.setattr(registry, "study_entry_points", lambda: [])
+    monkeypatch.delenv(registry.PLUGIN_ENV, raising=False)
+    for argv in (["list"], ["run", "fig8", "--quick"], ["info", "fig8"]):
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "no studies found" in err and "rimroll.studies" in err, err

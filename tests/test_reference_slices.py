@@ -1,7 +1,8 @@
 """Regression against the stored reference slices (study/reference_slices, ``study reference --build``).
 
-Each slice is recomputed at its study's default settings (outcome sections: dp5, rtol 1e-8,
-atol 1e-10; the references: DOP853 at rtol 1e-12) on the reference's grid and compared with
+Each slice (the default grid's sub-grid and the whole ``--quick`` grid) is recomputed at its
+study's default precision (outcome sections: dp5, rtol 1e-8, atol 1e-10; the references: DOP853
+at rtol 1e-12) on the reference's grid and compared with
 ``study.compare``: categorical variables must be identical at every point away from boundaries
 (all 4-neighbours of the point carry the same values in the reference), continuous variables
 must agree within the tolerances below at those points.
@@ -20,8 +21,10 @@ from study.io import open_result
 OUTCOME_TOLERANCES = {
     # dp5 at rtol 1e-8 against DOP853 at 1e-12, runs of up to 60 s: observed <= 2.2e-5 s; 10x margin
     "t_end": (2e-4, 2e-4),
-    # the minimum of F2 is taken on the dense output (4th order for dp5): observed <= 1.2e-7 N
-    "f2_min": (1e-5, 1e-6),
+    # the minimum of F2 is taken on the dense output (4th order for dp5): observed <= 5e-7 N at 99 %
+    # of the points, up to 3.7e-5 N (4.7e-6 of F2 ~ 8 N) on periodic orbits of the rolling-only
+    # scene, whose trough falls inside a long dp5 step (the cubic of the step, not the integration)
+    "f2_min": (1e-4, 1e-5),
     # omega1 = 0 crossings located on the dense output to the event tolerance: observed <= 3e-9 s
     "half_period": (1e-7, 1e-7),
     # alpha quadrature over the whole run, same error budget as t_end: observed <= 1.4e-5
@@ -46,15 +49,18 @@ MAP_TOLERANCES = {"omega20": (1e-12, 1e-12), "h": (1e-12, 1e-12), "required_fric
 MIN_AWAY = 0.7  # at least 70 % of a slice lies away from boundaries, or the comparison says little
 
 
+SLICES = [(name, grid) for name in reference.SPECS for grid in reference.GRIDS]
+
+
 @pytest.fixture(scope="module")
 def recomputed():
-    return {name: reference.recompute(name, workers=2) for name in reference.SPECS}
+    return {(name, grid): reference.recompute(name, workers=2, grid=grid) for name, grid in SLICES}
 
 
 def test_every_map_and_outcome_study_has_a_small_slice_with_provenance():
     total = 0
-    for name, spec in reference.SPECS.items():
-        path = reference.reference_path(name)
+    for (name, grid), spec in ((s, reference.SPECS[s[0]]) for s in SLICES):
+        path = reference.reference_path(name, grid=grid)
         assert path.is_file(), f"missing {path}: run `study reference --build`"
         size = path.stat().st_size
         total += size
@@ -65,6 +71,7 @@ def test_every_map_and_outcome_study_has_a_small_slice_with_provenance():
                         "rimroll_version", "history", "created"):
                 assert key in ds.attrs, (name, key)
             assert "study reference --build" in ds.attrs["reference_command"]
+            assert ("--quick" in ds.attrs["reference_settings"]) == (grid == "quick")
             if spec.precise:
                 assert ds.attrs["reference_rtol"] == "1e-12" and ds.attrs["reference_method"] == "dop853"
                 assert ds.attrs["setting_rtol"] == 1e-12 and ds.attrs["setting_method"] == "dop853"
@@ -73,10 +80,21 @@ def test_every_map_and_outcome_study_has_a_small_slice_with_provenance():
     assert total < 5_000_000
 
 
-@pytest.mark.parametrize("name", list(reference.SPECS))
-def test_default_settings_reproduce_the_reference(recomputed, name):
-    ds = recomputed[name]
-    ref = open_result(reference.reference_path(name))
+def test_the_quick_slice_is_the_whole_quick_grid():
+    """What ``study run NAME --quick`` computes, every point of it (so verify covers all of it)."""
+    from study import registry
+    from study.plan import make_plan
+
+    for name in reference.SPECS:
+        with xr.open_dataset(reference.reference_path(name, grid="quick")) as ref:
+            for axis in make_plan(registry.get(name), quick=True).axes:
+                np.testing.assert_array_equal(ref[axis.name].values, axis.values, err_msg=f"{name} {axis.name}")
+
+
+@pytest.mark.parametrize("name,grid", SLICES)
+def test_default_settings_reproduce_the_reference(recomputed, name, grid):
+    ds = recomputed[name, grid]
+    ref = open_result(reference.reference_path(name, grid=grid))
     tolerances = OUTCOME_TOLERANCES if reference.SPECS[name].precise else MAP_TOLERANCES
     report = compare.compare(ds, ref, tolerances)
     text = "\n".join(compare.format_report(report, f"recomputed {name}", "reference"))

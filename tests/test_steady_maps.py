@@ -8,20 +8,18 @@ import xarray as xr
 
 import solver
 from solver import steady
-from study import registry, runner
+from study import execute, registry
 from study.dataset import params_of
+from study.plan import make_plan
 
 
 def _run(name, *sets, quick=True):
-    """(Dataset, Params) of one in-memory run, no files."""
-    study = registry.get(name)
-    settings = runner.resolve_settings(study, quick, sets)
-    params = runner.build_params(settings)
-    axes = runner.build_axes(study, settings)
-    arrays = runner.evaluate(study, axes, params, settings, workers=2)
-    dims = [a.name for a in axes]
-    ds = xr.Dataset({k: (dims, v) for k, v in arrays.items()}, coords={a.name: a.values for a in axes})
-    return ds, params
+    """(Dataset, Params) of one run, as ``study run NAME [--quick] --set ...`` makes it (plan,
+    fan-out, parts, assembly), read back into memory."""
+    plan = make_plan(registry.get(name), quick, sets)
+    ds = execute.compute(plan, f"tests/test_steady_maps.py {name} {' '.join(sets)}", workers=2)
+    assert params_of(ds) == plan.params  # the file is what its attributes say
+    return ds, plan.params
 
 
 def _areas(region):
@@ -103,8 +101,7 @@ def test_map_values_match_direct_solver_calls(quick_results, name):
 def test_quick_grids_avoid_the_singular_lines():
     """Even omega30 counts and n_beta0 not divisible by 4 keep (48) finite everywhere."""
     for quick in (True, False):
-        study = registry.get("fig3")
-        axes = runner.build_axes(study, runner.resolve_settings(study, quick))
+        axes = make_plan(registry.get("fig3"), quick).grid
         b, w = axes[0].values, axes[1].values
         assert np.abs(np.cos(b)).min() > 1e-6 and np.abs(w).min() > 1e-6
         assert b[0] == -np.pi and b[-1] < np.pi

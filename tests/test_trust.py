@@ -22,7 +22,7 @@ import pytest
 import xarray as xr
 
 from study import registry
-from study.cli import main
+from study.cli import main, natural_order
 from study.parts import PartStore
 from study.plan import make_plan
 from study.registry import PLUGIN_ENV
@@ -202,12 +202,16 @@ def test_verify_fails_when_a_variable_is_missing(fig8_full, tmp_path, capsys, dr
     assert f"missing from the file: {', '.join(drop)}" in out and "NOT within tolerance" in out
 
 
-def test_verify_states_coverage_and_fails_below_minimum(fig8_full, quick_results, capsys):
+def test_verify_states_coverage_and_fails_below_minimum(fig8_full, quick_results, tmp_path, capsys):
+    from study import reference
     from study.compare import MIN_COVERAGE
 
     assert main(["verify", str(fig8_full)]) == 0
     assert "coverage: 9680 of the reference's 9680 points compared (100.0%" in capsys.readouterr().out
-    assert main(["verify", str(quick_results / "fig8.nc")]) == 1  # shares 2 corners with the slice
+    default_only = tmp_path / "default-slice"  # without the quick slice, a quick grid shares 2 corners
+    default_only.mkdir()
+    (default_only / "fig8.nc").write_bytes(reference.reference_path("fig8").read_bytes())
+    assert main(["verify", str(quick_results / "fig8.nc"), "--reference", str(default_only)]) == 1
     out = capsys.readouterr().out
     assert "FAIL coverage: 2 of the reference's 9680 points" in out and f"needed {100 * MIN_COVERAGE:.0f}%" in out
 
@@ -223,9 +227,11 @@ def test_slices_are_package_data_found_with_importlib(monkeypatch):
     packaged = pathlib.Path(str(importlib.resources.files("study") / "reference_slices"))
     assert reference.reference_dir() == packaged
     assert {p.stem for p in packaged.glob("*.nc")} == set(reference.SPECS)
+    assert {p.stem for p in (packaged / "quick").glob("*.nc")} == set(reference.SPECS)
     root = pathlib.Path(__file__).resolve().parent.parent
     config = tomllib.loads((root / "pyproject.toml").read_text())
-    assert "reference_slices/*.nc" in config["tool"]["setuptools"]["package-data"]["study"]
+    for pattern in ("reference_slices/*.nc", "reference_slices/quick/*.nc"):
+        assert pattern in config["tool"]["setuptools"]["package-data"]["study"]
 
 
 def test_reference_build_never_writes_an_installed_package(monkeypatch, tmp_path, capsys):
@@ -233,10 +239,10 @@ def test_reference_build_never_writes_an_installed_package(monkeypatch, tmp_path
 
     monkeypatch.setattr(reference, "checkout_dir", lambda: None)  # as after pip install
     monkeypatch.delenv(reference.ENV_DIR, raising=False)
-    before = {p: p.stat().st_mtime_ns for p in reference.packaged_dir().glob("*.nc")}
+    before = {p: p.stat().st_mtime_ns for p in reference.packaged_dir().glob("**/*.nc")}
     assert main(["reference", "--build", "--only", "fig9", "--no-progress"]) == 2
     _one_line_error(capsys.readouterr().err, "needs --out DIR")
-    assert {p: p.stat().st_mtime_ns for p in reference.packaged_dir().glob("*.nc")} == before
+    assert {p: p.stat().st_mtime_ns for p in reference.packaged_dir().glob("**/*.nc")} == before
 
 
 @pytest.mark.slow
@@ -273,6 +279,15 @@ def test_verify_after_pip_install(tmp_path):
     build = subprocess.run([study, "reference", "--build", "--only", "fig9"], cwd=tmp_path, env=env,
                            capture_output=True, text=True, timeout=600)
     assert build.returncode == 2 and "needs --out" in build.stderr
+    # the studies come from the installed entry points; a --quick run verifies against the quick slice
+    listed = subprocess.run([study, "list"], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
+    assert [line.split()[0] for line in listed.stdout.splitlines()] == natural_order(registry.names())
+    quick = subprocess.run([study, "run", "fig8", "--quick", "--out", str(tmp_path / "quick"), "--no-progress"],
+                           cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
+    assert quick.returncode == 0, quick.stderr
+    verify = subprocess.run([study, "verify", str(tmp_path / "quick" / "fig8.nc")], cwd=tmp_path, env=env,
+                            capture_output=True, text=True, timeout=600)
+    assert verify.returncode == 0 and "site-packages/study/reference_slices/quick/fig8.nc" in verify.stdout, verify
 
 
 # ================================================================ 6. a cube with every swept setting scalar

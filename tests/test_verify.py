@@ -49,10 +49,26 @@ def test_other_settings_have_no_common_points(good_fig12, tmp_path, capsys):
     assert "settings differ" in capsys.readouterr().out
 
 
-def test_quick_run_of_a_map_fails_on_coverage(quick_results, capsys):
-    """A --quick grid is not a sub-grid of the default one: it shares 2 corners with the slice,
-    too few to vouch for anything (coverage below compare.MIN_COVERAGE)."""
-    assert main(["verify", str(quick_results / "fig8.nc")]) == 1
+def test_quick_run_verifies_against_the_quick_slice(quick_results, capsys):
+    """A --quick grid is not a sub-grid of the default one; its study also ships a slice of the
+    whole quick grid, and verify takes the slice sharing the most points: all of them."""
+    assert main(["verify", str(quick_results / "fig8.nc")]) == 0
+    out = capsys.readouterr().out
+    assert "9680 common points" in out and str(reference.reference_path("fig8", grid="quick")) in out
+    assert "compared: region, omega20" in out and "coverage: 9680 of the reference's 9680 points" in out
+
+
+def test_full_grid_points_are_verified_against_the_default_slice(good_fig12, capsys):
+    assert main(["verify", str(good_fig12)]) == 0
+    out = capsys.readouterr().out
+    assert f"vs reference {reference.reference_path('fig12')} " in out  # not the quick slice
+
+
+def test_quick_run_against_the_default_slice_alone_fails_on_coverage(quick_results, tmp_path, capsys):
+    """Without its quick slice, a --quick grid shares 2 corners with the default slice: too few to
+    vouch for anything (coverage below compare.MIN_COVERAGE)."""
+    (tmp_path / "fig8.nc").write_bytes(reference.reference_path("fig8").read_bytes())
+    assert main(["verify", str(quick_results / "fig8.nc"), "--reference", str(tmp_path)]) == 1
     out = capsys.readouterr().out
     assert "2 common points" in out and "FAIL coverage" in out and "compared: region, omega20" in out
 
@@ -80,5 +96,9 @@ def test_reference_build_writes_a_slice_with_provenance(tmp_path, capsys):
     with xr.open_dataset(tmp_path / "fig9.nc") as ds:
         assert ds.attrs["study"] == "fig9" and "reference --build" in ds.attrs["reference_command"]
         assert ds.sizes == {"rho_over_R": 40, "j": 30}
+    with xr.open_dataset(tmp_path / "quick" / "fig9.nc") as ds:  # the whole --quick grid
+        assert "--quick" in ds.attrs["reference_settings"] and ds.attrs["setting_n_j"] == 30
     assert main(["verify", str(tmp_path / "fig9.nc")]) == 0
+    assert main(["verify", str(tmp_path / "quick" / "fig9.nc")]) == 0
+    assert main(["reference", "--build", "--only", "fig9", "--grid", "nope", "--out", str(tmp_path)]) == 2
     assert main(["reference", "--build", "--only", "nope", "--out", str(tmp_path)]) == 2
