@@ -26,7 +26,7 @@ import numpy as np
 import solver
 from study import checks
 from study.dataset import rimroll_version
-from study.registry import PHYSICAL_KEYS, Axis, Study
+from study.registry import PHYSICAL_KEYS, Axis, Study, UserError
 from study.settings import base_settings, params_from, resolve
 
 SOLVER_DIR = pathlib.Path(solver.__file__).resolve().parent

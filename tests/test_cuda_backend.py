@@ -280,7 +280,7 @@ def _compile_ptx(tmp_path, scene: int, method: str) -> str:
 
 
 def _check_ptx(ptx: str, scene: int, method: str) -> None:
-    assert f".visible .entry" in ptx and f"launch_scene{scene}_{method}" in ptx
+    assert ".visible .entry" in ptx and f"launch_scene{scene}_{method}" in ptx
     assert ".f64" in ptx and ".local" in ptx  # float64 arithmetic, per-thread local work arrays
     # the tableau is baked in: its first nonzero coefficient appears as a float64 immediate or constant
     assert ".const" in ptx or "0d3FC999999999999A" in ptx  # 1/5 = A[1, 0] of DP5
