@@ -36,17 +36,31 @@ STATE = np.array([[1.2, 1.0, 35.0, 10.0], [0.9, -5.0, 35.0, 10.0]])
 
 
 @pytest.fixture(scope="module")
-def simulated_run(tmp_path_factory) -> dict:
+def sub_env(tmp_path_factory) -> dict:
+    """Environment of this file's subprocesses: a kernel cache of their own.
+
+    numba's on-disk index of a kernel that takes a compiled function as an argument
+    (``kernels.run_chunk``, ``kernels.run_phase``) keys its entries on that function's type, which
+    does not match across processes: every process adds entries, and a process that loads many
+    foreign ones can fail to save its own (numba: "underlying object has vanished"). So the
+    subprocesses here, which compile the scenes with and without the simulator, leave the test
+    process's cache alone; they compile the four scene kernels once, into this directory.
+    """
+    return {"RIMROLL_CACHE_DIR": str(tmp_path_factory.mktemp("kernel-cache"))}
+
+
+@pytest.fixture(scope="module")
+def simulated_run(tmp_path_factory, sub_env) -> dict:
     """tests/cuda_sim_probe.py under the simulator: 24 states per scene, and batches of 7."""
     if not HAS_NUMBA_CUDA:
         pytest.skip("numba-cuda is not installed (pip install 'rimroll[test]' or 'rimroll[gpu]')")
-    return _probe(tmp_path_factory.mktemp("sim"), 24, 7)
+    return _probe(tmp_path_factory.mktemp("sim"), 24, 7, sub_env)
 
 
-def _probe(tmp_path, n: int, max_batch: int) -> dict:
+def _probe(tmp_path, n: int, max_batch: int, sub_env: dict) -> dict:
     """Run tests/cuda_sim_probe.py under the simulator; its saved arrays."""
     out = tmp_path / "sim.npz"
-    env = dict(os.environ, NUMBA_ENABLE_CUDASIM="1")
+    env = dict(os.environ, NUMBA_ENABLE_CUDASIM="1", **sub_env)
     proc = subprocess.run([sys.executable, str(HERE / "cuda_sim_probe.py"), str(out), str(n), str(max_batch)],
                           env=env, capture_output=True, text=True, timeout=1800)
     assert proc.returncode == 0, proc.stderr[-3000:]
@@ -145,37 +159,37 @@ def test_missing_device_is_one_line():
     assert backends.resolve("auto") == backends.cpu()
 
 
-def _study(*args, env=None) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "study", *args], capture_output=True, text=True, timeout=600,
-                          env=dict(os.environ, **(env or {})))
+def _study(*args, env) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "study", *args], capture_output=True, text=True, timeout=900,
+                          env=dict(os.environ, **env))
 
 
 @needs_numba_cuda
 @pytest.mark.skipif(_has_device(), reason="a CUDA device is present: there is no missing device to report")
-def test_study_run_without_device_exits_with_one_line(tmp_path):
+def test_study_run_without_device_exits_with_one_line(tmp_path, sub_env):
     for args in (["--set", "backend=cuda"], ["--backend", "cuda"]):
-        proc = _study("run", "fig11", "--quick", "--out", str(tmp_path), *args)
+        proc = _study("run", "fig11", "--quick", "--out", str(tmp_path), *args, env=sub_env)
         assert proc.returncode == 2, proc.stderr
         lines = proc.stderr.strip().splitlines()
         assert len(lines) == 1 and lines[0].startswith("study: error: backend 'cuda': no usable CUDA device")
     assert not list(tmp_path.glob("*.nc"))
-    proc = _study("run", "fig8", "--quick", "--out", str(tmp_path), "--backend", "cuda")
+    proc = _study("run", "fig8", "--quick", "--out", str(tmp_path), "--backend", "cuda", env=sub_env)
     assert proc.returncode == 2 and "does not run solver.simulate" in proc.stderr
-    proc = _study("run", "fig11", "--quick", "--out", str(tmp_path), "--set", "backend=gpu")
+    proc = _study("run", "fig11", "--quick", "--out", str(tmp_path), "--set", "backend=gpu", env=sub_env)
     assert proc.returncode == 2 and "allowed backends are cpu, cuda, auto" in proc.stderr
 
 
 @needs_numba_cuda
-def test_study_run_on_the_simulated_device_matches_the_cpu_run(tmp_path):
+def test_study_run_on_the_simulated_device_matches_the_cpu_run(tmp_path, sub_env):
     """``study run fig11 --backend cuda`` under the simulator: one chunk per section (a launch), the
     CPU run's numbers, and the backend and device in the file's attributes."""
     from study import io
 
     sets = ["--quick", "--set", "n_beta=30", "--set", "n_omega1=8", "--no-progress"]
     proc = _study("run", "fig11", *sets, "--backend", "cuda", "--out", str(tmp_path / "gpu"),
-                  env={"NUMBA_ENABLE_CUDASIM": "1"})
+                  env=dict(sub_env, NUMBA_ENABLE_CUDASIM="1"))
     assert proc.returncode == 0, proc.stderr
-    proc = _study("run", "fig11", *sets, "--out", str(tmp_path / "cpu"))
+    proc = _study("run", "fig11", *sets, "--out", str(tmp_path / "cpu"), env=sub_env)
     assert proc.returncode == 0, proc.stderr
     gpu, cpu = io.open_result(tmp_path / "gpu" / "fig11.nc"), io.open_result(tmp_path / "cpu" / "fig11.nc")
     assert gpu.attrs["setting_backend"] == "cuda" and cpu.attrs["setting_backend"] == "cpu"
@@ -186,7 +200,7 @@ def test_study_run_on_the_simulated_device_matches_the_cpu_run(tmp_path):
         np.testing.assert_array_equal(gpu[name].values, cpu[name].values, err_msg=name)
 
 
-def test_auto_records_the_backend_in_the_file(tmp_path):
+def test_auto_records_the_backend_in_the_file(tmp_path, sub_env):
     """Where 'auto' finds no device it runs on the CPU, and the file says so (setting and source)."""
     if _has_device():
         pytest.skip("a CUDA device is present: auto picks it (the gpu tests check that)")
@@ -194,7 +208,7 @@ def test_auto_records_the_backend_in_the_file(tmp_path):
 
     proc = _study("run", "outcome-cube", "--quick", "--out", str(tmp_path), "--set", "n_beta=3", "--set",
                   "n_omega1=3", "--set", "mu=1", "--set", "k_r=0", "--set", "k_d=0", "--set", "omega2=65",
-                  "--backend", "auto")
+                  "--backend", "auto", env=sub_env)
     assert proc.returncode == 0, proc.stderr
     ds = io.open_result(tmp_path / "outcome-cube.nc")
     assert ds.attrs["setting_backend"] == "cpu"
