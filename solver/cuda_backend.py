@@ -33,8 +33,9 @@ process (the current device of numba-cuda); calls from several threads take turn
 Under numba-cuda's simulator (``NUMBA_ENABLE_CUDASIM=1``, for tests without a device) the same
 launcher runs in Python threads; each simulated thread then runs the CPU machine code of the
 trajectory kernel on its own local arrays, so the simulator checks the launcher, the batching and
-the result layout, and ``tests/test_cuda_backend.py`` checks the device compilation of the whole
-engine separately (to PTX, where NVVM is installed).
+the result layout; ``tests/test_cuda_backend.py`` checks the device compilation of the whole
+engine separately (to PTX, where numba-cuda finds the CUDA compiler libraries, and everywhere a
+static check that the engine calls only numpy functions the device lowers).
 """
 
 from __future__ import annotations
@@ -68,7 +69,6 @@ the transfers of one batch overlap the computation of the next; a section is one
 OVERLAP_BATCHES = 4
 BYTES_PER_STATE = 8 * (4 + N_RF + N_RI)
 """Device (and pinned host) bytes per state: the initial state and its two result rows."""
-
 
 UFUNC_LOOPS = {  # numpy ufunc: (loop, math function whose numba-cuda lowering implements it)
     np.sqrt: ("d->d", math.sqrt),
