@@ -12,10 +12,12 @@ The disk cache lives in ``solver._jit.cache_dir()``: per user, and per digest of
 
 from __future__ import annotations
 
+import numba
+
 from solver import _jit
 
 
-def kernel(func=None, *, inline=False):
+def kernel(func=None, *, inline=False, takes_functions=False):
     """Compile ``func`` with numba (nopython, nogil, cache, error_model="numpy").
 
     ``@kernel(inline=True)`` marks a small function on the per-step hot path (the RK step and
@@ -23,10 +25,20 @@ def kernel(func=None, *, inline=False):
     into its callers at the IR level (``inline="always"``). LLVM does not inline these calls by
     itself (each array argument is passed as a struct of ~8 words), and the call overhead was
     ~20% of a rolling step. Inlined functions are still compiled (and callable) on their own.
+
+    ``@kernel(takes_functions=True)`` marks a function with a compiled function among its
+    arguments (a phase's rhs or event function): it is not cached on disk by itself. numba keys
+    its cache entries on the argument types, and the type of a function argument names one
+    process's function object: such an entry never hits in another process, and re-saving the
+    index with entries of a finished process can raise ``ReferenceError``. Its machine code is
+    cached anyway, inside every cached kernel that calls it.
     """
     if func is None:
-        return lambda f: kernel(f, inline=inline)
+        return lambda f: kernel(f, inline=inline, takes_functions=takes_functions)
     if _jit._DISABLE:
         func.py_func = func
         return func
-    return _jit.njit_cached(func, nogil=True, error_model="numpy", inline="always" if inline else "never")
+    options = dict(nogil=True, error_model="numpy", inline="always" if inline else "never")
+    if takes_functions:
+        return numba.njit(cache=False, **options)(func)
+    return _jit.njit_cached(func, **options)

@@ -4,8 +4,8 @@ Imported only when ``backend="cuda"`` is resolved (``solver.backends``); it need
 (the optional extra ``rimroll[gpu]``).
 
 **One source.** The kernel of a (scene, method) is a small launcher (:func:`launcher`) that gives
-each thread its work arrays and calls the scene's trajectory kernel of ``solver.kernels``, the
-very function the CPU engine runs. numba-cuda compiles every compiled function it reaches (the
+each thread its work arrays and calls ``kernels.trajectory`` with the scene's flags as literals,
+the very function (and flags) the CPU engine's scene kernels run. numba-cuda compiles every compiled function it reaches (the
 rules, the phase systems, the stepper, the locator, the physics of ``rolling``/``slipping``/
 ``switching``/``kinematics``) from its Python source for the device, as it does for any
 ``numba.njit`` function called from a CUDA kernel; there is no second copy of any equation.
@@ -69,6 +69,12 @@ the transfers of one batch overlap the computation of the next; a section is one
 OVERLAP_BATCHES = 4
 BYTES_PER_STATE = 8 * (4 + N_RF + N_RI)
 """Device (and pinned host) bytes per state: the initial state and its two result rows."""
+SCENE_FLAGS = {  # scene: (hybrid, conservative), the literal flags of the scene kernels of solver.kernels
+    kernels.SCENE_ROLLING_CONSERVATIVE: (False, True),
+    kernels.SCENE_ROLLING_DISSIPATIVE: (False, False),
+    kernels.SCENE_HYBRID_CONSERVATIVE: (True, True),
+    kernels.SCENE_HYBRID_DISSIPATIVE: (True, False),
+}
 
 UFUNC_LOOPS = {  # numpy ufunc: (loop, math function whose numba-cuda lowering implements it)
     np.sqrt: ("d->d", math.sqrt),
@@ -125,7 +131,8 @@ def launcher(scene: int, method: str):
     thread k < m integrates row k of ``states`` (m, 4) and writes rows k of ``res_f`` (m, N_RF)
     and ``res_i`` (m, N_RI), exactly as ``kernels.run_chunk`` does for one row.
     """
-    trajectory = kernels.SCENE_KERNELS[scene]  # the CPU engine's named scene kernel
+    trajectory = kernels.trajectory  # the CPU engine's trajectory body
+    hybrid, conservative = SCENE_FLAGS[scene]  # compile-time constants, as in the scene kernels
     tab = TABLEAUS[method]
     A, E, P = tab.A, tab.E, tab.P  # constants of the kernel
     n_stages, err_mode, error_order = tab.n_stages, tab.err_mode, tab.error_order
@@ -158,9 +165,9 @@ def launcher(scene: int, method: str):
             act_s[e] = True
             for r in range(N_G):
                 G[r, e] = 0.0
-        trajectory(native(states[k]), native(p), t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order,
-                   max_steps, max_switches, native(sw), W, K, Q, G, sign, search, act_r, act_s,
-                   native(res_f[k]), native(res_i[k]))
+        trajectory(hybrid, conservative, native(states[k]), native(p), t_max, rtol, atol, A, E, P, n_stages,
+                   err_mode, error_order, max_steps, max_switches, native(sw), W, K, Q, G, sign, search, act_r,
+                   act_s, native(res_f[k]), native(res_i[k]))
 
     launch.__qualname__ = launch.__name__ = f"launch_scene{scene}_{method}"
     return launch

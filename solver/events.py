@@ -167,7 +167,7 @@ def hermite_at(g0, r0, g1, r1, h, theta):
     return g0 + theta * (da + theta * (a2 + theta * a3))
 
 
-@kernel
+@kernel(takes_functions=True)
 def value_at(events, e, theta, y, h, Q, n, n_poly, p, aux, hybrid, tmp, slope, gtmp, grtmp):
     """Value of event e on the dense output at theta (the state into tmp, its slope into slope)."""
     dense_eval(theta, y, h, Q, n, n_poly, tmp)
@@ -176,7 +176,7 @@ def value_at(events, e, theta, y, h, Q, n, n_poly, p, aux, hybrid, tmp, slope, g
     return gtmp[e]
 
 
-@kernel
+@kernel(takes_functions=True)
 def locate(events, e, a, ga, b, gb, y, h, t0, Q, n, n_poly, p, aux, hybrid, tmp, slope, gtmp, grtmp):
     """Root of event e on the dense output in theta in [a, b], ga pre-crossing (or 0), gb post.
 
@@ -213,7 +213,7 @@ def locate(events, e, a, ga, b, gb, y, h, t0, Q, n, n_poly, p, aux, hybrid, tmp,
     return b
 
 
-@kernel
+@kernel(takes_functions=True)
 def minimum(events, e, a, b, start, sgn, y, h, Q, n, n_poly, p, aux, hybrid, tmp, slope, gtmp, grtmp):
     """Local minimum of sgn * (event e) on the dense output over theta in [a, b], from ``start``.
 
@@ -290,7 +290,7 @@ def minimum(events, e, a, b, start, sgn, y, h, Q, n, n_poly, p, aux, hybrid, tmp
     return x, fx
 
 
-@kernel
+@kernel(takes_functions=True)
 def next_event(events, active, direction, track_min, sign, search, th_min, theta0, g0, g1, gr1, y, h, t0, Q, n,
                n_poly, p, aux, hybrid, tmp, slope, g_lo, g_hi, gtmp, grtmp, mins):
     """Earliest event of an accepted step in theta in (theta0, 1] (see the module rules).

@@ -49,12 +49,14 @@ x <= 0.99 (see tests/test_floquet.py).
 from __future__ import annotations
 
 import numpy as np
-from scipy.integrate._ivp import dop853_coefficients as _dop853
+from solver.tableaus import _A853, _DOP853_C
 
 _SYSTEMS = ("motion", "coefficients")
-_A = _dop853.A[:12, :12]
-_B = _dop853.B
-_C = _dop853.C[:12]
+# DOP853 (Hairer's coefficients as scipy ships them, solver.tableaus): 12 stages, weights = row 12.
+# Read from solver.tableaus, not scipy.integrate, whose import costs ~0.5 s of every `import solver`.
+_A = _A853[:12, :12]
+_B = _A853[12, :12]
+_C = np.array(_DOP853_C[:12])
 
 
 # --------------------------------------------------------------------------------------------

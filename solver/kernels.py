@@ -2,15 +2,20 @@
 
 A scene (docs/outcome-engine.md) is fixed by two flags, ``hybrid`` (finite mu:
 rolling/slipping switching of Sect. 5.2.2) and ``conservative`` (k_r = k_d = 0: periodic
-detection, Prop. 4). Each scene has its own named kernel (``trajectory_rolling_conservative``,
-...) that calls the one inlined body :func:`trajectory` with its flags as literals, so a
-rolling-only kernel holds no slipping phase at all. The step loop of a phase, :func:`run_phase`,
-is the expensive part of the first compile (~7 s of CPU per specialisation) and is compiled
-three times, not eight: rolling with and without the friction-cone events (``hybrid`` literal:
-the cone needs the contact forces at every step), slipping once (it only happens with
-``hybrid``); ``conservative`` (one sign test of omega1 per step) is a run-time argument there.
-:func:`run_chunk` takes the scene kernel as an argument, so a process compiles only the scenes
-it runs (a rolling-only ``simulate`` compiles one kernel and one step loop).
+detection, Prop. 4). Each scene has its own named kernel (``scene_rolling_conservative``, ...)
+that runs a chunk of initial states through the inlined bodies :func:`run_scene` and
+:func:`trajectory` with its flags as literals, so a rolling-only kernel holds no slipping phase
+at all, and a process compiles only the scenes it runs. The step loop of a phase,
+:func:`run_phase`, is the expensive part of the first compile (~7 s of CPU per specialisation)
+and has three: rolling with and without the friction-cone events (``hybrid`` literal: the cone
+needs the contact forces at every step), slipping once (only hybrid scenes slip);
+``conservative`` (one sign test of omega1 per step) is a run-time argument there.
+
+Functions that take a compiled function as an argument (``run_phase``, the event locator, the
+stepper's helpers) are not cached on their own (``solver._compile``): numba keys a cache entry
+on the argument's type, which names one process's function object, so such an entry never hits
+in another process and re-saving the index can fail. Their machine code is cached inside the
+scene kernels, which take arrays and numbers only.
 
 A trajectory is a loop over phases and reads as the rules do (``solver.rules``):
 
@@ -88,7 +93,7 @@ G_G, G_GR, G_G1, G_GR1, G_EV, G_LO, G_HI, G_TMP, G_RTMP, G_MIN, G_TH, G_THIRD = 
 N_G = 12
 
 
-@kernel
+@kernel(takes_functions=True)
 def run_phase(rhs, events, rolling_phase, hybrid, conservative, direction, track_min, action, active, n, p, sw,
               t_max, rtol, atol_vec, A, E, P, n_stages, err_mode, error_order, max_steps, W, K, Q, G, sign, search,
               res_f, res_i):
@@ -400,48 +405,11 @@ def trajectory(hybrid, conservative, x0, p, t_max, rtol, atol, A, E, P, n_stages
     res_i[RI_SLIP_PHASES] = slip_phases
 
 
-@kernel
-def trajectory_rolling_conservative(x0, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order, max_steps,
-                                    max_switches, sw, W, K, Q, G, sign, search, act_r, act_s, res_f, res_i):
-    """Scene mu = inf, k_r = k_d = 0 (see :func:`trajectory`)."""
-    trajectory(False, True, x0, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order, max_steps,
-               max_switches, sw, W, K, Q, G, sign, search, act_r, act_s, res_f, res_i)
-
-
-@kernel
-def trajectory_rolling_dissipative(x0, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order, max_steps,
-                                   max_switches, sw, W, K, Q, G, sign, search, act_r, act_s, res_f, res_i):
-    """Scene mu = inf, k_r or k_d > 0 (see :func:`trajectory`)."""
-    trajectory(False, False, x0, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order, max_steps,
-               max_switches, sw, W, K, Q, G, sign, search, act_r, act_s, res_f, res_i)
-
-
-@kernel
-def trajectory_hybrid_conservative(x0, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order, max_steps,
-                                   max_switches, sw, W, K, Q, G, sign, search, act_r, act_s, res_f, res_i):
-    """Scene finite mu, k_r = k_d = 0 (see :func:`trajectory`)."""
-    trajectory(True, True, x0, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order, max_steps,
-               max_switches, sw, W, K, Q, G, sign, search, act_r, act_s, res_f, res_i)
-
-
-@kernel
-def trajectory_hybrid_dissipative(x0, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order, max_steps,
-                                  max_switches, sw, W, K, Q, G, sign, search, act_r, act_s, res_f, res_i):
-    """Scene finite mu, k_r or k_d > 0 (see :func:`trajectory`)."""
-    trajectory(True, False, x0, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order, max_steps,
-               max_switches, sw, W, K, Q, G, sign, search, act_r, act_s, res_f, res_i)
-
-
-
-SCENE_KERNELS = (trajectory_rolling_conservative, trajectory_rolling_dissipative, trajectory_hybrid_conservative,
-                 trajectory_hybrid_dissipative)
-"""The scene kernel of each ``SCENE_*`` code (``SCENE_KERNELS[scene]``)."""
-
-@kernel
-def run_chunk(trajectory_kernel, states, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order, max_steps,
-              max_switches, sw, res_f, res_i):
-    """Simulate every row of ``states`` (m, 4) with ``trajectory_kernel`` (one of the scene kernels
-    in :data:`SCENE_KERNELS`); results into rows of res_f, res_i. Compiled once per scene kernel."""
+@kernel(inline=True)
+def run_scene(hybrid, conservative, states, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order,
+              max_steps, max_switches, sw, res_f, res_i):
+    """Simulate every row of ``states`` (m, 4) in the scene (hybrid, conservative); results into
+    the rows of res_f, res_i. Inlined into the four scene kernels with literal flags."""
     W = np.zeros((N_W, N_MAX))
     K = np.zeros((A.shape[0], N_MAX))
     Q = np.zeros((N_MAX, P.shape[1]))
@@ -451,5 +419,43 @@ def run_chunk(trajectory_kernel, states, p, t_max, rtol, atol, A, E, P, n_stages
     act_r = np.ones(N_EVENTS, dtype=np.bool_)
     act_s = np.ones(N_EVENTS, dtype=np.bool_)
     for k in range(states.shape[0]):
-        trajectory_kernel(states[k], p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order, max_steps,
-                          max_switches, sw, W, K, Q, G, sign, search, act_r, act_s, res_f[k], res_i[k])
+        trajectory(hybrid, conservative, states[k], p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order,
+                   max_steps, max_switches, sw, W, K, Q, G, sign, search, act_r, act_s, res_f[k], res_i[k])
+
+
+@kernel
+def scene_rolling_conservative(states, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order, max_steps,
+                              max_switches, sw, res_f, res_i):
+    """Scene mu = inf, k_r = k_d = 0: every row of ``states`` (see :func:`run_scene`)."""
+    run_scene(False, True, states, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order, max_steps,
+              max_switches, sw, res_f, res_i)
+
+
+@kernel
+def scene_rolling_dissipative(states, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order, max_steps,
+                             max_switches, sw, res_f, res_i):
+    """Scene mu = inf, k_r or k_d > 0: every row of ``states`` (see :func:`run_scene`)."""
+    run_scene(False, False, states, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order, max_steps,
+              max_switches, sw, res_f, res_i)
+
+
+@kernel
+def scene_hybrid_conservative(states, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order, max_steps,
+                             max_switches, sw, res_f, res_i):
+    """Scene finite mu, k_r = k_d = 0: every row of ``states`` (see :func:`run_scene`)."""
+    run_scene(True, True, states, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order, max_steps,
+              max_switches, sw, res_f, res_i)
+
+
+@kernel
+def scene_hybrid_dissipative(states, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order, max_steps,
+                            max_switches, sw, res_f, res_i):
+    """Scene finite mu, k_r or k_d > 0: every row of ``states`` (see :func:`run_scene`)."""
+    run_scene(True, False, states, p, t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order, max_steps,
+              max_switches, sw, res_f, res_i)
+
+
+SCENE_KERNELS = (scene_rolling_conservative, scene_rolling_dissipative, scene_hybrid_conservative,
+                 scene_hybrid_dissipative)
+"""The kernel of each ``SCENE_*`` code (``SCENE_KERNELS[scene]``): (states, p, t_max, rtol, atol, A, E,
+P, n_stages, err_mode, error_order, max_steps, max_switches, sw, res_f, res_i)."""

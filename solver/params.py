@@ -63,8 +63,10 @@ class Params:
     j : dimensionless moment of inertia, J = j m r^2 (2/3 for a thin shell) [-]
     mu : Coulomb friction coefficient [-]; ``inf`` means the ball never slips
     g : gravitational acceleration [m/s^2]
-    k_r : rolling-resistance rate C_r/(j m R^2) of (83) [1/s]
-    k_d : drilling-resistance rate C_d/(j m R^2) of (83) [1/s]
+    k_r : rolling-resistance rate C_r/(j m R^2) of (83) [1/s]: the rate of omega1 and omega3 in the
+        rolling equations (83) as printed (rimroll's reading; :func:`moment_normalised` gives the
+        alternative one)
+    k_d : drilling-resistance rate C_d/(j m R^2) of (83) [1/s]: the rate of omega2 in (83)
 
     Raises
     ------
@@ -164,3 +166,19 @@ class Params:
 def _require(name: str, value: float, ok: bool, allowed: str) -> None:
     if not ok:
         raise ValueError(f"parameter {name}={value!r} is out of range: allowed {allowed}")
+
+
+def moment_normalised(p: Params) -> Params:
+    """The alternative reading of the dissipation (82)-(83): the same Params with the rates of (83)
+    that follow when k_r, k_d are taken as the paper labels them, C_r/(j m R^2), C_d/(j m R^2).
+
+    rimroll's reading (the default, used everywhere else) takes k_r and k_d as the rates of the
+    rolling equations (83) as printed, -k_r omega1, -k_d omega2, -k_r omega3; the contact moment
+    M_C of (82) is then -((1+j) m r^2 k_r omega1, j m r^2 k_d omega2, (1+j) m r^2 k_r omega3)
+    (docs/outcome-studies.md#scenes). Read instead with C_r = k_r j m R^2 and C_d = k_d j m R^2, the
+    moment (82) added to the Euler equation (25) under the rolling constraint gives the rates
+    C_r/((1+j) m r^2) = k_r j R^2/((1+j) r^2) and C_d/(j m r^2) = k_d R^2/r^2: (1+j) in the rolling
+    components and r for R. The returned Params carries those rates as k_r and k_d, so the engine,
+    the slipping phases and a result file all use and record the rates actually simulated.
+    """
+    return p.replace(k_r=p.k_r * p.j * p.R**2 / ((1.0 + p.j) * p.r**2), k_d=p.k_d * p.R**2 / p.r**2)

@@ -55,8 +55,8 @@ DEFAULT_MAX_SWITCHES = 10_000
 _CHUNKS_PER_WORKER = 8  # chunks per thread: balances fast falls against long periodic runs
 
 
-COLD_COMPILE_S = {kernels.SCENE_ROLLING_CONSERVATIVE: 25, kernels.SCENE_ROLLING_DISSIPATIVE: 25,
-                  kernels.SCENE_HYBRID_CONSERVATIVE: 35, kernels.SCENE_HYBRID_DISSIPATIVE: 35}
+COLD_COMPILE_S = {kernels.SCENE_ROLLING_CONSERVATIVE: 20, kernels.SCENE_ROLLING_DISSIPATIVE: 20,
+                  kernels.SCENE_HYBRID_CONSERVATIVE: 30, kernels.SCENE_HYBRID_DISSIPATIVE: 30}
 """Measured first compile of each scene's kernel on 2 cores [s], in a fresh process (printed, not
 enforced); a scene compiled after another one reuses the step loops they share."""
 _announced = set()
@@ -78,7 +78,7 @@ def _announce_compile(scene: int):
     if scene in _announced or _jit._DISABLE or kernels_cached(scene):
         return
     _announced.add(scene)
-    name = kernels.SCENE_KERNELS[scene].py_func.__name__.removeprefix("trajectory_")
+    name = kernels.SCENE_KERNELS[scene].py_func.__name__.removeprefix("scene_")
     sys.stderr.write(f"rimroll: compiling the simulation kernel of the {name} scene, first run only: about "
                      f"{COLD_COMPILE_S[scene]} s on 2 cores (cached in {_jit.cache_dir()})\n")
     sys.stderr.flush()
@@ -186,11 +186,11 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
         return _fields(flat, shape, res_f, res_i, params)
 
     _announce_compile(scene)
-    trajectory_kernel = kernels.SCENE_KERNELS[scene]
+    scene_kernel = kernels.SCENE_KERNELS[scene]
 
     def run(lo, hi):
-        kernels.run_chunk(trajectory_kernel, flat[lo:hi], p, t_max, rtol, atol, tab.A, tab.E, tab.P, tab.n_stages,
-                          tab.err_mode, tab.error_order, max_steps, max_switches, sw, res_f[lo:hi], res_i[lo:hi])
+        scene_kernel(flat[lo:hi], p, t_max, rtol, atol, tab.A, tab.E, tab.P, tab.n_stages, tab.err_mode,
+                      tab.error_order, max_steps, max_switches, sw, res_f[lo:hi], res_i[lo:hi])
 
     n_chunks = min(m, workers * _CHUNKS_PER_WORKER) if workers > 1 else min(m, 1)
     if n_chunks <= 1:

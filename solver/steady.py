@@ -78,7 +78,12 @@ def beta_star(p: Params) -> float:
 
 
 def beta_hat(p: Params) -> float:
-    """beta_hat = min |beta0| of the unstable region [rad]: arccos of the root in (-1, 1) of (55)."""
+    """beta_hat = min |beta0| of the stable region [rad]: arccos of the root in (-1, 1) of (55).
+
+    No steady motion with |beta0| < beta_hat is stable, whatever omega30; the stable region comes
+    closest to beta0 = 0 at |beta0| = beta_hat, at a finite omega30 (the black dots of Fig. 5),
+    and its edge tends to |beta0| = beta* > beta_hat as omega30 -> inf.
+    """
     coeffs = [p.rho**2 * (1 + p.j), -p.R * p.rho, p.R**2, -p.R * p.rho * (1 + p.j)]
     roots = np.roots(coeffs)
     real = roots[(np.abs(roots.imag) < 1e-12) & (np.abs(roots.real) < 1)].real

@@ -36,7 +36,7 @@ UNDERFLOW = 2
 NON_FINITE = 3
 
 
-@kernel(inline=True)
+@kernel(inline=True, takes_functions=True)
 def rk_step(rhs, y, f, h, n, A, n_stages, K, y_new, tmp, p):
     """One explicit RK step from y with slope f = rhs(y): fills K[0..n_stages] and y_new.
 
@@ -112,7 +112,7 @@ def min_step(t):
     return MIN_STEP_ULPS * (np.nextafter(abs(t), np.inf) - abs(t))
 
 
-@kernel
+@kernel(takes_functions=True)
 def initial_step(rhs, y, f, n, n_err, error_order, rtol, atol, span, tmp, F1, p):
     """Hairer's starting step (Solving ODEs I, II.4; scipy ``select_initial_step``) [s].
 
@@ -149,7 +149,7 @@ def initial_step(rhs, y, f, n, n_err, error_order, rtol, atol, span, tmp, F1, p)
     return min(100.0 * h0, h1, span)
 
 
-@kernel
+@kernel(takes_functions=True)
 def dense_prepare(rhs, y, h, n, A, n_stages, n_dense, P, n_poly, K, Q, tmp, p):
     """Dense output of the last step: extra stages (if the method has any), then Q = K^T P.
 
@@ -195,7 +195,7 @@ def dense_slope(theta, Q, n, n_poly, out):
         out[i] = acc + Q[i, 0]
 
 
-@kernel(inline=True)
+@kernel(inline=True, takes_functions=True)
 def attempt(rhs, t, t_end, y, f, h, after_reject, n, n_err, A, E, n_stages, err_mode, exponent, rtol, atol,
             budget, K, y_new, tmp, p):
     """Try steps from (t, y), slope f = rhs(y), first trial step h [s], until one is accepted.

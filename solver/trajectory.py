@@ -12,6 +12,8 @@ State x = (beta [rad], omega1, omega2, omega3 [1/s]); ``p`` a :class:`solver.Par
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from scipy.integrate import solve_ivp
 
@@ -70,6 +72,60 @@ def rolling_trajectory(x0, p: Params, t_eval, rtol: float = DEFAULT_RTOL, atol: 
     return out
 
 
+class Scan(NamedTuple):
+    """What :func:`scan` saw along the rolling solution through x0 (times in s, states (k, 4))."""
+
+    sol: object
+    """scipy ``OdeSolution``: the dense output x(t) on [0, t_end] (``sol(t)`` -> (4,) or (4, n))."""
+    t_end: float
+    zero_times: np.ndarray
+    """zeros of omega1 in (0, t_end], ascending (a zero at t = 0 itself is not reported)."""
+    zero_states: np.ndarray
+    return_times: np.ndarray
+    """times in (0, t_end] at which beta = beta(0) + 2 pi k, k != 0 (one revolution of the
+    ball over the rim's cross-section each)."""
+    return_states: np.ndarray
+    status: int
+    """0 when the integration reached the n-th zero or t_max, -1 when it failed."""
+
+
+def scan(x0, p: Params, t_max: float, n_zeros: int | None = 2, rtol: float = DEFAULT_RTOL,
+         atol: float = DEFAULT_ATOL) -> Scan:
+    """Integrate the rolling solution through x0 up to the ``n_zeros``-th zero of omega1 or t_max [s].
+
+    DOP853 at rtol/atol with dense output; the zeros of omega1 and the returns of beta to
+    beta(0) mod 2 pi are located on the dense output (scipy events, to ~rtol). ``n_zeros=None``
+    never stops at a zero. A failed integration is reported in ``status`` with what was found.
+    """
+    x0 = _check_state(x0)
+    rhs = _rhs(p.as_array())
+    beta0 = float(x0[0])
+
+    def zero(t, x):
+        return x[1]
+
+    def revolution(t, x):
+        return np.sin(0.5 * (x[0] - beta0))
+
+    # scipy reports a zero at t = 0 as an event when omega1(0) = 0 exactly: allow for it
+    at_zero = x0[1] == 0.0
+    zero.terminal = 0 if n_zeros is None else int(n_zeros) + int(at_zero)
+    sol = solve_ivp(rhs, (0.0, float(t_max)), x0, method="DOP853", rtol=rtol, atol=atol,
+                    events=[zero, revolution], dense_output=True)
+    floor = 1e-12 * max(1.0, float(t_max))
+    times, states = (np.asarray(v, dtype=float) for v in (sol.t_events[0], sol.y_events[0]))
+    states = states.reshape(-1, 4)
+    keep = times > (floor if at_zero else 0.0)
+    times, states = times[keep], states[keep]
+    if n_zeros is not None:
+        times, states = times[:n_zeros], states[:n_zeros]
+    r_times, r_states = (np.asarray(v, dtype=float) for v in (sol.t_events[1], sol.y_events[1]))
+    r_states = r_states.reshape(-1, 4)
+    keep = np.abs(r_states[:, 0] - beta0) > np.pi  # not beta(0) itself, where a swing turns back
+    return Scan(sol.sol, float(sol.t[-1]), times, states, r_times[keep], r_states[keep],
+                0 if sol.status >= 0 else -1)
+
+
 def omega1_zeros(x0, p: Params, t_max: float, n_zeros: int = 2, rtol: float = DEFAULT_RTOL,
                  atol: float = DEFAULT_ATOL, *, with_states: bool = False):
     """The first ``n_zeros`` zeros of omega1(t) in (0, t_max] along the rolling solution through x0.
@@ -80,23 +136,9 @@ def omega1_zeros(x0, p: Params, t_max: float, n_zeros: int = 2, rtol: float = DE
     n-th zero or t_max, -1 when it failed (then the zeros found so far are returned).
     A zero at t = 0 itself (omega1(0) = 0) is not reported: the caller knows it.
     """
-    x0 = _check_state(x0)
+    found = scan(x0, p, t_max, n_zeros=n_zeros, rtol=rtol, atol=atol)
     p_array = p.as_array()
-    rhs = _rhs(p_array)
-
-    def event(t, x):
-        return x[1]
-
-    # scipy reports a zero at t = 0 as an event when omega1(0) = 0 exactly: allow for it
-    at_zero = x0[1] == 0.0
-    event.terminal = int(n_zeros) + int(at_zero)
-    sol = solve_ivp(rhs, (0.0, float(t_max)), x0, method="DOP853", rtol=rtol, atol=atol, events=event)
-    times = np.asarray(sol.t_events[0], dtype=float)
-    states = np.asarray(sol.y_events[0], dtype=float).reshape(-1, 4)
-    keep = times > (1e-12 * max(1.0, float(t_max)) if at_zero else 0.0)
-    times, states = times[keep][:n_zeros], states[keep][:n_zeros]
-    rates = np.array([rolling.rolling_rhs(*s, p_array)[1] for s in states])
-    status = 0 if sol.status >= 0 else -1
+    rates = np.array([rolling.rolling_rhs(*s, p_array)[1] for s in found.zero_states])
     if with_states:
-        return times, rates, status, states
-    return times, rates, status
+        return found.zero_times, rates, found.status, found.zero_states
+    return found.zero_times, rates, found.status

@@ -195,8 +195,10 @@ def register(study: Study) -> Study:
 
 
 ENTRY_POINT_GROUP = "rimroll.studies"
-"""Entry-point group naming the modules that register studies on import (rimroll's own:
-``workflows``, declared in pyproject.toml); another package can add studies the same way."""
+"""Entry-point group naming the modules that register studies on import, one entry per study
+named as the study (rimroll's own: ``fig11 = "workflows.outcome_grids"``, ... in pyproject.toml),
+so that :func:`get` imports only the module it needs; another package can add studies the same
+way (an entry whose name is no study of its module is still loaded by :func:`names`)."""
 
 
 def study_entry_points() -> list:
@@ -215,11 +217,7 @@ def _load_studies() -> None:
     global _loaded_entry_points
     if not _loaded_entry_points:
         for ep in study_entry_points():
-            try:
-                ep.load()  # registers its studies on import
-            except ImportError as exc:
-                raise UserError(f"cannot load the studies of entry point {ep.name} = {ep.value} "
-                                f"(group {ENTRY_POINT_GROUP}): {exc}") from None
+            _load_entry_point(ep)
         _loaded_entry_points = True
     for path in filter(None, os.environ.get(PLUGIN_ENV, "").split(os.pathsep)):
         _load_module_file(path)
@@ -227,6 +225,15 @@ def _load_studies() -> None:
         raise UserError(f"no studies found: no installed package declares the entry-point group "
                         f"{ENTRY_POINT_GROUP!r} (install rimroll into this Python environment with "
                         "pip install . or pip install -e .)")
+
+
+def _load_entry_point(ep) -> None:
+    """Import one entry point's module (its ``register`` calls run on import)."""
+    try:
+        ep.load()
+    except ImportError as exc:
+        raise UserError(f"cannot load the studies of entry point {ep.name} = {ep.value} "
+                        f"(group {ENTRY_POINT_GROUP}): {exc}") from None
 
 
 def _load_module_file(path: str) -> None:
@@ -249,8 +256,16 @@ def names() -> list[str]:
 
 
 def get(name: str) -> Study:
-    """The registered study called ``name``; :class:`UserError` listing known names otherwise."""
-    _load_studies()
+    """The registered study called ``name``; :class:`UserError` listing known names otherwise.
+
+    Imports only the module of the entry point named ``name`` when there is one (a warm
+    ``study run fig11`` then skips the other families' imports), else every study module."""
+    if name not in _REGISTRY and not _loaded_entry_points:
+        for ep in study_entry_points():
+            if ep.name == name:
+                _load_entry_point(ep)
+    if name not in _REGISTRY:
+        _load_studies()
     try:
         return _REGISTRY[name]
     except KeyError:

@@ -69,8 +69,19 @@ def test_studies_are_found_through_the_entry_point_group():
 
     pyproject = (ROOT / "pyproject.toml").read_text()
     assert '[project.entry-points."rimroll.studies"]' in pyproject
-    assert "workflows" in {ep.value for ep in registry.study_entry_points()}  # installed metadata
-    assert {"fig8", "fig11", "work-precision"} <= set(registry.names())
+    entries = {ep.name: ep.value for ep in registry.study_entry_points()}  # installed metadata
+    names = registry.names()
+    assert {"fig8", "fig11", "work-precision"} <= set(names)
+    for name in names:  # one entry per study, naming the module that registers it
+        assert entries.get(name) == registry.get(name).compute.__module__, name
+
+
+def test_getting_a_study_imports_only_its_own_module():
+    """A warm `study run fig11` skips the imports of the other study families."""
+    code = ("import sys; from study import registry; registry.get('fig11')\n"
+            "print(sorted(m for m in sys.modules if m.startswith('workflows.')))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT)
+    assert out.stdout.strip() == "['workflows.outcome_grids']"
 
 
 def test_no_entry_points_is_one_line_error(monkeypatch, capsys):

@@ -5,6 +5,7 @@ import os
 import pathlib
 
 import numba
+import pytest
 
 import solver
 from solver import _jit, kernels, rolling
@@ -12,7 +13,7 @@ from solver import _jit, kernels, rolling
 
 def test_solver_kernels_cache_in_the_per_user_directory_of_the_sources_digest():
     package = pathlib.Path(solver.__file__).resolve().parent
-    for func in (rolling.rolling_rhs, kernels.run_chunk):
+    for func in (rolling.rolling_rhs, kernels.scene_rolling_conservative):
         path = pathlib.Path(func._cache._cache_path).resolve()
         assert path.is_relative_to(_jit.cache_dir().resolve())
         assert not path.is_relative_to(package)
@@ -66,42 +67,80 @@ def test_a_first_compile_is_announced_on_stderr_once(monkeypatch, capsys):
     assert err.count("first run only") == 1 and "hybrid_conservative scene" in err
 
 
-def test_the_cache_index_of_the_chunk_driver_is_found_after_a_run():
+def test_the_cache_index_of_the_scene_kernel_is_found_after_a_run():
     from solver import simulate as run
 
     run([[1.1, 2.0, 35.0, 10.0]], solver.Params(mu=float("inf")), t_max=0.1)
-    assert any(_jit.cache_dir().glob("**/kernels.run_chunk-*.nbi"))
-    assert any(_jit.cache_dir().glob("**/kernels.trajectory_rolling_conservative-*.nbi"))
+    assert any(_jit.cache_dir().glob("**/kernels.scene_rolling_conservative-*.nbi"))
 
 
-def _cached_signatures(dispatcher):
-    """The signatures in a kernel's on-disk cache index (numba's own index file)."""
-    index = dispatcher._cache._cache_file._load_index()
-    return [key[0] for key in index]
+def test_functions_taking_compiled_functions_are_not_cached_on_their_own():
+    """Their cache key would name one process's function object (see solver._compile.kernel)."""
+    from solver import events, stepper
+
+    for func in (kernels.run_phase, events.next_event, events.locate, events.minimum, events.value_at,
+                 stepper.initial_step, stepper.dense_prepare, stepper.rk_step, stepper.attempt):
+        assert type(func._cache).__name__ == "NullCache", func
 
 
-def test_the_step_loop_is_compiled_three_times_for_the_four_scenes():
+_CHILD = ("import sys, time, solver; from solver import kernels\n"
+          "t = time.perf_counter()\n"
+          "solver.simulate([[1.1, 2.0, 35.0, 10.0]], solver.Params(mu=float(sys.argv[1]), k_r=float(sys.argv[2])),"
+          " t_max=0.1, workers=1)\n"
+          "print([bool(k.signatures) for k in kernels.SCENE_KERNELS], time.perf_counter() - t)\n")
+
+
+def _child(tmp_path, mu, k_r, cache):
+    import subprocess
+    import sys
+
+    env = {**os.environ, "PYTHONPATH": str(pathlib.Path(solver.__file__).parents[1])}
+    if cache is not None:
+        env["RIMROLL_CACHE_DIR"] = str(cache)
+    out = subprocess.run([sys.executable, "-c", _CHILD, str(mu), str(k_r)], capture_output=True, text=True,
+                         cwd=tmp_path, env=env)
+    assert out.returncode == 0, out.stderr[-2000:]
+    flags, seconds = out.stdout.strip().rsplit("] ", 1)
+    return flags + "]", float(seconds), out.stderr
+
+
+@pytest.mark.slow
+def test_scenes_compiled_in_separate_processes_share_one_cache(tmp_path):
+    """Cold cache: a process compiles only the scene it runs; a later process compiles another
+    scene into the same cache without error, and a third loads both without compiling."""
+    cache = tmp_path / "cache"
+    flags, first, err = _child(tmp_path, "inf", 0.0, cache)
+    assert flags == "[True, False, False, False]" and "rolling_conservative scene" in err
+    flags, _, err = _child(tmp_path, 1.0, 0.0, cache)
+    assert flags == "[False, False, True, False]" and "hybrid_conservative scene" in err
+    for mu in ("inf", 1.0):
+        _, again, err = _child(tmp_path, mu, 0.0, cache)
+        assert "first run only" not in err
+        assert again < first / 5  # loaded from the cache, not compiled
+
+
+def test_a_rolling_only_process_builds_only_the_rolling_only_kernel(tmp_path):
+    """A process compiles (or loads) a scene's kernel when it first runs that scene, and no other."""
+    flags, _, _ = _child(tmp_path, "inf", 0.0, None)
+    assert flags == "[True, False, False, False]"
+
+
+@pytest.mark.slow
+def test_the_step_loop_is_compiled_three_times_for_the_four_scenes(tmp_path):
     """run_phase is the costly part of the first compile: rolling with and without the friction
-    cone, slipping once (only hybrid scenes slip); never once per scene and phase (eight)."""
-    x = [[1.1, 2.0, 35.0, 10.0]]
-    for mu, k_r in ((float("inf"), 0.0), (float("inf"), 0.02), (1.0, 0.0), (1.0, 0.02)):
-        solver.simulate(x, solver.Params(mu=mu, k_r=k_r), t_max=0.1)
-    sigs = _cached_signatures(kernels.run_phase)
-    assert len(sigs) == 3, sigs
-    flags = sorted((str(s[0]).split("function ")[1].split(" ")[0], str(s[3])) for s in sigs)
-    assert flags == [("rolling_rhs", "Literal[bool](False)"), ("rolling_rhs", "Literal[bool](True)"),
-                     ("slipping_rhs", "Literal[bool](True)")]
-
-
-def test_a_rolling_only_process_compiles_no_slipping_kernel(tmp_path):
-    """A scene's kernel is compiled when that scene first runs, and a rolling-only kernel holds no
-    slipping phase (it loads from the shared cache here; the check is on what the process built)."""
+    cone, slipping once (only hybrid scenes slip); never once per scene and phase (eight).
+    A cold cache, so that the process compiles everything it runs."""
     import subprocess
     import sys
 
     code = ("import solver; from solver import kernels\n"
-            "solver.simulate([[1.1, 2.0, 35.0, 10.0]], solver.Params(mu=float('inf')), t_max=0.1)\n"
-            "print([bool(k.signatures) for k in kernels.SCENE_KERNELS])\n")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
-                         cwd=tmp_path, env={**os.environ, "PYTHONPATH": str(pathlib.Path(solver.__file__).parents[1])})
-    assert out.stdout.strip() == "[True, False, False, False]"
+            "for mu, k_r in ((float('inf'), 0.0), (float('inf'), 0.02), (1.0, 0.0), (1.0, 0.02)):\n"
+            "    solver.simulate([[1.1, 2.0, 35.0, 10.0]], solver.Params(mu=mu, k_r=k_r), t_max=0.1, workers=1)\n"
+            "for s in kernels.run_phase.signatures:\n"
+            "    print(str(s[0]).split('function ')[1].split(' ')[0], s[3])\n")
+    env = {**os.environ, "PYTHONPATH": str(pathlib.Path(solver.__file__).parents[1]),
+           "RIMROLL_CACHE_DIR": str(tmp_path / "cache")}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, env=env)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert sorted(out.stdout.split("\n")[:-1]) == ["rolling_rhs Literal[bool](False)", "rolling_rhs Literal[bool](True)",
+                                                   "slipping_rhs Literal[bool](True)"]

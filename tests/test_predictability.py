@@ -112,6 +112,37 @@ def test_smooth_boundary_of_a_disk_sampled_has_alpha_one():
     assert abs(ex.alpha - 1) < 3 * ex.alpha_err
 
 
+def test_perturbation_fraction_stops_a_state_at_its_first_moved_copy_with_the_same_answer():
+    """Only the copies of states not yet uncertain are classified; the answer is that of
+    classifying every copy (brute force here)."""
+    rng = np.random.default_rng(1)
+    states = rng.uniform(-1, 1, size=(2000, 3))
+    eps = np.array([0.01, 0.05, 0.2])
+    scale = np.array([1.0, 0.5, 0.0])
+
+    def label(x):
+        return (np.sin(3 * x[..., 0]) + x[..., 1] ** 2 > 0.2).astype(int) + (x[..., 2] > 0)
+
+    seen = []
+
+    def counting(x):
+        seen.append(np.asarray(x).reshape(-1, 3).shape[0])
+        return label(x)
+
+    fr = P.perturbation_fraction(counting, states, eps, scale)
+    ref = label(states)
+    brute = np.zeros((eps.size, states.shape[0]), dtype=bool)
+    for i, ep in enumerate(eps):
+        for k in (0, 1):
+            for sgn in (1, -1):
+                moved = states.copy()
+                moved[:, k] += sgn * ep * scale[k]
+                brute[i] |= label(moved) != ref
+    assert np.array_equal(fr.uncertain, brute)
+    assert np.allclose(fr.f, brute.mean(axis=1))
+    assert 0 < brute.sum() and sum(seen[1:]) < eps.size * states.shape[0] * 4  # fewer copies than all
+
+
 def test_fractal_boundary_below_a_weierstrass_graph():
     """Region below W(x) = sum a^k cos(b^k pi x): graph dimension D = 2 + ln a / ln b (Kaplan,
     Mallet-Paret, Yorke 1984), so alpha = 2 - D = -ln a / ln b for perturbations along x."""

@@ -84,3 +84,21 @@ def test_your_first_hour_runs_as_written(tmp_path, monkeypatch):
     scored = namespace["scored"]
     assert scored.dims == ("mu",) and np.allclose(scored["mu"], [0.25, 0.5, 1.0, 2.0])
     assert ((scored >= 0) & (scored <= 1)).all()
+
+
+def test_where_rimroll_reads_the_paper_runs_and_prints_what_it_says(capsys):
+    """The Python blocks of "Where rimroll reads the paper", in order, in one namespace; what they
+    print is what the section's comments say."""
+    text = section("Where rimroll reads the paper")
+    code = [c for lang, c in blocks(text) if lang == "python"]
+    assert len(code) == 2
+    namespace: dict = {}
+    for c in code:
+        exec(compile(c, "README.md", "exec"), namespace)
+    printed = capsys.readouterr().out.splitlines()
+    comments = [line.split("#", 1)[1].strip() for c in code for line in c.splitlines() if line.startswith("print(")]
+    energy, split, printed_split, *steady_lines = printed
+    assert comments[0].startswith(energy)  # "3e-11, 3e-03 over 5 s"
+    assert comments[1].startswith(split) and split == "True False"
+    assert comments[2].startswith(printed_split) and printed_split == "0.923 True"
+    assert [f"# {line}" for line in steady_lines] == [line for line in code[1].splitlines() if line.startswith("# ")]

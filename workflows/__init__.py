@@ -1,8 +1,5 @@
-"""rimroll's named studies, one module per family; importing this package registers them all."""
+"""rimroll's named studies, one module per family; importing a module registers its studies.
 
-from workflows import steady_maps  # noqa: F401
-from workflows import global_dynamics  # noqa: F401
-from workflows import outcome_grids  # noqa: F401
-from workflows import cubes  # noqa: F401
-from workflows import work_precision  # noqa: F401
-from workflows import predictability  # noqa: F401
+The ``rimroll.studies`` entry points in pyproject.toml name each study and its module, so that
+``study run NAME`` imports only the module of NAME (``study list`` imports them all).
+"""

@@ -16,7 +16,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
 import solver
-from solver import floquet, solution_types as st, steady, trajectory
+from solver import floquet, reduced, solution_types as st, steady, trajectory
 from study import plotting as P
 from study.dataset import setting_of
 from study.registry import Axis, Study, Var, register
@@ -133,7 +133,7 @@ register(Study(
 
 
 # ================================================================ Theorem 1: types of solutions
-SUBSETS = ("box", "pendulum_plane", "steady")
+SUBSETS = ("box", "pendulum_plane", "steady", "connections")
 
 
 def _conservative(s: dict) -> None:
@@ -157,9 +157,16 @@ def sample_states(s: dict, p) -> np.ndarray:
     ``box``: uniform in beta in [-pi, pi), |omega_i| <= omega_i_max. ``pendulum_plane``: the
     plane omega2 = omega3 = 0 of Prop. 6 (beta, omega1 uniform). ``steady``: the steady motions
     (47) with beta0 uniform in [-pi, pi), |omega30| <= omega3_max, every fifth a trivial one (46).
+    ``connections``: states on the stable manifolds of saddles (types 3 and 4): saddle steady
+    motions (h > 0 in (54)) with beta0, omega30 drawn as in ``steady`` (draws with h <= 0 are
+    skipped), every fifth the ball on top x0+ with |omega20| <= omega2_max; each state lies
+    0.02-0.1 rad in beta from its saddle on the side drawn at random
+    (``solver.reduced.stable_manifold_state``).
     """
     n = int(s["n_samples"])
     rng = np.random.default_rng(int(s["seed"]))
+    if s["subset"] == "connections":
+        return _connection_states(n, rng, s, p)
     beta = rng.uniform(-np.pi, np.pi, n)
     w1 = rng.uniform(-1, 1, n) * s["omega1_max"]
     w2 = rng.uniform(-1, 1, n) * s["omega2_max"]
@@ -175,17 +182,40 @@ def sample_states(s: dict, p) -> np.ndarray:
     return np.stack([beta, w1, w2, w3], axis=-1)
 
 
+def _connection_states(n: int, rng, s: dict, p) -> np.ndarray:
+    out = np.empty((n, 4))
+    for i in range(n):
+        offset = rng.choice([-1.0, 1.0]) * rng.uniform(0.02, 0.1)
+        if i % 5 == 4:
+            saddle = steady.trivial_state(1, rng.uniform(-1, 1) * s["omega2_max"], p)
+        else:
+            while True:  # rejection: a saddle steady motion
+                beta0, w30 = rng.uniform(-np.pi, np.pi), rng.uniform(-1, 1) * s["omega3_max"]
+                if steady.stability(beta0, w30, p) > 0:
+                    break
+            saddle = steady.steady_state(beta0, w30, p)
+        for _ in range(8):  # halve an offset that reaches past the saddle's potential hill
+            try:
+                out[i] = reduced.stable_manifold_state(saddle, offset, p)
+                break
+            except ValueError:
+                offset /= 2.0
+        else:
+            raise ValueError(f"no state on the stable manifold of the saddle {saddle} within 1e-3 rad")
+    return out
+
+
 def _types_compute(coords, p, s):
     idx = coords[0].astype(int)
     x = sample_states(s, p)[idx]
     res = st.classify(x, p, t_max=s["t_max"], rtol=s["rtol"], atol=s["atol"])
     e = solver.invariants(x, p)["E"]
-    return {"type": res["type"], "half_period": res["half_period"], "t_first_zero": res["t_first_zero"],
-            "beta_init": x[..., 0], "omega1_init": x[..., 1], "omega2_init": x[..., 2],
+    return {**res, "beta_init": x[..., 0], "omega1_init": x[..., 1], "omega2_init": x[..., 2],
             "omega3_init": x[..., 3], "E": e}
 
 
-TYPE_COLOURS = ("tab:red", "tab:orange", "tab:blue", "tab:green", "0.5")
+# one colour per code of solver.solution_types (0 undetermined grey, then Theorem 1's items 1-7)
+TYPE_COLOURS = ("0.5", "tab:red", "tab:orange", "tab:purple", "tab:pink", "tab:green", "tab:blue", "tab:cyan")
 
 
 def _types_plot(ds):
@@ -194,14 +224,14 @@ def _types_plot(ds):
     counts = np.array([(ds["type"].values == c).sum() for c in codes])
     n = int(ds.sizes["sample"])
     frac = counts / n
-    fig, ax = P.new_figure(7.5, 4.8)
+    fig, ax = P.new_figure(7.5, 5.4)
     ypos = np.arange(len(codes))[::-1]
     ax.barh(ypos, frac, color=TYPE_COLOURS[:len(codes)], edgecolor="k", lw=0.6)
     for y, f, c in zip(ypos, frac, counts):
         inside = f > 0.75  # a long bar carries its number inside, so the axis stays a fraction in [0, 1]
         ax.text(f - 0.01 if inside else f + 0.01, y, f"{f:.1%} ({c})", va="center", fontsize=10,
                 ha="right" if inside else "left", color="white" if inside else "k")
-    ax.set_yticks(ypos, [nm.replace("_", " ") for nm in names])
+    ax.set_yticks(ypos, [f"{code} {nm.replace('_', ' ')}" for code, nm in zip(codes, names)])
     ax.set_xlim(0, 1)
     ax.set_xlabel(f"fraction of the {n} sampled states")
     t_max = float(setting_of(ds, "t_max"))
@@ -220,6 +250,7 @@ def _sample_words(ds) -> str:
         "pendulum_plane": rf"states drawn uniformly in the plane $\omega_2=\omega_3=0$ (Prop. 6), "
                           rf"$|\omega_1| \leq$ {w[0]:g} 1/s",
         "steady": rf"steady motions (47) with $|\omega_{{30}}| \leq$ {w[2]:g} 1/s, every fifth a trivial one (46)",
+        "connections": rf"on stable manifolds of saddles (47), $|\omega_{{30}}| \leq$ {w[2]:g} 1/s, 1 in 5 of $x_0^+$",
     }.get(str(subset), f"subset {subset}")
     return f"{words} (random seed {seed})"
 
@@ -232,10 +263,26 @@ register(Study(
     quick={"n_samples": 40, "t_max": 10.0},
     axes=_types_axes,
     variables=[
-        Var("type", "1", "type of the solution through the state (Theorem 1)", dtype="int8",
+        Var("type", "1", "type of the solution through the state: the item of Theorem 1, 0 if undetermined "
+            "(docs/solution-types.md)", dtype="int8",
             flag_values=st.TYPE_FLAG_VALUES, flag_meanings=st.TYPE_FLAG_MEANINGS),
-        Var("half_period", "s", "time t2 - t1 between two transversal zeros of omega1 (NaN unless periodic)"),
+        Var("half_period", "s", "time t2 - t1 between two transversal zeros of omega1 (NaN unless periodic by Prop. 4)"),
+        Var("period", "s", "period: 2 half_period, or q revolutions of beta for a rotation with rotation number p/q "
+            "(NaN unless periodic)"),
         Var("t_first_zero", "s", "first zero of omega1 at or after t = 0 (NaN if none within t_max)"),
+        Var("alpha_advance", "rad", "angle round the rim travelled in one period (NaN unless periodic)"),
+        Var("rotation_number", "1", "turn of (omega2, omega3) per revolution of beta, in [0, 1/2] (rotations: "
+            "periodic with rational, quasi_periodic with irrational value; NaN otherwise)"),
+        Var("revolutions", "1", "revolutions of beta observed for a rotation: the largest denominator of the "
+            "rational test (NaN otherwise)"),
+        Var("beta_eq", "rad", "height angle of the unstable equilibrium a connection tends to (NaN otherwise)"),
+        Var("omega2_eq", "s-1", "omega2 of the equilibrium a connection tends to (NaN otherwise)"),
+        Var("omega3_eq", "s-1", "omega3 of the equilibrium a connection tends to (NaN otherwise)"),
+        Var("saddle_rate", "s-1", "eigenvalue lambda of that equilibrium: sqrt(h) of (54), sqrt(g/(rho (1+j))) "
+            "on top (NaN otherwise)"),
+        Var("approach_rate", "s-1", "rate of the exponential approach measured along the solution (NaN otherwise)"),
+        Var("connection", "1", "kind of connection (types 3 and 4)", dtype="int8",
+            flag_values=st.CONNECTION_FLAG_VALUES, flag_meanings=st.CONNECTION_FLAG_MEANINGS),
         Var("beta_init", "rad", "initial height angle beta"),
         Var("omega1_init", "s-1", "initial angular velocity omega1"),
         Var("omega2_init", "s-1", "initial angular velocity omega2"),

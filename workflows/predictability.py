@@ -94,7 +94,9 @@ def _pred_compute(coords, p, s):
     _, beta, omega1 = coords
     params, t_max = _scene(coords, p, s)
     states = _section_states(beta[0], omega1[0], s)
-    sim = dict(t_max=t_max, rtol=s["rtol"], atol=s["atol"], method=s["method"], workers=1)
+    # every core inside the chunk: a chunk is a whole section and scene, and the slipping ones
+    # are several times the others, so one thread per chunk leaves a core idle at the end
+    sim = dict(t_max=t_max, rtol=s["rtol"], atol=s["atol"], method=s["method"], workers=None)
     res = solver.simulate(states, params, **sim)
     codes = res["outcome"]
     box = int(s["box"])
