@@ -36,31 +36,17 @@ STATE = np.array([[1.2, 1.0, 35.0, 10.0], [0.9, -5.0, 35.0, 10.0]])
 
 
 @pytest.fixture(scope="module")
-def sub_env(tmp_path_factory) -> dict:
-    """Environment of this file's subprocesses: a kernel cache of their own.
-
-    numba's on-disk index of a kernel that takes a compiled function as an argument
-    (``kernels.run_chunk``, ``kernels.run_phase``) keys its entries on that function's type, which
-    does not match across processes: every process adds entries, and a process that loads many
-    foreign ones can fail to save its own (numba: "underlying object has vanished"). So the
-    subprocesses here, which compile the scenes with and without the simulator, leave the test
-    process's cache alone; they compile the four scene kernels once, into this directory.
-    """
-    return {"RIMROLL_CACHE_DIR": str(tmp_path_factory.mktemp("kernel-cache"))}
-
-
-@pytest.fixture(scope="module")
-def simulated_run(tmp_path_factory, sub_env) -> dict:
+def simulated_run(tmp_path_factory) -> dict:
     """tests/cuda_sim_probe.py under the simulator: 24 states per scene, and batches of 7."""
     if not HAS_NUMBA_CUDA:
         pytest.skip("numba-cuda is not installed (pip install 'rimroll[test]' or 'rimroll[gpu]')")
-    return _probe(tmp_path_factory.mktemp("sim"), 24, 7, sub_env)
+    return _probe(tmp_path_factory.mktemp("sim"), 24, 7)
 
 
-def _probe(tmp_path, n: int, max_batch: int, sub_env: dict) -> dict:
+def _probe(tmp_path, n: int, max_batch: int) -> dict:
     """Run tests/cuda_sim_probe.py under the simulator; its saved arrays."""
     out = tmp_path / "sim.npz"
-    env = dict(os.environ, NUMBA_ENABLE_CUDASIM="1", **sub_env)
+    env = dict(os.environ, NUMBA_ENABLE_CUDASIM="1")
     proc = subprocess.run([sys.executable, str(HERE / "cuda_sim_probe.py"), str(out), str(n), str(max_batch)],
                           env=env, capture_output=True, text=True, timeout=1800)
     assert proc.returncode == 0, proc.stderr[-3000:]
@@ -159,37 +145,37 @@ def test_missing_device_is_one_line():
     assert backends.resolve("auto") == backends.cpu()
 
 
-def _study(*args, env) -> subprocess.CompletedProcess:
+def _study(*args, env=None) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "study", *args], capture_output=True, text=True, timeout=900,
-                          env=dict(os.environ, **env))
+                          env=dict(os.environ, **(env or {})))
 
 
 @needs_numba_cuda
 @pytest.mark.skipif(_has_device(), reason="a CUDA device is present: there is no missing device to report")
-def test_study_run_without_device_exits_with_one_line(tmp_path, sub_env):
+def test_study_run_without_device_exits_with_one_line(tmp_path):
     for args in (["--set", "backend=cuda"], ["--backend", "cuda"]):
-        proc = _study("run", "fig11", "--quick", "--out", str(tmp_path), *args, env=sub_env)
+        proc = _study("run", "fig11", "--quick", "--out", str(tmp_path), *args)
         assert proc.returncode == 2, proc.stderr
         lines = proc.stderr.strip().splitlines()
         assert len(lines) == 1 and lines[0].startswith("study: error: backend 'cuda': no usable CUDA device")
     assert not list(tmp_path.glob("*.nc"))
-    proc = _study("run", "fig8", "--quick", "--out", str(tmp_path), "--backend", "cuda", env=sub_env)
+    proc = _study("run", "fig8", "--quick", "--out", str(tmp_path), "--backend", "cuda")
     assert proc.returncode == 2 and "does not run solver.simulate" in proc.stderr
-    proc = _study("run", "fig11", "--quick", "--out", str(tmp_path), "--set", "backend=gpu", env=sub_env)
+    proc = _study("run", "fig11", "--quick", "--out", str(tmp_path), "--set", "backend=gpu")
     assert proc.returncode == 2 and "allowed backends are cpu, cuda, auto" in proc.stderr
 
 
 @needs_numba_cuda
-def test_study_run_on_the_simulated_device_matches_the_cpu_run(tmp_path, sub_env):
+def test_study_run_on_the_simulated_device_matches_the_cpu_run(tmp_path):
     """``study run fig11 --backend cuda`` under the simulator: one chunk per section (a launch), the
     CPU run's numbers, and the backend and device in the file's attributes."""
     from study import io
 
     sets = ["--quick", "--set", "n_beta=30", "--set", "n_omega1=8", "--no-progress"]
     proc = _study("run", "fig11", *sets, "--backend", "cuda", "--out", str(tmp_path / "gpu"),
-                  env=dict(sub_env, NUMBA_ENABLE_CUDASIM="1"))
+                  env={"NUMBA_ENABLE_CUDASIM": "1"})
     assert proc.returncode == 0, proc.stderr
-    proc = _study("run", "fig11", *sets, "--out", str(tmp_path / "cpu"), env=sub_env)
+    proc = _study("run", "fig11", *sets, "--out", str(tmp_path / "cpu"))
     assert proc.returncode == 0, proc.stderr
     gpu, cpu = io.open_result(tmp_path / "gpu" / "fig11.nc"), io.open_result(tmp_path / "cpu" / "fig11.nc")
     assert gpu.attrs["setting_backend"] == "cuda" and cpu.attrs["setting_backend"] == "cpu"
@@ -200,7 +186,7 @@ def test_study_run_on_the_simulated_device_matches_the_cpu_run(tmp_path, sub_env
         np.testing.assert_array_equal(gpu[name].values, cpu[name].values, err_msg=name)
 
 
-def test_auto_records_the_backend_in_the_file(tmp_path, sub_env):
+def test_auto_records_the_backend_in_the_file(tmp_path):
     """Where 'auto' finds no device it runs on the CPU, and the file says so (setting and source)."""
     if _has_device():
         pytest.skip("a CUDA device is present: auto picks it (the gpu tests check that)")
@@ -208,7 +194,7 @@ def test_auto_records_the_backend_in_the_file(tmp_path, sub_env):
 
     proc = _study("run", "outcome-cube", "--quick", "--out", str(tmp_path), "--set", "n_beta=3", "--set",
                   "n_omega1=3", "--set", "mu=1", "--set", "k_r=0", "--set", "k_d=0", "--set", "omega2=65",
-                  "--backend", "auto", env=sub_env)
+                  "--backend", "auto")
     assert proc.returncode == 0, proc.stderr
     ds = io.open_result(tmp_path / "outcome-cube.nc")
     assert ds.attrs["setting_backend"] == "cpu"
@@ -223,8 +209,8 @@ ENGINE_MODULES = ("rolling", "slipping", "switching", "kinematics", "rules", "fl
 
 @needs_numba_cuda
 def test_the_engine_calls_only_numpy_functions_the_device_lowers():
-    """Every ``np.<f>(...)`` call in a compiled function of the engine (``@kernel``; run_chunk, the CPU
-    chunk driver, aside) is a ufunc numba-cuda lowers on scalars, or one of the loops solver.cuda_backend adds: a new
+    """Every ``np.<f>(...)`` call in a compiled function of the engine (``@kernel``; the CPU chunk
+    driver run_scene, whose work arrays the device launcher replaces, aside) is a ufunc numba-cuda lowers on scalars, or one of the loops solver.cuda_backend adds: a new
     numpy call in the engine that the device cannot compile fails here, without the CUDA compiler."""
     import ast
 
@@ -238,7 +224,7 @@ def test_the_engine_calls_only_numpy_functions_the_device_lowers():
     calls = {}
     for name in ENGINE_MODULES:
         tree = ast.parse((root / f"{name}.py").read_text())
-        for fn in (n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name != "run_chunk"
+        for fn in (n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name != "run_scene"
                    and any("kernel" in ast.unparse(d) for d in n.decorator_list)):
             for node in ast.walk(fn):
                 if (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
