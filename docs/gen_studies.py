@@ -25,8 +25,11 @@ explained in [outcome-studies.md](outcome-studies.md), the work-precision method
 
 
 DERIVED = {  # variables that a study's ``derive`` adds once the whole file exists, by its module
-    "workflows.outcome_grids": ["| `boundary_type` | 1 | kind of boundary of periodic rolling at this cell "
-                                "([outcome-studies.md](outcome-studies.md#outputs)) |"],
+    "workflows.outcome_grids": ["| `boundary_type` | 1 | kind of boundary of periodic rolling at this cell, each "
+                                "boundary pair refined by simulation ([outcome-studies.md](outcome-studies.md#outputs)) |",
+                                "| `former_periodic` | 1 | the periodic islands of the conservative scenes (rolling "
+                                "only, slipping); attributes: what each dissipative scene does with each island's "
+                                "states, counts and fractions ([outcome-studies.md](outcome-studies.md#outputs)) |"],
     "workflows.work_precision": ["| `speed_ratio_rk45_dp5` | 1 | per scene: scipy RK45 seconds per trajectory over "
                                  "rimroll DP5's on the same states, median over rtol (spread in its attributes; "
                                  "[work-precision.md](work-precision.md)) |"],

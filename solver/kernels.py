@@ -28,7 +28,8 @@ A trajectory is a loop over phases and reads as the rules do (``solver.rules``):
    flight), periodic orbit, switch to slipping (``switching.enter_slipping``) or back to
    rolling (``switching.try_return``).
 
-Every failure is recorded in ``status``; nothing raises. Results go to one row of ``res_f``
+Every failure is recorded in ``status``; nothing raises. A step budget spent mostly in slip
+phases is ``stiff_slip`` rather than ``max_steps`` (``RI_N_SLIP_STEPS`` counts those steps). Results go to one row of ``res_f``
 (float64, ``RF_*`` columns) and ``res_i`` (int64, ``RI_*``).
 """
 
@@ -47,6 +48,7 @@ from solver.outcomes import (
     PERIODIC_ROLLING,
     STEADY_MOTION,
     STEP_SIZE_UNDERFLOW,
+    STIFF_SLIP,
     TOO_MANY_SWITCHES,
 )
 from solver.params import P_G, P_M, P_RHO
@@ -70,8 +72,8 @@ from solver.system import (
 RF_T_END, RF_F2_MIN, RF_HALF_PERIOD, RF_REVOLUTIONS, RF_SLIP_TIME, RF_ENERGY_DRIFT = 0, 1, 2, 3, 4, 5
 RF_BETA, RF_OMEGA1, RF_OMEGA2, RF_OMEGA3 = 6, 7, 8, 9
 N_RF = 10
-RI_OUTCOME, RI_SLIP_PHASES, RI_N_STEPS, RI_STATUS, RI_N_SEARCHED = 0, 1, 2, 3, 4
-N_RI = 5
+RI_OUTCOME, RI_SLIP_PHASES, RI_N_STEPS, RI_STATUS, RI_N_SEARCHED, RI_N_SLIP_STEPS = 0, 1, 2, 3, 4, 5
+N_RI = 6
 
 # Scenes.
 SCENE_ROLLING_CONSERVATIVE = 0
@@ -306,6 +308,7 @@ def trajectory(hybrid, conservative, x0, p, t_max, rtol, atol, A, E, P, n_stages
     res_i[RI_STATUS] = OK
     res_i[RI_N_STEPS] = 0
     res_i[RI_N_SEARCHED] = 0
+    res_i[RI_N_SLIP_STEPS] = 0
     E0 = system.rolling_energy(y, p)
     rolling_phase = True
     first = True
@@ -354,11 +357,13 @@ def trajectory(hybrid, conservative, x0, p, t_max, rtol, atol, A, E, P, n_stages
                                            active_roll, N_ROLLING, p, sw, t_max, rtol, atol_roll, A, E, P, n_stages,
                                            err_mode, error_order, max_steps, W, K, Q, G, sign, search, res_f, res_i)
             elif hybrid:  # only hybrid scenes slip: numba drops this branch from the rolling-only kernels
+                steps_before = res_i[RI_N_STEPS]
                 end, dt_return = run_phase(system.slipping_rhs, system.slipping_events, False, True, bool(conservative),
                                            system.SLIPPING_DIRECTION, system.SLIPPING_TRACK_MIN,
                                            system.SLIPPING_ACTION, active_slip, N_SLIPPING, p, sw, t_max, rtol, atol_slip,
                                            A, E, P, n_stages, err_mode, error_order, max_steps, W, K, Q, G, sign,
                                            search, res_f, res_i)
+                res_i[RI_N_SLIP_STEPS] += res_i[RI_N_STEPS] - steps_before
             else:
                 break  # unreachable: a rolling-only trajectory never leaves rolling
             if end == END_PERIODIC:
@@ -385,6 +390,8 @@ def trajectory(hybrid, conservative, x0, p, t_max, rtol, atol, A, E, P, n_stages
             rolling_phase = True
 
     # ---------------- record ----------------
+    if res_i[RI_STATUS] == MAX_STEPS and 2 * res_i[RI_N_SLIP_STEPS] >= res_i[RI_N_STEPS]:
+        res_i[RI_STATUS] = STIFF_SLIP  # the budget went on stiff slip phases (docs/outcome-engine.md)
     t = res_f[RF_T_END]
     if rolling_phase:
         E1 = system.rolling_energy(y, p)

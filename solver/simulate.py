@@ -17,7 +17,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from solver import _jit, backends, kernels
-from solver.outcomes import STEADY_MOTION
+from solver.outcomes import STEADY_MOTION, on_rim_reason
 from solver.params import Params
 from solver.steady import stability
 from solver.switching import default_tolerances
@@ -40,6 +40,7 @@ INT_FIELDS = {  # name: (column, dtype)
     "slip_phases": (kernels.RI_SLIP_PHASES, np.int32),
     "n_steps": (kernels.RI_N_STEPS, np.int64),
     "n_searched": (kernels.RI_N_SEARCHED, np.int64),
+    "n_slip_steps": (kernels.RI_N_SLIP_STEPS, np.int64),
     "status": (kernels.RI_STATUS, np.int8),
 }
 
@@ -132,11 +133,13 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
     periodic), ``revolutions`` (signed alpha travelled / 2 pi), ``slip_phases``, ``slip_time``
     [s], ``energy_drift`` (|E(t_end) - E(0)| / max(|E(0)|, m g rho): the integration drift in
     conservative rolling, the energy lost otherwise), ``n_steps`` (attempted steps), ``n_searched`` (accepted steps whose dense output was searched
-    for events: the cost of the grazing check, docs/outcome-engine.md),
-    ``beta_end``, ``omega1_end``, ``omega2_end``, ``omega3_end`` (the state at t_end, before
+    for events: the cost of the grazing check, docs/outcome-engine.md), ``n_slip_steps`` (the attempted
+    steps of slip phases), ``beta_end``, ``omega1_end``, ``omega2_end``, ``omega3_end`` (the state at t_end, before
     any free flight), ``steady_h`` [1/s^2] (h of (54) for ``steady_motion`` lanes: < 0 stable,
-    > 0 unstable; NaN elsewhere) and ``status`` (int8, see ``STATUS_MEANINGS``). A failing lane is
-    recorded in ``status`` and never raises.
+    > 0 unstable; NaN elsewhere), ``status`` (int8, see ``STATUS_MEANINGS``; ``stiff_slip`` when the step
+    budget ran out mostly in slip phases) and ``on_rim_reason`` (int8, ``solver.outcomes.ON_RIM_REASON_MEANINGS``:
+    why a run ended on the rim, from outcome, status and slip_phases). A failing lane is recorded in
+    ``status`` and never raises.
 
     Raises
     ------
@@ -210,6 +213,7 @@ def _fields(flat, shape, res_f, res_i, params):
     for name, (col, dtype) in INT_FIELDS.items():
         out[name] = res_i[:, col].astype(dtype).reshape(shape)
     out["steady_h"] = _steady_h(flat, out["outcome"].reshape(-1), params).reshape(shape)
+    out["on_rim_reason"] = on_rim_reason(out["outcome"], out["status"], out["slip_phases"])
     return out
 
 

@@ -113,14 +113,18 @@ def test_boundary_type_is_stored_with_cf_flags(quick_sections):
     var = ds["boundary_type"]
     assert var.dims == ("scene", "beta", "omega1") and var.dtype == np.int8
     assert var.attrs["flag_meanings"].split() == ["not_boundary", "deadlock", "separatrix", "slipping_induced",
-                                                  "undetermined"]
-    assert list(var.attrs["flag_values"]) == [0, 1, 2, 3, 4]
-    assert var.attrs["units"] == "1" and var.attrs["long_name"]
-    # the stored labels are the pure function's on the stored fields
-    p = solver.Params()
+                                                  "undetermined", "separatrix_and_deadlock"]
+    assert list(var.attrs["flag_values"]) == [0, 1, 2, 3, 4, 5]
+    assert var.attrs["units"] == "1" and var.attrs["long_name"] and "refine_grid" in var.attrs["comment"]
+    # the stored labels are the pure functions' on the stored fields: the grid's pairs refined by simulation
+    p = solver.Params(mu=float("inf"))
     k = 0
-    direct = B.classify(ds["outcome"].values[k], ds["f2_min"].values[k], ds["half_period"].values[k],
-                        ds["t_end"].values[k], p.m * p.g)
+    args = [ds[n].values[k] for n in ("outcome", "f2_min", "half_period", "t_end")]
+    beta, omega1 = np.meshgrid(ds["beta"].values, ds["omega1"].values, indexing="ij")
+    states = np.stack([beta, omega1, np.full_like(beta, 35.0), np.full_like(beta, 10.0)], axis=-1)
+    direct, summary = B.refine_grid(args[0], states, p, 20.0, fallback=B.classify(*args, p.m * p.g), rtol=1e-8,
+                                    atol=1e-10, method="dp5")
+    assert summary["pairs"] > 0 and summary["refined"] == summary["pairs"]
     assert (direct == var.values[k]).all()
 
 
@@ -145,6 +149,78 @@ def test_fig13_rolling_has_a_deadlock_region_that_slipping_removes(quick_section
     assert (lab[0] == B.SEPARATRIX).sum() >= 10
     assert not (lab[1] == B.DEADLOCK).any()
     assert (lab[1] == B.SLIPPING_INDUCED).any()
+
+
+# the column next to omega1 = 0 of the default Fig. 12/13 grids (360 values in [-20, 20] 1/s) and two beta rows
+# (240 values in [0.8, 1.8] rad): the last periodic point of the rolling-only island and the first falling one
+W1 = float(np.linspace(-20.0, 20.0, 360)[180])
+BETA = np.linspace(0.8, 1.8, 240)
+GRID_RUN = dict(t_max=20.0, rtol=1e-8, atol=1e-10, method="dp5", workers=1)
+
+
+def test_a_band_thinner_than_a_cell_holds_a_separatrix_and_a_deadlock():
+    """Fig. 12, rolling only, between beta = 1.13473 (periodic) and 1.13054 (falls in): the half
+    period peaks without bound at beta ~ 1.1346 (a separatrix) and periodic rolling goes on below it
+    until F2_min reaches 0 at beta ~ 1.1323 (deadlock), 0.55 grid steps in all. The grid alone sees
+    a separatrix; the refined pair holds both. The scipy reference (an independent integrator)
+    confirms both places."""
+    from solver.reference import reference
+
+    p = solver.Params(mu=float("inf"))
+    inside, outside = [BETA[80], W1, 65.0, 10.0], [BETA[79], W1, 65.0, 10.0]
+    r = B.refine_pairs([inside], [outside], p, **GRID_RUN)
+    assert r["type"][0] == B.SEPARATRIX_AND_DEADLOCK and r["refined"][0]
+    assert r["separatrix"][0] and not r["separatrix_at_boundary"][0] and r["deadlock"][0]
+    b_dead = float(r["periodic"][0, 0])
+    b_sep = BETA[80] + float(r["s_peak"][0]) * (BETA[79] - BETA[80])
+    assert b_dead == pytest.approx(1.1323, abs=2e-4) and b_sep == pytest.approx(1.1346, abs=2e-4)
+    assert 0.4 < (b_sep - b_dead) / (BETA[1] - BETA[0]) < 0.7  # a band of about half a grid step
+    assert r["f2_min"][0] < 1e-2 and r["half_period_peak"][0] > 2.0 * r["half_period_start"][0]
+    assert r["half_period"][0] == pytest.approx(0.76, abs=0.02)  # finite at the deadlock
+    # (2e-5 rad: closer below the boundary the dip of F2 below 0 is too brief for the reference's event search)
+    ref = reference([[b_dead + 2e-5, W1, 65.0, 10.0], [b_dead - 2e-5, W1, 65.0, 10.0],
+                     [b_sep + 1e-7, W1, 65.0, 10.0], [b_sep - 1e-7, W1, 65.0, 10.0]], p, t_max=20.0, rtol=1e-10)
+    assert ref["outcome"].tolist() == [outcomes.PERIODIC_ROLLING, outcomes.FALL_IN, outcomes.PERIODIC_ROLLING,
+                                       outcomes.PERIODIC_ROLLING]
+    assert min(ref["half_period"][2:]) > 1.8 * r["half_period_start"][0]  # both sides of the peak are slow
+    # the grid alone: a separatrix (the half period jumps between the last two periodic rows)
+    rows = solver.simulate(np.array([[BETA[i], W1, 65.0, 10.0] for i in range(77, 84)]), p, **GRID_RUN)
+    grid = B.classify(*(np.repeat(rows[n][:, None], 3, axis=1) for n in ("outcome", "f2_min", "half_period", "t_end")),
+                      p.m * p.g)
+    assert grid[80 - 77, 1] == B.SEPARATRIX
+
+
+def test_fig13_lower_island_edge_is_a_deadlock_that_the_grid_calls_a_separatrix():
+    """Fig. 13, rolling only: between beta = 1.23096 (periodic) and 1.22678 the periodic region ends
+    at a deadlock with the half period barely changing (0.457 -> 0.479 s); the separatrix lies
+    between two periodic rows (beta ~ 1.2337), outside this pair's band."""
+    p = solver.Params(mu=float("inf"))
+    r = B.refine_pairs([[BETA[103], W1, 105.0, 10.0]], [[BETA[102], W1, 105.0, 10.0]], p, **GRID_RUN)
+    assert r["type"][0] == B.DEADLOCK and not r["separatrix"][0]
+    assert r["half_period_start"][0] == pytest.approx(0.457, abs=0.005)
+    assert r["half_period"][0] == pytest.approx(0.479, abs=0.01)
+    assert float(r["periodic"][0, 0]) == pytest.approx(1.2291, abs=2e-4)
+
+
+def test_refine_grid_types_cells_from_their_pairs_and_slipping_pairs_stop_at_the_first_slip():
+    """A column of Fig. 12 across the island's lower edge: only the boundary pair is typed (both cells
+    separatrix_and_deadlock), every other cell is not_boundary. With slipping (mu = 1) the same
+    edge moves up and is slipping-induced: the state beyond it slips (the refinement stops its runs
+    at the first slip) while F2_min of the periodic side stays near 1.25 m g."""
+    p = solver.Params(mu=float("inf"))
+    rows = np.arange(77, 84)
+    states = np.array([[[BETA[i], W1, 65.0, 10.0]] for i in rows])
+    out = solver.simulate(states, p, **GRID_RUN)["outcome"]
+    labels, summary = B.refine_grid(out, states, p, 20.0, rtol=1e-8, atol=1e-10, method="dp5", workers=1)
+    assert summary["pairs"] == 1 and summary["refined"] == 1
+    assert labels[:, 0].tolist() == [0, 0, B.SEPARATRIX_AND_DEADLOCK, B.SEPARATRIX_AND_DEADLOCK, 0, 0, 0]
+    slip = solver.Params(mu=1.0)
+    r = B.refine_pairs([[BETA[89], W1, 65.0, 10.0]], [[BETA[88], W1, 65.0, 10.0]], slip, **GRID_RUN)
+    assert r["type"][0] == B.SLIPPING_INDUCED and r["slipped"][0] and not r["deadlock"][0]
+    assert r["f2_min"][0] == pytest.approx(1.25 * slip.m * slip.g, rel=0.02)
+    assert float(r["periodic"][0, 0]) == pytest.approx(1.1691, abs=5e-4)  # docs/boundary_types.md
+    with pytest.raises(ValueError, match="conservative"):
+        B.refine_pairs([[BETA[88], W1, 65.0, 10.0]], [[BETA[87], W1, 65.0, 10.0]], solver.Params(mu=1.0, k_r=0.02))
 
 
 def test_refine_types_a_separatrix_and_a_deadlock_boundary():

@@ -227,3 +227,27 @@ def test_a_small_periodic_region_gets_a_zoom_that_shows_it(fig12):
     periodic = fig12["outcome"].isel(scene=1).transpose("beta", "omega1").values == 2
     if _small_region(periodic) is not None:
         assert fig.axes[1].child_axes
+
+
+def test_cells_on_the_rim_are_marked_above_the_cells_and_both_islands_outlined(fig12):
+    """Cells still on the rim at t_max lie along the boundary lines, which hid their grey: each is
+    marked (one marker per on_rim_reason, in the legend); the dissipative panels outline the
+    periodic islands of both conservative scenes, each named in the legend."""
+    from workflows.outcome_grids import ISLAND_STYLES, ON_RIM_MARKERS
+
+    ds = fig12.copy(deep=True)
+    cells = [(5, 10), (6, 11), (7, 12)]
+    for i, j in cells:
+        ds["outcome"].values[1, i, j] = solver.outcomes.ON_RIM_AT_T_MAX
+        ds["on_rim_reason"].values[1, i, j] = solver.outcomes.SLIP_ROLL_CYCLING
+    fig = _rendered(get("fig12").plot(ds))
+    marks = [line for line in fig.axes[1].get_lines() if line.get_gid() == f"on_rim_{solver.outcomes.SLIP_ROLL_CYCLING}"]
+    assert len(marks) == 1
+    x, y = marks[0].get_data()
+    assert sorted(zip(np.round(y, 9), np.round(x, 9))) == sorted(
+        (round(float(ds["beta"][i]), 9), round(float(ds["omega1"][j]), 9)) for i, j in cells)
+    texts = P.legend_texts(fig)
+    assert ON_RIM_MARKERS[solver.outcomes.SLIP_ROLL_CYCLING]["label"] in texts
+    flags = ds["former_periodic"].values[0]
+    assert (flags & 1).any() and (flags & 2).any()
+    assert {ISLAND_STYLES["rolling_only"]["label"], ISLAND_STYLES["slipping"]["label"]} <= set(texts)

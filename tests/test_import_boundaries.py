@@ -72,8 +72,11 @@ def test_studies_are_found_through_the_entry_point_group():
     entries = {ep.name: ep.value for ep in registry.study_entry_points()}  # installed metadata
     names = registry.names()
     assert {"fig8", "fig11", "work-precision"} <= set(names)
-    for name in names:  # one entry per study, naming the module that registers it
-        assert entries.get(name) == registry.get(name).compute.__module__, name
+    for name in names:  # one entry per study of rimroll's, naming the module that registers it
+        module = registry.get(name).compute.__module__
+        if module.startswith("workflows."):  # (other tests register studies of their own)
+            assert entries.get(name) == module, name
+    assert set(entries) <= set(names)
 
 
 def test_getting_a_study_imports_only_its_own_module():

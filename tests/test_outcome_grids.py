@@ -116,3 +116,41 @@ def test_stored_values_equal_a_direct_simulate_call(sections):
     direct = solver.simulate(np.array([state]), solver.Params(mu=1.0), t_max=20.0)
     assert direct["outcome"][0] == ds["outcome"].values[SLIP, i, k]
     assert direct["t_end"][0] == pytest.approx(float(ds["t_end"][SLIP, i, k]), rel=1e-12)
+
+
+def test_former_periodic_marks_both_islands_and_counts_their_fates(sections):
+    """``former_periodic`` outlines the periodic islands of both conservative scenes, and its attributes
+    count what each dissipative scene does with each island's states (recounted here from the outcomes):
+    Sect. 5.3.2's 'small rolling resistance makes former periodic states fall in' holds for the slipping
+    island; the rolling-only island, larger, partly falls out."""
+    ds = sections["fig12"]
+    var = ds["former_periodic"]
+    assert var.dims == ("scene", "beta", "omega1") and (var == var.isel(scene=0)).all()
+    assert var.attrs["flag_meanings"].split() == ["none", "rolling_only_island", "slipping_island", "both_islands"]
+    assert var.attrs["fate_order"] == "fall_in fall_out other"
+    out = ds["outcome"].values
+    flags = var.values[0]
+    islands = {"rolling_only": out[ROLL] == outcomes.PERIODIC_ROLLING, "slipping": out[SLIP] == outcomes.PERIODIC_ROLLING}
+    assert ((flags & 1) == 1).tolist() == islands["rolling_only"].tolist()
+    assert ((flags & 2) == 2).tolist() == islands["slipping"].tolist()
+    for scene, k in (("drilling", DRILL), ("rolling_resistance", RRES)):
+        for island, mask in islands.items():
+            counts = var.attrs[f"fate_counts_{scene}_{island}"]
+            fate = out[k][mask]
+            expected = [(fate == outcomes.FALL_IN).sum(), (fate == outcomes.FALL_OUT).sum()]
+            assert counts.tolist() == expected + [mask.sum() - sum(expected)]
+            assert var.attrs[f"island_cells_{island}"] == mask.sum()
+            np.testing.assert_allclose(var.attrs[f"fate_fractions_{scene}_{island}"], counts / mask.sum())
+    fr = lambda scene, island: var.attrs[f"fate_fractions_{scene}_{island}"]
+    assert fr("rolling_resistance", "slipping")[0] >= 0.9 and fr("drilling", "slipping")[1] >= 0.9
+    assert 0.1 <= fr("rolling_resistance", "rolling_only")[1] <= 0.5  # part of the larger island falls out
+    assert not any(k.startswith("fate_counts_slipping") or k.startswith("fate_counts_rolling_only_")
+                   for k in var.attrs)  # conservative scenes have no fates
+
+
+def test_on_rim_reason_is_stored_with_its_flags(sections):
+    ds = sections["fig12"]
+    var = ds["on_rim_reason"]
+    assert var.attrs["flag_meanings"].split()[:3] == ["not_on_rim", "rolling_transient", "slip_roll_cycling"]
+    on = ds["outcome"] == outcomes.ON_RIM_AT_T_MAX
+    assert ((var != outcomes.NOT_ON_RIM) == on).all()

@@ -19,7 +19,8 @@ FIELDS = {
     "outcome": np.int8, "t_end": np.float64, "f2_min": np.float64, "half_period": np.float64,
     "revolutions": np.float64, "slip_phases": np.int32, "slip_time": np.float64, "energy_drift": np.float64,
     "n_steps": np.int64, "n_searched": np.int64, "beta_end": np.float64, "omega1_end": np.float64, "omega2_end": np.float64,
-    "omega3_end": np.float64, "steady_h": np.float64, "status": np.int8,
+    "omega3_end": np.float64, "steady_h": np.float64, "status": np.int8, "n_slip_steps": np.int64,
+    "on_rim_reason": np.int8,
 }
 
 
@@ -43,7 +44,7 @@ def test_result_fields_shapes_and_dtypes():
     assert set(np.unique(res["outcome"])) <= {0, 1, 2, 3}
     assert np.all(res["status"] == 0)
     assert solver.simulate is simulate
-    assert set(solver.OUTCOME_MEANINGS) == {0, 1, 2, 3, 4} and set(solver.STATUS_MEANINGS) == {0, 1, 2, 3, 4}
+    assert set(solver.OUTCOME_MEANINGS) == {0, 1, 2, 3, 4} and set(solver.STATUS_MEANINGS) == {0, 1, 2, 3, 4, 5}
 
 
 def test_single_state_gives_scalar_shaped_arrays():

@@ -11,10 +11,15 @@ whose non-index coordinates ``mu``, ``k_r``, ``k_d`` and ``t_max`` say what each
 - ``rolling_resistance``: slipping + rolling resistance (mu = 1, k_r = 0.02 1/s)
 
 The physical settings (r, R, a, m, j, g) apply to every scene; the scene's mu, k_r, k_d
-override the run's. Every result field of ``solver.simulate`` is stored, plus
-``boundary_type`` (derived once from the whole grid, ``solver.boundaries``): which cells lie on
-a boundary of periodic rolling and of which kind (deadlock, separatrix, slipping-induced; paper
-Sect. 5.1, 5.2.3). Slipping scenes are compared with the rolling-only scene of the same file.
+override the run's. Every result field of ``solver.simulate`` is stored (with ``on_rim_reason``:
+why a run is still on the rim), plus two variables derived once from the whole grid:
+
+- ``boundary_type`` (``solver.boundaries``): which cells lie on a boundary of periodic rolling and
+  of which kind (deadlock, separatrix, slipping-induced, or a band thinner than a cell holding a
+  separatrix and a deadlock; paper Sect. 5.1, 5.2.3), each boundary pair of a conservative scene
+  refined by simulation (``boundaries.refine_grid``);
+- ``former_periodic``: the periodic islands of the conservative scenes (rolling only, slipping),
+  with the fate of their states in each dissipative scene in its attributes (Sect. 5.3.2).
 """
 
 from __future__ import annotations
@@ -69,6 +74,9 @@ VARIABLES = [
     Var("n_steps", "1", "attempted integrator steps", dtype="int64"),
     Var("status", "1", "integration status", dtype="int8", standard_name="status_flag",
         flag_values=outcomes.STATUS_FLAG_VALUES, flag_meanings=outcomes.STATUS_FLAG_MEANINGS),
+    Var("on_rim_reason", "1", "why the ball is still on the rim when the run stopped (from outcome, status and "
+        "slip_phases)", dtype="int8", flag_values=outcomes.ON_RIM_REASON_FLAG_VALUES,
+        flag_meanings=outcomes.ON_RIM_REASON_FLAG_MEANINGS),
 ]
 
 
@@ -125,14 +133,97 @@ BOUNDARY_ATTRS = {
     "long_name": "type of the boundary of periodic rolling at this initial state (paper Sect. 5.1)",
     "flag_values": np.array(boundaries.BOUNDARY_FLAG_VALUES, dtype="int8"),
     "flag_meanings": boundaries.BOUNDARY_FLAG_MEANINGS,
-    "comment": "solver.boundaries.classify on each scene's (beta, omega1) grid with its default thresholds "
-               + ", ".join(f"{k}={v:g}" for k, v in boundaries.DEFAULTS.items())
-               + "; slipping scenes are compared with the rolling-only scene (slipping_induced)",
+    "comment": "conservative scenes: every pair of a periodic cell and a falling or still-on-the-rim 4-neighbour "
+               "is typed by simulation along the segment between them (solver.boundaries.refine_grid, with "
+               + ", ".join(f"{k}={v:g}" for k, v in boundaries.REFINE_DEFAULTS.items())
+               + f", f2_rel={boundaries.DEFAULTS['f2_rel']:g}; the scene's t_max, rtol, atol and method; with finite "
+               "mu the runs stop at the first slip); a cell takes the first type of its pairs in the order "
+               "separatrix_and_deadlock, deadlock, slipping_induced, separatrix, undetermined. A pair that cannot "
+               "be refined keeps the grid-only label of solver.boundaries.classify ("
+               + ", ".join(f"{k}={v:g}" for k, v in boundaries.DEFAULTS.items()) + ")",
 }
+
+ISLANDS = ("rolling_only", "slipping")
+"""The periodic islands of ``former_periodic``: those of the conservative scene with mu = inf and of the
+one with finite mu."""
+FATES = ("fall_in", "fall_out", "other")
+FORMER_MEANINGS = {0: "none", 1: "rolling_only_island", 2: "slipping_island", 3: "both_islands"}
+
+
+def _boundary_labels(ds, k, outcome, f2, hp, t_end, weight, rolling) -> np.ndarray:
+    """``boundary_type`` of scene k: grid labels, refined by simulation in a conservative scene."""
+    p = params_of(ds)
+    mu, k_r, k_d = (float(ds[name].values[k]) for name in ("mu", "k_r", "k_d"))
+    ref = outcome[rolling[0]] if rolling and np.isfinite(mu) else None
+    grid = boundaries.classify(outcome[k], f2[k], hp[k], t_end[k], weight, rolling_outcome=ref)
+    if k_r != 0 or k_d != 0 or not (grid != boundaries.NOT_BOUNDARY).any():
+        return grid
+    beta, omega1 = np.meshgrid(ds["beta"].values, ds["omega1"].values, indexing="ij")
+    omega2, omega3 = float(setting_of(ds, "omega2")), float(setting_of(ds, "omega3"))
+    states = np.stack([beta, omega1, np.full_like(beta, omega2), np.full_like(beta, omega3)], axis=-1)
+    labels, _ = boundaries.refine_grid(outcome[k], states, p.replace(mu=mu, k_r=k_r, k_d=k_d),
+                                       float(ds["t_max"].values[k]), fallback=grid,
+                                       rtol=float(setting_of(ds, "rtol")), atol=float(setting_of(ds, "atol")),
+                                       method=str(setting_of(ds, "method")))
+    return labels
+
+
+def former_periodic(outcome, mu, conservative) -> tuple[np.ndarray, dict]:
+    """The periodic islands of the conservative scenes and the fate of their states in the others.
+
+    ``outcome`` (scene, beta, omega1) codes; ``mu``, ``conservative``: per scene. Returns (flags
+    (beta, omega1) int8: 1 periodic rolling only (mu = inf), 2 periodic with slipping (finite mu),
+    3 both, 0 neither; and ``{(scene index, island): (counts, fractions)}`` of every
+    dissipative scene and island, counts [cells] of the island's states that fall in, fall out
+    or do anything else (still on the rim, ...) in that scene, fractions [1] of the island).
+    """
+    outcome = np.asarray(outcome)
+    flags = np.zeros(outcome.shape[1:], dtype=np.int8)
+    masks = {}
+    for bit, (island, want_inf) in enumerate(((ISLANDS[0], True), (ISLANDS[1], False))):
+        scenes = [k for k in range(outcome.shape[0]) if conservative[k] and bool(np.isinf(mu[k])) == want_inf]
+        if scenes:
+            masks[island] = outcome[scenes[0]] == outcomes.PERIODIC_ROLLING
+            flags |= (masks[island] * (1 << bit)).astype(np.int8)
+    fates = {}
+    for k in range(outcome.shape[0]):
+        if conservative[k]:
+            continue
+        for island, mask in masks.items():
+            fate = outcome[k][mask]
+            counts = np.array([(fate == outcomes.FALL_IN).sum(), (fate == outcomes.FALL_OUT).sum(), 0], dtype=np.int64)
+            counts[2] = fate.size - counts[:2].sum()
+            fates[(k, island)] = (counts, counts / fate.size if fate.size else np.full(3, np.nan))
+    return flags, fates
+
+
+def _former_attrs(ds, flags, fates) -> dict:
+    """Attributes of ``former_periodic``: the fates, with what they count."""
+    attrs = {
+        "units": "1",
+        "long_name": "periodic islands of the conservative scenes at this initial state (where dissipation "
+                     "sends the former periodic states, paper Sect. 5.3.2)",
+        "flag_values": np.array(tuple(FORMER_MEANINGS), dtype="int8"),
+        "flag_meanings": " ".join(FORMER_MEANINGS.values()),
+        "fate_order": " ".join(FATES),
+        "comment": "rolling_only_island: periodic_rolling in the scene with mu = inf, slipping_island: in the "
+                   "conservative scene with finite mu (the same in every scene of this file). For each "
+                   "dissipative scene S and island I: fate_counts_S_I [cells] = how many of the island's states "
+                   "fall_in, fall_out and do anything else (other: still on the rim, ...) in S, in the order of "
+                   "fate_order; fate_fractions_S_I [1] = those counts over island_cells_I, the island's size [cells]",
+    }
+    for bit, island in enumerate(ISLANDS):
+        attrs[f"island_cells_{island}"] = np.int64(((flags >> bit) & 1).sum())
+    scenes = [str(v) for v in ds["scene"].values]
+    for (k, island), (counts, fractions) in fates.items():
+        attrs[f"fate_counts_{scenes[k]}_{island}"] = counts
+        attrs[f"fate_fractions_{scenes[k]}_{island}"] = fractions
+    return attrs
 
 
 def _derive(ds) -> dict:
-    """``boundary_type`` of every scene, from the whole (beta, omega1) grid of each."""
+    """``boundary_type`` of every scene, from the whole (beta, omega1) grid of each (conservative scenes
+    refined by simulation), and ``former_periodic`` with the fates of the islands."""
     p = params_of(ds)
     dims = ("scene", "beta", "omega1")
     get = lambda name: ds[name].transpose(*dims).values
@@ -142,9 +233,11 @@ def _derive(ds) -> dict:
     rolling = [k for k in range(mu.size) if np.isinf(mu[k]) and conservative[k]]
     labels = np.empty(outcome.shape, dtype=np.int8)
     for k in range(mu.size):
-        ref = outcome[rolling[0]] if rolling and np.isfinite(mu[k]) else None
-        labels[k] = boundaries.classify(outcome[k], f2[k], hp[k], t_end[k], p.m * p.g, rolling_outcome=ref)
-    return {"boundary_type": (dims, labels, BOUNDARY_ATTRS)}
+        labels[k] = _boundary_labels(ds, k, outcome, f2, hp, t_end, p.m * p.g, rolling)
+    flags, fates = former_periodic(outcome, mu, conservative)
+    former = np.broadcast_to(flags, outcome.shape).copy()
+    return {"boundary_type": (dims, labels, BOUNDARY_ATTRS),
+            "former_periodic": (dims, former, _former_attrs(ds, flags, fates))}
 
 
 BOUNDARY_STYLES = {  # how the plot draws each boundary type: a thin line along the cell edges
@@ -152,6 +245,20 @@ BOUNDARY_STYLES = {  # how the plot draws each boundary type: a thin line along 
     boundaries.SEPARATRIX: dict(color="#ffff33", lw=1.3, label=r"separatrix boundary (half period $\to \infty$)"),
     boundaries.SLIPPING_INDUCED: dict(color="#e7298a", lw=1.3, label="slipping-induced boundary"),
     boundaries.UNDETERMINED: dict(color="#00e5ff", lw=1.3, label="undetermined boundary (grid too coarse to tell)"),
+    boundaries.SEPARATRIX_AND_DEADLOCK: dict(color="k", lw=1.1, outline="#ffff33",
+                                             label="separatrix, then deadlock, within one cell"),
+}
+ON_RIM_MARKERS = {  # how the plot marks cells still on the rim at t_max, by on_rim_reason: markers larger than a
+    # cell, under the boundary lines (which run through them), so that neither hides the other
+    outcomes.ROLLING_TRANSIENT: dict(marker="o", label=r"on the rim at $t_{max}$: rolling, no orbit closed"),
+    outcomes.SLIP_ROLL_CYCLING: dict(marker="s", label=r"on the rim at $t_{max}$: slip-roll cycling"),
+    outcomes.ONE_SLIP: dict(marker="D", label=r"on the rim at $t_{max}$: after one slip"),
+    outcomes.STOPPED_EARLY: dict(marker="X", label="on the rim, run stopped early (status)"),
+}
+ON_RIM_MARK_FRACTION = 0.02  # mark on-rim cells when they are at most this fraction of a panel (else the grey shows)
+ISLAND_STYLES = {  # outlines of the periodic islands of the conservative scenes, drawn in dissipative panels
+    "rolling_only": dict(color="k", lw=1.1, ls=":", label=r"periodic region, rolling only ($\mu=\infty$)"),
+    "slipping": dict(color="k", lw=1.0, ls="--", label="periodic region with slipping"),
 }
 
 
@@ -232,23 +339,53 @@ def _small_region(mask, fraction: float = 0.08):
     return (slice(max(rows[0] - pad_r, 0), rows[-1] + pad_r + 1), slice(max(cols[0] - pad_c, 0), cols[-1] + pad_c + 1))
 
 
-def _panel(ax, sel, w1, beta, b0, former, extras, labels=True, star_size=None) -> tuple[set, set]:
-    """Draw one scene (outcomes, typed boundaries, star, former periodic outline, time contours);
-    returns (outcome codes drawn, boundary types drawn)."""
+def _on_rim_marks(ax, sel, w1, beta, extras, size: float) -> None:
+    """Mark the cells still on the rim at t_max (a few, next to the boundary lines that would hide
+    their grey) with a marker per ``on_rim_reason``, larger than a cell and under the lines."""
+    out = sel["outcome"].transpose("beta", "omega1").values
+    on = out == outcomes.ON_RIM_AT_T_MAX
+    if not on.any() or on.sum() > ON_RIM_MARK_FRACTION * on.size:
+        return
+    if "on_rim_reason" in sel:
+        reason = sel["on_rim_reason"].transpose("beta", "omega1").values
+    else:  # files written before on_rim_reason was stored
+        get = lambda name: sel[name].transpose("beta", "omega1").values
+        reason = outcomes.on_rim_reason(out, get("status"), get("slip_phases"))
+    for code, style in ON_RIM_MARKERS.items():
+        i, j = np.nonzero(on & (reason == code))
+        if i.size:
+            kw = dict(ls="", ms=size, mfc=PALETTE.colour(outcomes.ON_RIM_AT_T_MAX), mec="k", mew=0.5, zorder=3.5)
+            ax.plot(w1[j], beta[i], marker=style["marker"], gid=f"on_rim_{code}", **kw)
+            extras[f"on_rim_{code}"] = Line2D([], [], marker=style["marker"], label=style["label"], **dict(kw, ms=6))
+
+
+def _outline_islands(ax, islands, w1, beta, extras) -> None:
+    """Outline the periodic islands of the conservative scenes (dissipative panels)."""
+    for island, mask in islands.items():
+        if mask is None or not mask.any():
+            continue
+        style = ISLAND_STYLES[island]
+        ax.contour(w1, beta, mask.astype(float), levels=[0.5], colors=style["color"], linewidths=style["lw"],
+                   linestyles=style["ls"], zorder=6)  # above the star
+        extras[f"island_{island}"] = Line2D([], [], **style)
+
+
+def _panel(ax, sel, w1, beta, b0, islands, extras, labels=True, star_size=None) -> tuple[set, set]:
+    """Draw one scene (outcomes, typed boundaries, star, on-rim marks, the outlines of the periodic
+    islands ``{island: mask}`` in dissipative scenes, time contours); returns (outcome codes drawn,
+    boundary types drawn)."""
     cmap, norm = PALETTE.cmap_norm()
     out = sel["outcome"].transpose("beta", "omega1").values
     ax.pcolormesh(w1, beta, out, cmap=cmap, norm=norm, shading="nearest", rasterized=True)
     kinds = _draw_boundaries(ax, sel, w1, beta)
+    _on_rim_marks(ax, sel, w1, beta, extras, size=3.0 if star_size is None else 4.0)
     ax.set_xlim(*P.grid_limits(w1))
     ax.set_ylim(*P.grid_limits(beta))
     if b0 is not None and beta.min() <= b0 <= beta.max() and w1.min() <= 0.0 <= w1.max():
         ax.plot([0.0], [b0], **(STAR if star_size is None else dict(STAR, ms=star_size, mew=1.0)))
         extras["star"] = Line2D([], [], **dict(STAR, label="steady motion (48)"))
     if float(sel["k_r"]) != 0 or float(sel["k_d"]) != 0:
-        if former is not None and former.any():
-            ax.contour(w1, beta, former.astype(float), levels=[0.5], colors="k",
-                       linewidths=1.0, linestyles=":", zorder=6)  # above the star
-            extras["former"] = Line2D([], [], color="k", lw=1.0, ls=":", label="periodic region without dissipation")
+        _outline_islands(ax, islands, w1, beta, extras)
         t_end = sel["t_end"].transpose("beta", "omega1").values
         levels = [lv for lv in TIME_LEVELS if lv < float(sel["t_max"]) and np.nanmin(t_end) < lv < np.nanmax(t_end)]
         if levels:
@@ -259,16 +396,27 @@ def _panel(ax, sel, w1, beta, b0, former, extras, labels=True, star_size=None) -
     return set(np.unique(out).tolist()), kinds
 
 
-def _zoom(ax, sel, w1, beta, b0, former, extras, region) -> None:
+def _zoom(ax, sel, w1, beta, b0, islands, extras, region) -> None:
     """An inset (upper right) magnifying a small periodic or former periodic region, so that it
     stays visible under the star and the lines."""
     rs, cs = region
     inset = ax.inset_axes([0.6, 0.58, 0.38, 0.38])
     part = sel.isel(beta=rs, omega1=cs)
-    _panel(inset, part, w1[cs], beta[rs], b0, None if former is None else former[rs, cs], extras, star_size=7)
+    _panel(inset, part, w1[cs], beta[rs], b0, {k: m[rs, cs] for k, m in islands.items()}, extras, star_size=7)
     inset.tick_params(labelsize=6, length=2)
     inset.set_title("zoom", fontsize=7, pad=2)
     ax.indicate_inset_zoom(inset, edgecolor="k", lw=0.8)
+
+
+def _islands(ds) -> dict:
+    """{island: (beta, omega1) mask} of the periodic islands, from ``former_periodic`` (or the outcomes)."""
+    if "former_periodic" in ds:
+        flags = ds["former_periodic"].isel(scene=0).transpose("beta", "omega1").values
+    else:  # files written before former_periodic was stored
+        conservative = (ds["k_r"].values == 0) & (ds["k_d"].values == 0)
+        flags, _ = former_periodic(ds["outcome"].transpose("scene", "beta", "omega1").values, ds["mu"].values,
+                                   conservative)
+    return {island: (flags & (1 << bit)).astype(bool) for bit, island in enumerate(ISLANDS)}
 
 
 def _plot(ds):
@@ -281,19 +429,18 @@ def _plot(ds):
     b0 = steady_beta0(omega2, omega3, p, beta.min(), beta.max())
     codes, kinds = set(), set()
     extras = {}
-    former = None  # the periodic region of the last conservative scene drawn
+    islands = _islands(ds)
     for k, ax in enumerate(axes.flat[: ds.sizes["scene"]]):
         sel = ds.isel(scene=k)
         conservative = float(sel["k_r"]) == 0 and float(sel["k_d"]) == 0
         periodic = sel["outcome"].transpose("beta", "omega1").values == outcomes.PERIODIC_ROLLING
-        small = _small_region(periodic if conservative or former is None else former | periodic)
+        small_island = islands["slipping"] if islands["slipping"].any() else islands["rolling_only"]
+        small = _small_region(periodic if conservative else small_island | periodic)
         # a small region gets a zoom, which then carries the time labels (the panel stays clear)
-        c, t = _panel(ax, sel, w1, beta, b0, None if conservative else former, extras, labels=small is None)
+        c, t = _panel(ax, sel, w1, beta, b0, islands, extras, labels=small is None)
         codes, kinds = codes | c, kinds | t
         if small is not None:
-            _zoom(ax, sel, w1, beta, b0, None if conservative else former, extras, small)
-        if conservative:
-            former = periodic
+            _zoom(ax, sel, w1, beta, b0, islands, extras, small)
         ax.set_title(P.scene_title(sel), fontsize=10)
     for ax in axes[1]:
         ax.set_xlabel(r"initial transversal angular velocity $\omega_1$ [1/s]")
@@ -302,7 +449,8 @@ def _plot(ds):
     handles = PALETTE.handles(codes)
     handles += [Line2D([], [], **_line_kw(BOUNDARY_STYLES[c]), label=BOUNDARY_STYLES[c]["label"])
                 for c in BOUNDARY_STYLES if c in kinds]
-    handles += [extras[key] for key in ("star", "time", "former") if key in extras]
+    handles += [extras[f"on_rim_{c}"] for c in ON_RIM_MARKERS if f"on_rim_{c}" in extras]
+    handles += [extras[key] for key in ("star", "time", "island_rolling_only", "island_slipping") if key in extras]
     fig.legend(handles=handles, loc="outside lower center", ncol=3, fontsize=9, frameon=False)
     fig.suptitle(rf"{ds.attrs['title']}: $\omega_2={omega2:g}$ 1/s, $\omega_3={omega3:g}$ 1/s", fontsize=11)
     return fig
