@@ -48,7 +48,7 @@ def main(out: str, n: int, max_batch: int | None) -> None:
         params = solver.Params(**changes)
         for backend in ("cpu", "cuda"):
             res = solver.simulate(states, params, t_max=t_max, backend=backend, workers=1)
-            for name in (*FLOAT_FIELDS, *INT_FIELDS, "steady_h"):
+            for name in (*FLOAT_FIELDS, *INT_FIELDS, "steady_h", "on_rim_reason"):
                 saved[f"{label}/{backend}/{name}"] = res[name]
     if max_batch:  # the batched path: several launches, both slots, against one launch
         params = solver.Params(mu=np.inf)

@@ -71,9 +71,9 @@ def test_simulator_gives_the_cpu_engines_results_in_every_scene(simulated_run):
     assert labels == ["drilling", "rolling_only", "rolling_resistance", "slipping"]
     kinds = set()
     for label in labels:
-        cpu = {name: saved[f"{label}/cpu/{name}"] for name in (*FLOAT_FIELDS, *INT_FIELDS, "steady_h")}
+        cpu = {name: saved[f"{label}/cpu/{name}"] for name in (*FLOAT_FIELDS, *INT_FIELDS, "steady_h", "on_rim_reason")}
         gpu = {name: saved[f"{label}/cuda/{name}"] for name in cpu}
-        for name in INT_FIELDS:
+        for name in (*INT_FIELDS, "on_rim_reason"):
             np.testing.assert_array_equal(gpu[name], cpu[name], err_msg=f"{label}: {name}")
         for name in (*FLOAT_FIELDS, "steady_h"):
             ok = _same(gpu[name], cpu[name], 1e-12)
