@@ -1,9 +1,10 @@
 """``solver.simulate``: classify rolling initial states by the rules of docs/outcome-engine.md.
 
 Validates the arguments, picks the scene from ``Params`` (docs/outcome-engine.md, Scenes) and the method's table,
-flattens the states and hands contiguous chunks to the compiled, ``nogil`` chunk driver on a
-pool of threads (one per core by default): every core works, and callers that already run
-threads (dask) can pass ``workers=1``.
+flattens the states and hands them to the backend (``solver.backends``): on the CPU, contiguous
+chunks go to the compiled, ``nogil`` chunk driver on a pool of threads (one per core by default;
+callers that already run threads (dask) can pass ``workers=1``); on a CUDA device, to
+``solver.cuda_backend`` (one GPU thread per trajectory).
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from solver import _jit, kernels
+from solver import _jit, backends, kernels
 from solver.outcomes import STEADY_MOTION, on_rim_reason
 from solver.params import Params
 from solver.steady import stability
@@ -92,7 +93,8 @@ def scene_of(params: Params) -> int:
 
 
 def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="dp5", *,
-             max_steps=DEFAULT_MAX_STEPS, max_switches=DEFAULT_MAX_SWITCHES, workers=None, switching=None):
+             max_steps=DEFAULT_MAX_STEPS, max_switches=DEFAULT_MAX_SWITCHES, workers=None, switching=None,
+             backend="cpu"):
     """Integrate rolling initial states until they fall, roll periodically or reach t_max.
 
     Parameters
@@ -115,10 +117,14 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
     max_switches : int
         Budget of rolling/slipping switches per trajectory (status ``too_many_switches``).
     workers : int or None
-        Threads (default: ``os.cpu_count()``); the compiled kernels release the GIL.
+        Threads of the CPU backend (default: ``os.cpu_count()``); the compiled kernels release the GIL.
     switching : dict or None
         Overrides of the switching tolerances ``delta``, ``u_stop``, ``phi_tol``, ``u_floor``
         [m/s, m/s, rad, m/s] of ``solver.switching`` (for convergence checks).
+    backend : {"cpu", "cuda", "auto"}
+        Where to run (``solver.backends``): the CPU; a CUDA device, one thread per trajectory
+        (needs the extra ``rimroll[gpu]`` and a device); or the device when one is usable, else
+        the CPU. ``solver.backends.resolve(backend)`` says which one "auto" picks, and on what.
 
     Returns
     -------
@@ -139,6 +145,8 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
     ------
     ValueError
         For a bad argument; the message names it and what is allowed.
+    solver.backends.BackendUnavailable
+        For ``backend="cuda"`` without the extra or a device (one line saying which).
     """
     if not isinstance(params, Params):
         raise ValueError(f"`params` must be a solver.Params; got {type(params).__name__}")
@@ -163,6 +171,7 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
         workers = os.cpu_count() or 1
     workers = _count("workers", workers)
     sw = default_tolerances(**(switching or {}))
+    where = backends.resolve(backend)
 
     tab = TABLEAUS[method]
     shape = x.shape[:-1]
@@ -172,6 +181,12 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
     res_i = np.empty((m, kernels.N_RI), dtype=np.int64)
     p = params.as_array()
     scene = scene_of(params)
+
+    if where.name == "cuda":
+        from solver import cuda_backend
+
+        cuda_backend.run(scene, method, flat, p, t_max, rtol, atol, max_steps, max_switches, sw, res_f, res_i)
+        return _fields(flat, shape, res_f, res_i, params)
 
     _announce_compile(scene)
     scene_kernel = kernels.SCENE_KERNELS[scene]
@@ -189,7 +204,11 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
         with ThreadPoolExecutor(max_workers=workers) as pool:
             for fut in [pool.submit(run, lo, hi) for lo, hi in zip(bounds[:-1], bounds[1:])]:
                 fut.result()
+    return _fields(flat, shape, res_f, res_i, params)
 
+
+def _fields(flat, shape, res_f, res_i, params):
+    """The result dict of :func:`simulate` from the result rows of the kernels."""
     out = {name: res_f[:, col].reshape(shape).copy() for name, col in FLOAT_FIELDS.items()}
     for name, (col, dtype) in INT_FIELDS.items():
         out[name] = res_i[:, col].astype(dtype).reshape(shape)

@@ -8,6 +8,7 @@ name and shared by every study that has the setting:
 - ``rtol``: 1e-14 <= rtol <= 1e-2 (what ``solver.simulate`` accepts); ``atol``: finite, > 0;
 - ``t_max*``: finite, > 0 [s]; ``method``: a method of ``solver.simulate`` (dp5, dop853);
 - ``mu_slip``: a friction coefficient >= 0 (inf allowed); ``k_dissipation``: finite, >= 0 [1/s];
+- ``backend``: a backend of ``solver.simulate`` (cpu, cuda, auto);
 - ``seed``: an integer >= 0; ``n_*`` (grid sizes, counts): 1 .. :data:`MAX_AXIS` (0 allowed for
   the counts of :data:`ZERO_COUNTS`);
 - every other number: finite, and of magnitude below :data:`MAX_MAGNITUDE` (an axis spanning
@@ -45,6 +46,12 @@ def _number(key, value) -> bool:
 def check_setting(study: str, key: str, value) -> None:
     """One setting of study ``study``; :class:`UserError` naming the rule when it is broken."""
     where = f"setting {key}={value!r} of study {study!r}"
+    if key == "backend":
+        from solver.backends import BACKENDS
+
+        if value not in BACKENDS:
+            raise UserError(f"{where}: allowed backends are {', '.join(BACKENDS)}")
+        return
     if key == "method" and isinstance(value, str):
         methods = _methods()
         if value not in methods:

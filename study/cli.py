@@ -39,6 +39,9 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUES",
                      help="override a setting or a physical parameter (repeatable); a list a,b,c or a "
                           "range start:stop:num of a sweepable setting becomes an axis of the cube")
+    run.add_argument("--backend", default=None, choices=("cpu", "cuda", "auto"),
+                     help="where solver.simulate runs (same as --set backend=...; studies that simulate only): "
+                          "cpu, cuda (one GPU per worker; extra rimroll[gpu]) or auto (the GPU when usable)")
     run.add_argument("--workers", type=int, default=None, help="local threads (default: one per core)")
     run.add_argument("--scheduler", default=None, metavar="ADDRESS",
                      help="run the chunks on an existing dask.distributed cluster, e.g. tcp://host:8786")
@@ -167,7 +170,10 @@ def _cmd_run(args, command: str) -> int:
     if not (0 < args.timeout <= 86400):
         raise UserError(f"--timeout must be > 0 and <= 86400 s; got {args.timeout}")
     fanout.check_address(args.scheduler)
-    plan = make_plan(study, args.quick, args.sets)
+    sets = list(args.sets) + ([f"backend={args.backend}"] if args.backend else [])
+    if args.backend and "backend" not in study.settings:
+        raise UserError(f"--backend: study {study.name} does not run solver.simulate (no backend setting)")
+    plan = make_plan(study, args.quick, sets, local=not args.scheduler)
     out = pathlib.Path(args.out)
     runguard.check_out(out)
     nc = out / f"{study.name}.nc"
@@ -350,7 +356,7 @@ def main(argv=None) -> int:
         status = _dispatch(_parser().parse_args(words), command)
         sys.stdout.flush()  # here, so that a closed pipe is caught below, not at exit
         return status
-    except UserError as exc:
+    except (UserError, _backend_error()) as exc:
         message = " ".join(str(exc).split())
         print(f"study: error: {message}", file=sys.stderr)
         return getattr(exc, "exit_status", EXIT_USAGE)
@@ -360,6 +366,14 @@ def main(argv=None) -> int:
     except BrokenPipeError:  # `study info FILE | head`: the reader has what it wanted
         _quiet_stdout()
         return 0
+
+
+def _backend_error():
+    """``solver.backends.BackendUnavailable``: a missing GPU extra or device, also when a worker of a
+    --scheduler cluster reports it (one line, like a UserError)."""
+    from solver.backends import BackendUnavailable
+
+    return BackendUnavailable
 
 
 def _dispatch(args, command: str) -> int:

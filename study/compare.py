@@ -28,7 +28,7 @@ import xarray as xr
 
 COORD_RTOL = 1e-6
 # settings that only set grid size or precision: they may differ between a file and the reference
-NUMERICAL_SETTINGS = ("rtol", "atol", "method", "max_steps")
+NUMERICAL_SETTINGS = ("rtol", "atol", "method", "max_steps", "backend")  # how, not what, is computed
 NOT_COMPARED = ("n_steps",)  # integrator work, differs by design between precisions
 
 # Default tolerances (atol, rtol) of continuous variables for `study verify` and the regression

@@ -98,14 +98,15 @@ def coords_of(axes: list[Axis]) -> dict:
 
 
 def global_attrs(study: Study, params: solver.Params, settings: dict, command: str,
-                 swept: tuple = ()) -> dict:
+                 swept: tuple = (), device: str | None = None) -> dict:
     """Provenance of one run. ``swept``: names of the settings swept as outer axes; they get no
     ``param_``/``setting_`` attribute (nor ``param_r``, ``param_rho`` when ``rho_over_R`` is
-    swept): their coordinates hold their values."""
+    swept): their coordinates hold their values. ``device``: what the CUDA backend ran on (the
+    workers' devices), recorded in ``source``."""
     now = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat()
     version = rimroll_version()
     attrs = {"Conventions": "CF-1.10", "title": study.title, "study": study.name,
-             "references": REFERENCES, "source": _source(study, settings, version)}
+             "references": REFERENCES, "source": _source(study, settings, version, device)}
     varying = set(swept) | ({"r", "rho"} if "rho_over_R" in swept else set())  # one value per point of an axis
     for name, value in params.as_dict().items():
         if name not in varying:
@@ -137,14 +138,18 @@ REFERENCES = ("M. Antali, V. Havas, S. J. Hogan, G. Stepan: Nonlinear dynamics o
               "around the rim (the paper rimroll reproduces; equation numbers in attributes are its)")
 
 
-def _source(study: Study, settings: dict, version: str) -> str:
-    """CF ``source``: the software and the method that made the file."""
+def _source(study: Study, settings: dict, version: str, device: str | None = None) -> str:
+    """CF ``source``: the software and the method that made the file (and the backend it ran on)."""
     text = f"rimroll {version}, study {study.name}"
     if "method" in settings and "rtol" in settings:
         text += (f": solver.simulate, compiled event-driven integrator {settings['method']} at rtol "
                  f"{settings['rtol']:g}, atol {settings.get('atol', float('nan')):g}")
     elif "rtol" in settings:
         text += f": rtol {settings['rtol']:g}"
+    if "backend" in settings:
+        backend = settings["backend"]
+        where = device if backend == "cuda" and device else ("the workers' GPUs" if backend == "cuda" else None)
+        text += f"; backend {backend}" + (f" on {where}" if where else "")
     return text
 
 

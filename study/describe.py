@@ -37,6 +37,7 @@ SETTING_DOCS = {  # name: (units, meaning); units "" for counts, labels and swit
     "t_max_dissipative": ("s", "end of a run still on the rim (dissipative scenes)"),
     "rtol": ("1", "relative tolerance of the integrator"), "atol": ("1", "absolute tolerance of the integrator"),
     "method": ("", "integrator: dp5 (Dormand-Prince 5(4)) or dop853"),
+    "backend": ("", "where solver.simulate runs: cpu, cuda (a GPU; extra rimroll[gpu]) or auto"),
     "rtol_max": ("1", "loosest rtol of the sweep"), "rtol_min": ("1", "tightest rtol of the sweep"),
     "n_rtol": ("", "number of tolerances"), "seed": ("", "random seed of the sample"),
     "subset": ("", "which region of state space is sampled"),

@@ -24,10 +24,12 @@ from study.plan import Plan
 from study.progress import ProgressLine
 
 
-def file_attrs(plan: Plan, command: str) -> dict:
+def file_attrs(plan: Plan, command: str, device: str | None = None) -> dict:
     """Global attributes of the file of ``plan`` made by ``command``: provenance
-    (``study.dataset.global_attrs``) and the plan's ``run_fingerprint`` (``study.reuse``)."""
-    attrs = global_attrs(plan.study, plan.params, plan.settings, command, tuple(a.name for a in plan.outer))
+    (``study.dataset.global_attrs``; ``device``: the GPUs of a CUDA run) and the plan's
+    ``run_fingerprint`` (``study.reuse``)."""
+    attrs = global_attrs(plan.study, plan.params, plan.settings, command, tuple(a.name for a in plan.outer),
+                         device=device)
     attrs[reuse.FINGERPRINT_ATTR] = plan.fingerprint
     return attrs
 
@@ -40,17 +42,22 @@ def produce(plan: Plan, store: PartStore, nc, command: str, *, extra_attrs=None,
     Parts of this study's other inputs are deleted (no live run owns them), intact parts of this
     plan are kept (a resumed run), the missing chunks are computed on ``client`` (else on a
     cluster opened here: ``workers`` local threads or the one at ``scheduler``), the file is
-    assembled with :func:`file_attrs` plus ``extra_attrs``, and the parts are removed.
+    assembled with :func:`file_attrs` plus ``extra_attrs``, and the parts are removed. A plan on
+    the CUDA backend runs one GPU per worker (``fanout.client(gpu=True)``), and its file names the
+    workers' devices.
     """
     store.sweep_stale()
     done = store.valid(plan.n_chunks, plan.expected)
     todo = [k for k in range(plan.n_chunks) if k not in done]
     runguard.announce(plan, len(todo))
     line = ProgressLine(plan.n_chunks, plan.study.name, resumed=len(done), enabled=progress)
-    opened = contextlib.nullcontext(client) if client is not None else fanout.client(workers, scheduler, timeout)
+    gpu = plan.backend == "cuda"
+    opened = (contextlib.nullcontext(client) if client is not None
+              else fanout.client(workers, scheduler, timeout, gpu=gpu))
     with opened as c:
         stats = fanout.run(plan, store, todo, c, line, timeout=timeout)
-    assemble(plan, store, nc, {**file_attrs(plan, command), **(extra_attrs or {})})
+        device = fanout.devices(c) if gpu else None
+    assemble(plan, store, nc, {**file_attrs(plan, command, device), **(extra_attrs or {})})
     store.remove()
     return stats
 

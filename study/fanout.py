@@ -7,6 +7,12 @@ the GIL; ``--workers N`` threads, default one per core), or an existing cluster 
 written to disk as it completes (``as_completed``) and dropped, so memory holds a few chunks
 whatever the size of the cube.
 
+With the CUDA backend (a study's ``backend`` setting) each worker process uses one GPU: locally
+one single-threaded worker per visible GPU (processes when there are several), on a
+``--scheduler`` cluster whatever workers it has; ``study.gpu_workers`` gives worker number i the
+device i (modulo the devices it sees). A worker started with one device visible
+(``CUDA_VISIBLE_DEVICES``, as dask-cuda does) uses that one.
+
 Every wait is bounded by ``timeout`` seconds (``study run --timeout``): a ``--scheduler`` address
 must answer dask's identity call in that time (an HTTP server, a socket that never answers or
 an unreachable host give one line), must have a worker within it, and a run whose cluster has
@@ -97,11 +103,37 @@ def timed_chunk(job):
     return job.k, arrays, time.perf_counter() - t0
 
 
+def gpu_workers(workers: int | None) -> int:
+    """Local GPU workers of a CUDA run: one per visible device, at most ``workers`` (UserError if none)."""
+    from solver import backends
+
+    n = backends.cuda_device_count()
+    if n == 0:
+        try:
+            backends.cuda_device()
+        except backends.BackendUnavailable as exc:
+            raise UserError(str(exc)) from None
+    return max(1, min(n, workers or n))
+
+
+def devices(c) -> str:
+    """The CUDA devices the workers of client ``c`` compute on, e.g. 'NVIDIA H100 80GB HBM3' (distinct
+    names joined by '; ')."""
+    from solver import backends
+
+    names = sorted(set(c.run(backends.worker_device).values()))
+    return "; ".join(names)
+
+
 @contextlib.contextmanager
-def client(workers: int | None = None, scheduler: str | None = None, timeout: float = DEFAULT_TIMEOUT):
+def client(workers: int | None = None, scheduler: str | None = None, timeout: float = DEFAULT_TIMEOUT,
+           gpu: bool = False):
     """A dask.distributed Client: the cluster at ``scheduler`` (which must answer and have a worker
-    within ``timeout`` s), else threads in this process."""
+    within ``timeout`` s), else threads in this process. ``gpu``: the run uses the CUDA backend,
+    one GPU per worker (``study.gpu_workers.OneGPUPerWorker``; locally one worker per GPU)."""
     from distributed import Client, LocalCluster
+
+    from study.gpu_workers import OneGPUPerWorker
 
     for name in ("distributed", "distributed.scheduler", "distributed.nanny"):
         logging.getLogger(name).setLevel(logging.ERROR)
@@ -118,6 +150,15 @@ def client(workers: int | None = None, scheduler: str | None = None, timeout: fl
                 c.wait_for_workers(1, timeout=timeout)
             except (TimeoutError, OSError):
                 raise UserError(f"no workers at {scheduler} after {timeout:g} s") from None
+            if gpu:
+                c.register_plugin(OneGPUPerWorker())
+            yield c
+        return
+    if gpu:
+        n = gpu_workers(workers)
+        with LocalCluster(n_workers=n, threads_per_worker=1, processes=n > 1, dashboard_address=":0",
+                          memory_limit=0) as cluster, Client(cluster) as c:
+            c.register_plugin(OneGPUPerWorker())
             yield c
         return
     threads = workers or os.cpu_count() or 1

@@ -26,7 +26,7 @@ import numpy as np
 import solver
 from study import checks
 from study.dataset import rimroll_version
-from study.registry import PHYSICAL_KEYS, Axis, Study
+from study.registry import PHYSICAL_KEYS, Axis, Study, UserError
 from study.settings import base_settings, params_from, resolve
 
 SOLVER_DIR = pathlib.Path(solver.__file__).resolve().parent
@@ -53,6 +53,7 @@ class Plan:
     outer: tuple  # Axis per swept setting
     grid: tuple  # the study's grid axes
     block: tuple  # chunk length per grid axis
+    backend: str | None = None  # solver backend of a study with a ``backend`` setting, as resolved here
 
     @property
     def axes(self) -> list[Axis]:
@@ -150,17 +151,45 @@ def code_digest(study: Study) -> str:
     return h.hexdigest()
 
 
-def make_plan(study: Study, quick: bool = False, sets=()) -> Plan:
+def resolve_backend(settings: dict, local: bool = True) -> str | None:
+    """The concrete backend ('cpu' or 'cuda') of a study's ``backend`` setting, written back into
+    ``settings`` (so the fingerprint and the attributes say what ran); None without the setting.
+
+    'auto' is decided here, on the machine that plans the run. 'cuda' is checked here too when
+    the run is ``local`` (a missing extra or device is one line before any work); on a
+    ``--scheduler`` cluster the workers check it.
+    """
+    if "backend" not in settings:
+        return None
+    from solver import backends
+
+    try:
+        if settings["backend"] == "auto" or (settings["backend"] == "cuda" and local):
+            settings["backend"] = backends.resolve(settings["backend"]).name
+    except backends.BackendUnavailable as exc:
+        raise UserError(str(exc)) from None
+    return settings["backend"]
+
+
+def make_plan(study: Study, quick: bool = False, sets=(), local: bool = True) -> Plan:
     """Resolve settings and ``--set`` sweeps (``study.settings``) into a validated :class:`Plan`
-    (UserError if bad)."""
+    (UserError if bad).
+
+    ``local``: the run computes on this machine (not on a ``--scheduler`` cluster); see
+    :func:`resolve_backend`. With a GPU backend the numeric grid axes are not split: a chunk is a
+    whole section (one launch), however the study chunks its grid for the CPU.
+    """
     r = resolve(study, quick, sets)
+    backend = resolve_backend(r.settings, local)
     whole = any(v.outer for v in study.variables)
     block = []
     for i, a in enumerate(r.grid):
         n = a.values.size
         size = n if whole else study.chunks.get(a.name, DEFAULT_CHUNK if i == 0 else n)
+        if backend == "cuda" and not a.categorical:
+            size = n  # a whole section per chunk: one launch
         block.append(max(1, min(int(size), n)))
-    plan = Plan(study, r.settings, r.params, r.outer, r.grid, tuple(block))
+    plan = Plan(study, r.settings, r.params, r.outer, r.grid, tuple(block), backend)
     checks.check_size(study.name, plan.n_chunks, math.prod(plan.shape))
     return plan
 

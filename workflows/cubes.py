@@ -143,7 +143,8 @@ def _outcome_axes(s: dict) -> list[Axis]:
 def _outcome_compute(coords, p, s):
     beta, omega1 = coords
     states = np.stack([beta, omega1, np.full_like(beta, s["omega2"]), np.full_like(beta, s["omega3"])], axis=-1)
-    res = solver.simulate(states, p, t_max=s["t_max"], rtol=s["rtol"], atol=s["atol"], workers=1)
+    res = solver.simulate(states, p, t_max=s["t_max"], rtol=s["rtol"], atol=s["atol"], workers=1,
+                          backend=s["backend"])
     return {name: res[name] for name in ("outcome", "t_end", "revolutions", "status")}
 
 
@@ -191,7 +192,7 @@ register(Study(
     title="Outcomes of rolling initial states (Figs. 11-13, reduced grid) over mu x k_r x k_d x omega2",
     settings={"mu": (0.5, 1.0, 2.0), "k_r": (0.0, 0.01, 0.02), "k_d": (0.0, 0.01, 0.02),
               "omega2": (35.0, 65.0, 105.0), "omega3": 10.0, "n_beta": 36, "n_omega1": 60,
-              "t_max": 20.0, "rtol": 1e-6, "atol": 1e-9},
+              "t_max": 20.0, "rtol": 1e-6, "atol": 1e-9, "backend": "cpu"},
     quick={"mu": (0.5, 1.0), "k_r": (0.0, 0.02), "k_d": (0.0, 0.02), "omega2": (65.0, 105.0),
            "n_beta": 12, "n_omega1": 18},
     sweepable=("mu", "k_r", "k_d", "omega2", "omega3", "j", "rho_over_R"),

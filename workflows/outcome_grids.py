@@ -49,6 +49,7 @@ SETTINGS = {
     "t_max": 20.0,  # [s] conservative scenes
     "t_max_dissipative": 60.0,  # [s]
     "rtol": 1e-8, "atol": 1e-10, "method": "dp5",
+    "backend": "cpu",  # solver.simulate's backend: cpu, cuda or auto (docs/outcome-engine.md, Backends)
 }
 QUICK = {"n_beta": 24, "n_omega1": 36}
 
@@ -124,7 +125,7 @@ def _compute(coords, p: solver.Params, s: dict) -> dict:
     params = p.replace(mu=table["mu"][k], k_r=table["k_r"][k], k_d=table["k_d"][k])
     states = np.stack([beta, omega1, np.full_like(beta, s["omega2"]), np.full_like(beta, s["omega3"])], axis=-1)
     return solver.simulate(states, params, t_max=table["t_max"][k], rtol=s["rtol"], atol=s["atol"],
-                           method=s["method"], workers=1)
+                           method=s["method"], workers=1, backend=s["backend"])
 
 
 BOUNDARY_ATTRS = {
