@@ -209,14 +209,7 @@ def uncertainty_fraction(states, params: Params, eps, scale, *, reference=None, 
     from solver.simulate import simulate
 
     def classify(x):
-        # simulate gives each thread contiguous blocks of states, and the costly copies (near a
-        # boundary, long on the rim) sit together: a fixed shuffle spreads them over the threads
-        flat = np.asarray(x).reshape(-1, 4)
-        order = np.random.default_rng(0).permutation(flat.shape[0])
-        out = np.empty(flat.shape[0], dtype=np.int8)
-        out[order] = simulate(flat[order], params, t_max=t_max, rtol=rtol, atol=atol, method=method,
-                              workers=workers)["outcome"]
-        return out.reshape(np.shape(x)[:-1])
+        return simulate(x, params, t_max=t_max, rtol=rtol, atol=atol, method=method, workers=workers)["outcome"]
 
     return perturbation_fraction(classify, states, eps, _check_scale(scale), reference=reference)
 

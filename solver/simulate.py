@@ -1,10 +1,11 @@
 """``solver.simulate``: classify rolling initial states by the rules of docs/outcome-engine.md.
 
-Validates the arguments, picks the scene from ``Params`` (docs/outcome-engine.md, Scenes) and the method's table,
-flattens the states and hands them to the backend (``solver.backends``): on the CPU, contiguous
-chunks go to the compiled, ``nogil`` chunk driver on a pool of threads (one per core by default;
-callers that already run threads (dask) can pass ``workers=1``); on a CUDA device, to
-``solver.cuda_backend`` (one GPU thread per trajectory).
+Validates the arguments, picks the scene from ``Params`` (docs/outcome-engine.md, Scenes) and
+the method's table, flattens the states and hands them to the backend (``solver.backends``): on
+the CPU, interleaved chunks (chunk c: states c, c + n, ...) go to the compiled, ``nogil`` scene
+kernel on a pool of threads (one per core by default; callers that already run threads (dask)
+can pass ``workers=1``); on a CUDA device, to ``solver.cuda_backend`` (one GPU thread per
+trajectory).
 """
 
 from __future__ import annotations
@@ -191,19 +192,29 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
     _announce_compile(scene)
     scene_kernel = kernels.SCENE_KERNELS[scene]
 
-    def run(lo, hi):
-        scene_kernel(flat[lo:hi], p, t_max, rtol, atol, tab.A, tab.E, tab.P, tab.n_stages, tab.err_mode,
-                      tab.error_order, max_steps, max_switches, sw, res_f[lo:hi], res_i[lo:hi])
-
     n_chunks = min(m, workers * _CHUNKS_PER_WORKER) if workers > 1 else min(m, 1)
     if n_chunks <= 1:
         if m:
-            run(0, m)
-    else:
-        bounds = np.linspace(0, m, n_chunks + 1).astype(int)
-        with ThreadPoolExecutor(max_workers=workers) as pool:
-            for fut in [pool.submit(run, lo, hi) for lo, hi in zip(bounds[:-1], bounds[1:])]:
-                fut.result()
+            scene_kernel(flat, p, t_max, rtol, atol, tab.A, tab.E, tab.P, tab.n_stages, tab.err_mode,
+                         tab.error_order, max_steps, max_switches, sw, res_f, res_i)
+        return _fields(flat, shape, res_f, res_i, params)
+    # Chunk c takes the states c, c + n_chunks, ...: costly states sit together (a boundary, an
+    # island that stays on the rim), and contiguous blocks would hand them all to one thread.
+    order = np.argsort(np.arange(m) % n_chunks, kind="stable")
+    dealt = flat[order]
+    dealt_f = np.empty_like(res_f)
+    dealt_i = np.empty_like(res_i)
+
+    def run(lo, hi):
+        scene_kernel(dealt[lo:hi], p, t_max, rtol, atol, tab.A, tab.E, tab.P, tab.n_stages, tab.err_mode,
+                     tab.error_order, max_steps, max_switches, sw, dealt_f[lo:hi], dealt_i[lo:hi])
+
+    bounds = np.searchsorted(order % n_chunks, np.arange(n_chunks + 1))
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        for fut in [pool.submit(run, lo, hi) for lo, hi in zip(bounds[:-1], bounds[1:])]:
+            fut.result()
+    res_f[order] = dealt_f
+    res_i[order] = dealt_i
     return _fields(flat, shape, res_f, res_i, params)
 
 
