@@ -22,6 +22,7 @@ from matplotlib.figure import Figure
 
 import solver
 from solver import outcomes
+from study.io import write_figure
 
 OMEGA2, OMEGA3 = 65.0, 10.0
 RUN = dict(t_max=40.0, rtol=1e-12, atol=1e-14, method="dop853")
@@ -135,10 +136,7 @@ def main(argv=None):
     fig.legend(loc="outside lower center", ncol=2, fontsize=8, frameon=False)
     fig.suptitle(r"Transects across the edges of the periodic islands of Fig. 12 ($\omega_2$ = 65 1/s, "
                  r"$\omega_3$ = 10 1/s), boundary located by bisection; DOP853 rtol 1e-12", fontsize=11)
-    out = pathlib.Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out / "transects_fig12.png", dpi=110)
-    print(f"wrote {out / 'transects_fig12.png'}")
+    print(f"wrote {write_figure(fig, pathlib.Path(args.out) / 'transects_fig12.png', dpi=110)}")
 
 
 if __name__ == "__main__":

@@ -30,6 +30,7 @@ from matplotlib.figure import Figure
 import solver
 from solver import boundaries, outcomes
 from study import plotting as P
+from study.io import write_figure
 
 PARAMS = solver.Params(mu=float("inf"))
 GRID = np.linspace(0.8, 1.8, 240)  # the default beta axis of fig11-13 [rad]
@@ -125,10 +126,7 @@ def main(argv=None):
                 Line2D([], [], color="#b8a000", ls=":", lw=1.2, label="separatrix inside the band (half period peak)")]
     fig.legend(handles=handles, loc="outside lower center", ncol=3, fontsize=8, frameon=False)
     fig.suptitle("Boundary bands thinner than a grid cell: the lower edge of the rolling-only islands", fontsize=11)
-    out = pathlib.Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out / "subcell_bands.png", dpi=110)
-    print(f"wrote {out / 'subcell_bands.png'}")
+    print(f"wrote {write_figure(fig, pathlib.Path(args.out) / 'subcell_bands.png', dpi=110)}")
 
 
 if __name__ == "__main__":
