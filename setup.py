@@ -1,9 +1,9 @@
 """Build hook: record the git revision of the source tree in the built package.
 
 ``pip install .`` (non-editable) copies the packages into site-packages, where git can no longer
-tell which commit they came from. ``build_py`` therefore writes ``study/_build_info.json``
+tell which commit they came from. ``build_py`` therefore writes ``rimroll/study/_build_info.json``
 (``git_revision``, with ``-dirty`` when tracked files differed from it; absent outside a git
-checkout) into the build, and ``study.dataset.git_revision`` reads it. Everything else about the
+checkout) into the build, and ``rimroll.study.dataset.git_revision`` reads it. Everything else about the
 package is declared in pyproject.toml.
 """
 
@@ -26,7 +26,7 @@ def _git(*args):
 
 
 class BuildPyWithRevision(build_py):
-    """``build_py`` plus ``study/_build_info.json`` holding the source tree's git revision."""
+    """``build_py`` plus ``rimroll/study/_build_info.json`` holding the source tree's git revision."""
 
     def run(self):
         super().run()
@@ -35,7 +35,7 @@ class BuildPyWithRevision(build_py):
         if rev:
             dirty = _git("status", "--porcelain", "--untracked-files=no")
             info["git_revision"] = f"{rev}-dirty" if dirty else rev
-        target = os.path.join(self.build_lib, "study", "_build_info.json")
+        target = os.path.join(self.build_lib, "rimroll", "study", "_build_info.json")
         if not self.dry_run and os.path.isdir(os.path.dirname(target)):
             with open(target, "w") as fh:
                 json.dump(info, fh)

@@ -20,9 +20,9 @@ import pathlib
 import numpy as np
 from matplotlib.figure import Figure
 
-import solver
-from solver import outcomes
-from study.io import write_figure
+from rimroll import solver
+from rimroll.solver.engine import outcomes
+from rimroll.study.io import write_figure
 
 OMEGA2, OMEGA3 = 65.0, 10.0
 RUN = dict(t_max=40.0, rtol=1e-12, atol=1e-14, method="dop853")

@@ -9,9 +9,9 @@ import sys
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent.parent))
 
-from study import registry  # noqa: E402
-from study.cli import natural_order  # noqa: E402
-from study.plan import make_plan  # noqa: E402
+from rimroll.study import registry  # noqa: E402
+from rimroll.study.cli import natural_order  # noqa: E402
+from rimroll.study.plan import make_plan  # noqa: E402
 
 HEAD = """# The named studies and what their files hold
 
@@ -25,15 +25,15 @@ explained in [outcome-studies.md](outcome-studies.md), the work-precision method
 
 
 DERIVED = {  # variables that a study's ``derive`` adds once the whole file exists, by its module
-    "workflows.outcome_grids": ["| `boundary_type` | 1 | kind of boundary of periodic rolling at this cell, each "
+    "rimroll.workflows.outcome_grids": ["| `boundary_type` | 1 | kind of boundary of periodic rolling at this cell, each "
                                 "boundary pair refined by simulation ([outcome-studies.md](outcome-studies.md#outputs)) |",
                                 "| `former_periodic` | 1 | the periodic islands of the conservative scenes (rolling "
                                 "only, slipping); attributes: what each dissipative scene does with each island's "
                                 "states, counts and fractions ([outcome-studies.md](outcome-studies.md#outputs)) |"],
-    "workflows.work_precision": ["| `speed_ratio_rk45_dp5` | 1 | per scene: scipy RK45 seconds per trajectory over "
+    "rimroll.workflows.work_precision": ["| `speed_ratio_rk45_dp5` | 1 | per scene: scipy RK45 seconds per trajectory over "
                                  "rimroll DP5's on the same states, median over rtol (spread in its attributes; "
                                  "[work-precision.md](work-precision.md)) |"],
-    "workflows.predictability": [
+    "rimroll.workflows.predictability": [
         "| `eps` | 1 | coordinate: perturbation size in grid steps of beta and omega1 |",
         "| `S_b`, `S_bb` | 1 | basin entropy over all boxes / over boxes with more than one outcome [nats]; "
         "S_bb above ln 2 = 0.693: a fractal boundary |",

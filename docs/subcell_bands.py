@@ -11,7 +11,7 @@ island, together with what the grid sees at its own points (240 values of beta i
 * Fig. 13 (omega2 = 105 1/s): the same structure, but the separatrix lies between two periodic
   grid points; the boundary pair itself holds only the deadlock.
 
-``solver.boundaries.refine_pairs`` types each boundary pair as the outcome studies do; its type
+``solver.analysis.boundaries.refine_pairs`` types each boundary pair as the outcome studies do; its type
 is printed in each panel next to the grid-only ``classify`` label.
 
     python docs/subcell_bands.py [--out docs/img]
@@ -27,10 +27,11 @@ import pathlib
 import numpy as np
 from matplotlib.figure import Figure
 
-import solver
-from solver import boundaries, outcomes
-from study import plotting as P
-from study.io import write_figure
+from rimroll import solver
+from rimroll.solver.analysis import boundaries
+from rimroll.solver.engine import outcomes
+from rimroll.study import plotting as P
+from rimroll.study.io import write_figure
 
 PARAMS = solver.Params(mu=float("inf"))
 GRID = np.linspace(0.8, 1.8, 240)  # the default beta axis of fig11-13 [rad]

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numba
 
-from solver import _jit
+from rimroll.solver import _jit
 
 
 def kernel(func=None, *, inline=False, takes_functions=False):

@@ -3,6 +3,6 @@
 All file I/O of rimroll lives here; ``solver`` stays pure numpy.
 """
 
-from study.registry import Axis, Study, UserError, Var, get, register
+from rimroll.study.registry import Axis, Study, UserError, Var, get, register
 
 __all__ = ["Axis", "Study", "UserError", "Var", "get", "register"]

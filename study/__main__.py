@@ -1,7 +1,7 @@
-"""``python -m study``: the same as the ``study`` console script."""
+"""``python -m rimroll.study``: the same as the ``study`` console script."""
 
 import sys
 
-from study.cli import main
+from rimroll.study.cli import main
 
 sys.exit(main())

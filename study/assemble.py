@@ -13,11 +13,11 @@ import netCDF4
 import numpy as np
 import xarray as xr
 
-from study import io
-from study.dataset import coords_of
-from study.derived import derived_variables
-from study.parts import PartStore
-from study.plan import Plan
+from rimroll.study import io
+from rimroll.study.dataset import coords_of
+from rimroll.study.derived import derived_variables
+from rimroll.study.parts import PartStore
+from rimroll.study.plan import Plan
 
 
 def assemble(plan: Plan, store: PartStore, path, attrs: dict) -> None:

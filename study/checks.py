@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 
-from study.registry import UserError
+from rimroll.study.registry import UserError
 
 MAX_AXIS = 100_000  # values of one swept list/range, and of an n_* grid size
 MAX_CHUNKS = 200_000  # chunks of one cube (one part file each)
@@ -34,7 +34,7 @@ ZERO_COUNTS = ("n_fine", "n_coarse", "n_sample")  # counts that may be 0 (predic
 
 
 def _methods() -> list[str]:
-    from solver.simulate import TABLEAUS
+    from rimroll.solver.engine.simulate import TABLEAUS
 
     return sorted(TABLEAUS)
 
@@ -47,7 +47,7 @@ def check_setting(study: str, key: str, value) -> None:
     """One setting of study ``study``; :class:`UserError` naming the rule when it is broken."""
     where = f"setting {key}={value!r} of study {study!r}"
     if key == "backend":
-        from solver.backends import BACKENDS
+        from rimroll.solver.engine.backends import BACKENDS
 
         if value not in BACKENDS:
             raise UserError(f"{where}: allowed backends are {', '.join(BACKENDS)}")

@@ -12,10 +12,10 @@ import pathlib
 import shlex
 import sys
 
-from study import checks, execute, fanout, io, registry, reuse, runguard
-from study.parts import PartStore
-from study.plan import make_plan
-from study.registry import UserError
+from rimroll.study import checks, execute, fanout, io, registry, reuse, runguard
+from rimroll.study.parts import PartStore
+from rimroll.study.plan import make_plan
+from rimroll.study.registry import UserError
 
 EXIT_USAGE = 2
 
@@ -103,7 +103,7 @@ class _Version(argparse.Action):
     """``--version``: the version and git revision, looked up only when asked for."""
 
     def __call__(self, parser, namespace, values, option_string=None):
-        from study.dataset import git_revision, rimroll_version
+        from rimroll.study.dataset import git_revision, rimroll_version
 
         rev = git_revision()
         print(f"study (rimroll) {rimroll_version()}" + (f", git {rev}" if rev else ""))
@@ -242,7 +242,7 @@ def _cmd_plot(args) -> int:
         nc = pathlib.Path(args.out) / f"{registry.get(args.target).name}.nc"
     ds = io.open_result(nc)
     if ds.attrs["study"] == "trace":
-        from study import trace
+        from rimroll.study import trace
 
         png = io.write_figure(trace.figure(ds), nc.with_suffix(".png"))
         print(f"wrote {png}")
@@ -256,7 +256,7 @@ def _cmd_info(args) -> int:
     target = pathlib.Path(args.file)
     is_file = target.is_file() or target.suffix == ".nc"
     if not is_file and args.file in registry.names():
-        from study.describe import describe
+        from rimroll.study.describe import describe
 
         print("\n".join(describe(args.file)))
         return 0
@@ -300,7 +300,7 @@ def _cmd_verify(args) -> int:
 
     A study has a slice of its default grid and one of its ``--quick`` grid; the file is compared
     with the one sharing the most points with it (the default slice on a tie)."""
-    from study import compare, reference
+    from rimroll.study import compare, reference
 
     ds = io.open_result(pathlib.Path(args.file))
     name = str(ds.attrs["study"])
@@ -317,7 +317,7 @@ def _cmd_verify(args) -> int:
 
 
 def _cmd_reference(args, command: str) -> int:
-    from study import reference
+    from rimroll.study import reference
 
     checks.check_workers(args.workers)
     progress = sys.stderr.isatty() if args.progress is None else args.progress
@@ -334,7 +334,7 @@ def _study_help(words: list[str]) -> bool:
     names = [w for w in words[1:] if not w.startswith("-")]
     if not names or names[0] not in registry.names():
         return False
-    from study.describe import settings_lines
+    from rimroll.study.describe import settings_lines
 
     study = registry.get(names[0])
     run = _parser().get_default("run_parser")
@@ -346,7 +346,7 @@ def _study_help(words: list[str]) -> bool:
 
 
 def main(argv=None) -> int:
-    """Entry point of ``study`` / ``python -m study``; returns the exit status."""
+    """Entry point of ``study`` / ``python -m rimroll.study``; returns the exit status."""
     words = sys.argv[1:] if argv is None else list(argv)
     command = shlex.join(["study", *words])
     _ignore_file_size_signal()
@@ -369,9 +369,9 @@ def main(argv=None) -> int:
 
 
 def _backend_error():
-    """``solver.backends.BackendUnavailable``: a missing GPU extra or device, also when a worker of a
+    """``solver.engine.backends.BackendUnavailable``: a missing GPU extra or device, also when a worker of a
     --scheduler cluster reports it (one line, like a UserError)."""
-    from solver.backends import BackendUnavailable
+    from rimroll.solver.engine.backends import BackendUnavailable
 
     return BackendUnavailable
 
@@ -388,7 +388,7 @@ def _dispatch(args, command: str) -> int:
     if args.command == "reference":
         return _cmd_reference(args, command)
     if args.command == "trace":
-        from study import trace
+        from rimroll.study import trace
 
         return trace.run(args, command)
     return _cmd_info(args)

@@ -36,7 +36,7 @@ NOT_COMPARED = ("n_steps",)  # integrator work, differs by design between precis
 DEFAULT_TOLERANCE = (1e-9, 1e-9)
 TOLERANCES = {
     # outcome sections: dp5 at rtol 1e-8 vs dop853 at 1e-12 on runs of up to 60 s, events located
-    # on dense output; slip/roll switching with tolerances of 1e-6..1e-9 m/s (solver.switching)
+    # on dense output; slip/roll switching with tolerances of 1e-6..1e-9 m/s (solver.physics.switching)
     "t_end": (1e-3, 1e-3),
     "f2_min": (1e-3, 1e-3),
     "half_period": (1e-4, 1e-4),

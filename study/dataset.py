@@ -20,8 +20,8 @@ import subprocess
 import numpy as np
 import xarray as xr
 
-import solver
-from study.registry import PHYSICAL_KEYS, Axis, Study
+from rimroll import solver
+from rimroll.study.registry import PHYSICAL_KEYS, Axis, Study
 
 
 HERE = pathlib.Path(__file__).resolve().parent

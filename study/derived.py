@@ -1,7 +1,7 @@
 """Derived variables: what a study computes once from the whole assembled grid (``Study.derive``).
 
 Chunks are computed independently; some results need neighbours across chunks (e.g. the
-boundary types of an outcome section, ``solver.boundaries``). A study declares
+boundary types of an outcome section, ``solver.analysis.boundaries``). A study declares
 ``derive(ds) -> {name: (dims, values, attrs)}``; it is called once on the assembled Dataset
 (variables read lazily from the file) before the final file is moved into place, and its
 variables are added to that file. Deterministic and pure, like ``compute``: re-running the
@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from study.registry import Study
+from rimroll.study.registry import Study
 
 
 def derived_variables(study: Study, ds: xr.Dataset) -> dict[str, tuple[tuple, np.ndarray, dict]]:

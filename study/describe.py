@@ -12,8 +12,8 @@ import inspect
 import math
 import os
 
-from study import registry
-from study.registry import PHYSICAL_KEYS, Study
+from rimroll.study import registry
+from rimroll.study.registry import PHYSICAL_KEYS, Study
 
 SETTING_DOCS = {  # name: (units, meaning); units "" for counts, labels and switches
     "r": ("m", "radius of the ball"), "R": ("m", "major radius of the rim (torus)"),
@@ -95,8 +95,7 @@ def _fmt(value) -> str:
 def settings_lines(study: Study) -> list[str]:
     """One line per setting: name, default, --quick value, [units], meaning; physical parameters
     last, those the study ignores (``Study.ignores``, refused by ``--set``) in a final line."""
-    import solver
-
+    from rimroll import solver
     table = {**{k: v for k, v in solver.Params().as_dict().items() if k not in study.settings}, **study.settings}
     keys = [*study.settings, *(k for k in PHYSICAL_KEYS if k not in study.settings and k not in study.ignores)]
     width = max(map(len, keys))
@@ -119,7 +118,7 @@ def settings_lines(study: Study) -> list[str]:
 
 
 def _grid(study: Study, quick: bool) -> tuple[str, int, int]:
-    from study.plan import make_plan
+    from rimroll.study.plan import make_plan
 
     plan = make_plan(study, quick)
     dims = " x ".join(f"{a.name} {a.values.size}" for a in plan.axes)

@@ -16,12 +16,12 @@ import tempfile
 
 import xarray as xr
 
-from study import fanout, io, reuse, runguard
-from study.assemble import assemble
-from study.dataset import global_attrs
-from study.parts import PartStore
-from study.plan import Plan
-from study.progress import ProgressLine
+from rimroll.study import fanout, io, reuse, runguard
+from rimroll.study.assemble import assemble
+from rimroll.study.dataset import global_attrs
+from rimroll.study.parts import PartStore
+from rimroll.study.plan import Plan
+from rimroll.study.progress import ProgressLine
 
 
 def file_attrs(plan: Plan, command: str, device: str | None = None) -> dict:

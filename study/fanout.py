@@ -28,10 +28,10 @@ import os
 import time
 import uuid
 
-from study.parts import PartStore
-from study.plan import Plan, compute_chunk
-from study.progress import ProgressLine
-from study.registry import UserError
+from rimroll.study.parts import PartStore
+from rimroll.study.plan import Plan, compute_chunk
+from rimroll.study.progress import ProgressLine
+from rimroll.study.registry import UserError
 
 DEFAULT_TIMEOUT = 30.0  # [s] bound on waiting for a scheduler and for its workers
 POLL = 0.5  # [s] how often a run checks that its cluster still has workers
@@ -105,7 +105,7 @@ def timed_chunk(job):
 
 def gpu_workers(workers: int | None) -> int:
     """Local GPU workers of a CUDA run: one per visible device, at most ``workers`` (UserError if none)."""
-    from solver import backends
+    from rimroll.solver.engine import backends
 
     n = backends.cuda_device_count()
     if n == 0:
@@ -119,7 +119,7 @@ def gpu_workers(workers: int | None) -> int:
 def devices(c) -> str:
     """The CUDA devices the workers of client ``c`` compute on, e.g. 'NVIDIA H100 80GB HBM3' (distinct
     names joined by '; ')."""
-    from solver import backends
+    from rimroll.solver.engine import backends
 
     names = sorted(set(c.run(backends.worker_device).values()))
     return "; ".join(names)
@@ -133,7 +133,7 @@ def client(workers: int | None = None, scheduler: str | None = None, timeout: fl
     one GPU per worker (``study.gpu_workers.OneGPUPerWorker``; locally one worker per GPU)."""
     from distributed import Client, LocalCluster
 
-    from study.gpu_workers import OneGPUPerWorker
+    from rimroll.study.gpu_workers import OneGPUPerWorker
 
     for name in ("distributed", "distributed.scheduler", "distributed.nanny"):
         logging.getLogger(name).setLevel(logging.ERROR)
@@ -185,7 +185,7 @@ def run(plan: Plan, store: PartStore, todo: list[int], c, progress: ProgressLine
     from distributed.client import FuturesCancelledError
     from distributed.scheduler import KilledWorker
 
-    from study import runguard
+    from rimroll.study import runguard
 
     stats = RunStats(total=plan.n_chunks, resumed=plan.n_chunks - len(todo))
     if not todo:

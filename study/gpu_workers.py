@@ -2,7 +2,7 @@
 
 :class:`OneGPUPerWorker` is registered on the run's client: the worker named i (an integer, as
 a LocalCluster names its workers) computes on CUDA device i modulo the devices it sees, through
-``solver.backends.DEVICE_ENV``; a worker with another name keeps device 0, which is the one
+``solver.engine.backends.DEVICE_ENV``; a worker with another name keeps device 0, which is the one
 device it sees when it was started with ``CUDA_VISIBLE_DEVICES`` set (as dask-cuda starts them).
 Its own module, so that worker processes unpickle it by reference.
 """
@@ -18,7 +18,7 @@ class OneGPUPerWorker(WorkerPlugin):
     name = "rimroll-one-gpu-per-worker"
 
     def setup(self, worker):
-        from solver.backends import DEVICE_ENV
+        from rimroll.solver.engine.backends import DEVICE_ENV
 
         try:
             index = int(worker.name)

@@ -15,7 +15,7 @@ import tempfile
 
 import xarray as xr
 
-from study.registry import UserError
+from rimroll.study.registry import UserError
 
 COMPRESSION = {"zlib": True, "complevel": 4}
 

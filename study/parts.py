@@ -26,7 +26,7 @@ import tempfile
 
 import numpy as np
 
-from study.registry import UserError
+from rimroll.study.registry import UserError
 
 PARTS = ".parts"
 _SUM = "__sha256__"

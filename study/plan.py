@@ -23,11 +23,11 @@ import pathlib
 
 import numpy as np
 
-import solver
-from study import checks
-from study.dataset import rimroll_version
-from study.registry import PHYSICAL_KEYS, Axis, Study, UserError
-from study.settings import base_settings, params_from, resolve
+from rimroll import solver
+from rimroll.study import checks
+from rimroll.study.dataset import rimroll_version
+from rimroll.study.registry import PHYSICAL_KEYS, Axis, Study, UserError
+from rimroll.study.settings import base_settings, params_from, resolve
 
 SOLVER_DIR = pathlib.Path(solver.__file__).resolve().parent
 DEFAULT_CHUNK = 64  # points per chunk along the first grid axis when the study does not say
@@ -161,7 +161,7 @@ def resolve_backend(settings: dict, local: bool = True) -> str | None:
     """
     if "backend" not in settings:
         return None
-    from solver import backends
+    from rimroll.solver.engine import backends
 
     try:
         if settings["backend"] == "auto" or (settings["backend"] == "cuda" and local):
@@ -200,7 +200,7 @@ def compute_chunk(job: ChunkJob) -> dict[str, np.ndarray]:
     Module-level and driven by a :class:`ChunkJob` only, so dask.distributed can ship it:
     the worker looks the study up in its own registry.
     """
-    from study import registry
+    from rimroll.study import registry
 
     study = registry.get(job.study)
     coords = np.meshgrid(*job.grid, indexing="ij") if job.grid else []

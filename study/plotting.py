@@ -160,8 +160,7 @@ class OutcomePalette:
 
 
 def _outcome_palette() -> OutcomePalette:
-    import solver
-
+    from rimroll import solver
     return OutcomePalette(solver.OUTCOME_MEANINGS)
 
 

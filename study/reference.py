@@ -37,12 +37,12 @@ import tempfile
 import numpy as np
 import xarray as xr
 
-from study import execute, fanout, registry
-from study.parts import PartStore
-from study.plan import Plan, make_plan
+from rimroll.study import execute, fanout, registry
+from rimroll.study.parts import PartStore
+from rimroll.study.plan import Plan, make_plan
 
 ENV_DIR = "RIMROLL_REFERENCE_DIR"
-PACKAGE_DIR = "reference_slices"  # package data of ``study``
+PACKAGE_DIR = "reference_slices"  # package data of ``rimroll.study``
 PRECISE = ("rtol=1e-12", "atol=1e-14", "method=dop853")  # outcome studies: the engine's tightest setting
 GRIDS = ("default", "quick")
 """The two slices of a study: a sub-grid of its default grid, and its whole ``--quick`` grid
@@ -91,7 +91,7 @@ SPECS = {s.name: s for s in (
 
 def packaged_dir() -> pathlib.Path:
     """The slices shipped with the package (``study/reference_slices``, package data)."""
-    return pathlib.Path(str(importlib.resources.files("study").joinpath(PACKAGE_DIR)))
+    return pathlib.Path(str(importlib.resources.files("rimroll.study").joinpath(PACKAGE_DIR)))
 
 
 def reference_dir() -> pathlib.Path:

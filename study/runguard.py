@@ -14,7 +14,7 @@ import tempfile
 
 import numpy as np
 
-from study.registry import UserError
+from rimroll.study.registry import UserError
 
 ANNOUNCE_CHUNKS = 100  # runs of at least this many chunks print their plan before starting
 

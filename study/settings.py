@@ -21,9 +21,9 @@ import math
 
 import numpy as np
 
-import solver
-from study import checks
-from study.registry import PHYSICAL_KEYS, SWEEP_KEYS, Axis, Study, UserError
+from rimroll import solver
+from rimroll.study import checks
+from rimroll.study.registry import PHYSICAL_KEYS, SWEEP_KEYS, Axis, Study, UserError
 
 META = {  # units and long_name of an outer axis
     "mu": ("1", "Coulomb friction coefficient"),

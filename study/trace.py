@@ -1,6 +1,6 @@
 """``study trace``: one trajectory as a netCDF time series and a figure.
 
-The trajectory comes from ``solver.trace`` (dense output of every rolling and slipping phase,
+The trajectory comes from ``solver.analysis.trace`` (dense output of every rolling and slipping phase,
 the rules of ``solver.simulate``). Its initial state is given directly (``--state``) or picked
 from an outcome map (``FILE --at omega1=..,beta=..``), with that file's parameters, scene,
 t_max and the map's omega2, omega3. The file holds, over ``time``: the state, the slip
@@ -20,12 +20,12 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, Patch
 
-import solver
-from solver import trace as tr
-from study import io
-from study import plotting as P
-from study.dataset import params_of, provenance, setting_of
-from study.registry import PHYSICAL_KEYS, UserError
+from rimroll import solver
+from rimroll.solver.analysis import trace as tr
+from rimroll.study import io
+from rimroll.study import plotting as P
+from rimroll.study.dataset import params_of, provenance, setting_of
+from rimroll.study.registry import PHYSICAL_KEYS, UserError
 
 STATE_NAMES = ("beta", "omega1", "omega2", "omega3")
 SERIES = {  # name: (units, long_name)
@@ -163,7 +163,7 @@ def from_map(path, at_text: str, sets: dict) -> tuple[np.ndarray, solver.Params,
 # ------------------------------------------------------------------ the file
 def dataset(res: dict, state, params: solver.Params, t_max: float, rtol: float, atol: float, command: str,
             extra: dict | None = None) -> xr.Dataset:
-    """The netCDF content of one trace (``solver.trace.trace`` result ``res``)."""
+    """The netCDF content of one trace (``solver.analysis.trace.trace`` result ``res``)."""
     now = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat()
     time = ("time", res["t"], {"units": "s", "long_name": "time since the initial state"})
     data = {name: ("time", res[name], {"units": u, "long_name": ln}) for name, (u, ln) in SERIES.items()}

@@ -6,7 +6,7 @@ Measures, in one run on the same grid (the study's settings; ``--quick`` grid un
 
 1. the study's ``compute``: ``solver.simulate`` of the four scenes (all cores);
 2. its ``derive`` with the boundary pairs of the conservative scenes refined by simulation
-   (``solver.boundaries.refine_grid``: bisection, band samples and a golden-section search, all
+   (``solver.analysis.boundaries.refine_grid``: bisection, band samples and a golden-section search, all
    pairs batched per stage), and the grid-only ``classify`` it replaces;
 
 and prints the seconds, the simulated states and the ratio derive / compute, which is what
@@ -23,11 +23,15 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import xarray as xr
 
-from solver import Params, boundaries, simulate
-from study.dataset import coords_of, global_attrs, params_of
-from study.derived import derived_variables
-from study.plan import compute_chunk, make_plan
-from study.registry import get
+from rimroll.solver import Params
+
+from rimroll.solver.analysis import boundaries
+
+from rimroll.solver import simulate
+from rimroll.study.dataset import coords_of, global_attrs, params_of
+from rimroll.study.derived import derived_variables
+from rimroll.study.plan import compute_chunk, make_plan
+from rimroll.study.registry import get
 
 
 def _dataset(name: str, full: bool) -> tuple[xr.Dataset, float]:

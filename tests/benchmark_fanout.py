@@ -27,12 +27,12 @@ import time
 
 
 def fanout_once(name, sets, workers, out, quick=True):
-    from study import fanout, registry
-    from study.assemble import assemble
-    from study.dataset import global_attrs
-    from study.parts import PartStore
-    from study.plan import make_plan
-    from study.progress import ProgressLine
+    from rimroll.study import fanout, registry
+    from rimroll.study.assemble import assemble
+    from rimroll.study.dataset import global_attrs
+    from rimroll.study.parts import PartStore
+    from rimroll.study.plan import make_plan
+    from rimroll.study.progress import ProgressLine
 
     plan = make_plan(registry.get(name), quick, sets)
     store = PartStore(out, name, plan.fingerprint)

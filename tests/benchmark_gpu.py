@@ -38,10 +38,10 @@ import time
 
 import numpy as np
 
-import solver
-from solver import backends, kernels
-from solver.simulate import scene_of
-from solver.switching import default_tolerances
+from rimroll import solver
+from rimroll.solver.engine import backends, kernels
+from rimroll.solver.engine.simulate import scene_of
+from rimroll.solver.physics.switching import default_tolerances
 
 SECTION = dict(beta=(0.8, 1.8, 240), omega1=(-20.0, 20.0, 360), omega2=35.0, omega3=10.0)
 RUN = dict(t_max=20.0, rtol=1e-8, atol=1e-10, method="dp5")
@@ -126,7 +126,7 @@ def main(argv=None) -> int:
     device = backends.cuda_device()  # one line and exit 1 without the extra or a device
     from numba import cuda, types
 
-    from solver import cuda_backend as cb
+    from rimroll.solver.engine import cuda_backend as cb
 
     caps = [int(v) for v in args.max_registers.split(",")]
     blocks = [int(v) for v in args.block.split(",")]

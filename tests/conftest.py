@@ -10,7 +10,7 @@ STEADY_STUDIES = ("fig3", "fig5", "fig6", "fig7", "fig8")
 @pytest.fixture(scope="session")
 def quick_results(tmp_path_factory):
     """Directory holding ``--quick`` runs (.nc and .png) of every steady study."""
-    from study.cli import main
+    from rimroll.study.cli import main
 
     out = tmp_path_factory.mktemp("results")
     for name in STEADY_STUDIES:

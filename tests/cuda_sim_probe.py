@@ -11,9 +11,9 @@ import sys
 
 import numpy as np
 
-import solver
-from solver import cuda_backend
-from solver.simulate import FLOAT_FIELDS, INT_FIELDS
+from rimroll import solver
+from rimroll.solver.engine import cuda_backend
+from rimroll.solver.engine.simulate import FLOAT_FIELDS, INT_FIELDS
 
 SCENES = {  # label: (Params changes, t_max [s]) as the outcome sections (workflows/outcome_grids.py)
     "rolling_only": ({"mu": np.inf}, 20.0),
@@ -53,16 +53,16 @@ def main(out: str, n: int, max_batch: int | None) -> None:
     if max_batch:  # the batched path: several launches, both slots, against one launch
         params = solver.Params(mu=np.inf)
         flat = np.ascontiguousarray(states)
-        res_f = np.full((n, solver.kernels.N_RF), np.nan)
-        res_i = np.full((n, solver.kernels.N_RI), -1, dtype=np.int64)
-        from solver.simulate import scene_of
-        from solver.switching import default_tolerances
+        res_f = np.full((n, solver.engine.kernels.N_RF), np.nan)
+        res_i = np.full((n, solver.engine.kernels.N_RI), -1, dtype=np.int64)
+        from rimroll.solver.engine.simulate import scene_of
+        from rimroll.solver.physics.switching import default_tolerances
 
         cuda_backend.run(scene_of(params), "dp5", flat, params.as_array(), 20.0, 1e-8, 1e-10, 1_000_000, 10_000,
                          default_tolerances(), res_f, res_i, max_batch=max_batch)
         saved["batched/res_f"] = res_f
         saved["batched/res_i"] = res_i
-    saved["device"] = np.array(solver.backends.resolve("cuda").describe())
+    saved["device"] = np.array(solver.engine.backends.resolve("cuda").describe())
     np.savez(out, **saved)
 
 

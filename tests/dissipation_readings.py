@@ -10,7 +10,7 @@ Figs. 11-13 once dissipation is added (mu = 1, one resistance at a time, 0.02 1/
 The former periodic regions are the periodic-rolling cells of the conservative scenes of the
 same grid: the rolling-only island (mu = inf) and the slipping island (mu = 1). Each is run in
 the drilling and the rolling-resistance scenes under rimroll's reading of (83) (k_r, k_d are the
-rates of the rolling equations) and under the alternative one (``solver.params.moment_normalised``:
+rates of the rolling equations) and under the alternative one (``solver.physics.params.moment_normalised``:
 the moment (82) with C = k j m R^2, giving (1+j) in the rolling components and r for R), and
 the outcomes are counted.
 
@@ -26,9 +26,9 @@ import argparse
 
 import numpy as np
 
-import solver
-from solver import outcomes
-from solver.params import moment_normalised
+from rimroll import solver
+from rimroll.solver.engine import outcomes
+from rimroll.solver.physics.params import moment_normalised
 
 FIGURES = {"Fig. 11": 35.0, "Fig. 12": 65.0, "Fig. 13": 105.0}  # omega2 [1/s]; omega3 = 10 1/s
 RATE = 0.02  # [1/s], paper Sect. 5.3.2

@@ -18,7 +18,7 @@ import time
 
 import numpy as np
 
-from study.registry import Axis, Study, Var, register
+from rimroll.study.registry import Axis, Study, Var, register
 
 
 def _axes(s):

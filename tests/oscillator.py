@@ -2,8 +2,8 @@
 
 y = (x, v, q): x' = v, v' = -x, q' = x; exact solution from (cos t0, -sin t0, sin t0) is
 (cos(t + t0), -sin(t + t0), sin(t + t0)). Events: x, v and x - 1/2, with exact time
-derivatives v, -x and v. Passed to ``solver.stepper`` and ``solver.events`` exactly as the
-physics systems of ``solver.system`` are, so the very same compiled integrator is checked
+derivatives v, -x and v. Passed to ``solver.engine.stepper`` and ``solver.engine.events`` exactly as the
+physics systems of ``solver.engine.system`` are, so the very same compiled integrator is checked
 against closed forms.
 """
 

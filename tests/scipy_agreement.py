@@ -2,9 +2,9 @@
 
 import numpy as np
 
-from solver.outcomes import PERIODIC_ROLLING
-from solver.reference import reference
-from solver.simulate import simulate
+from rimroll.solver.engine.outcomes import PERIODIC_ROLLING
+from rimroll.solver.analysis.reference import reference
+from rimroll.solver.engine.simulate import simulate
 
 
 def compare_with_scipy(x, p, t_max, method="dp5", rtol=1e-8, atol=1e-10, t_end_fraction=1.0):

@@ -1,4 +1,4 @@
-"""Boundary types of periodic rolling (paper Sect. 5.1): solver.boundaries on constructed grids,
+"""Boundary types of periodic rolling (paper Sect. 5.1): solver.analysis.boundaries on constructed grids,
 on the quick Fig. 11-13 sections (stored as ``boundary_type`` by the derive hook), and refined
 by bisection across the grid's boundaries."""
 
@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 import xarray as xr
 
-import solver
-from solver import boundaries as B
-from solver import outcomes
+from rimroll import solver
+from rimroll.solver.analysis import boundaries as B
+from rimroll.solver.engine import outcomes
 
 WEIGHT = 0.6 * 9.81  # m g [N] of Table 1's ball
 
@@ -100,7 +100,7 @@ def test_bad_arguments():
 
 @pytest.fixture(scope="module")
 def quick_sections(tmp_path_factory):
-    from study.cli import main
+    from rimroll.study.cli import main
 
     out = tmp_path_factory.mktemp("boundaries")
     for name in ("fig11", "fig13"):
@@ -164,7 +164,7 @@ def test_a_band_thinner_than_a_cell_holds_a_separatrix_and_a_deadlock():
     until F2_min reaches 0 at beta ~ 1.1323 (deadlock), 0.55 grid steps in all. The grid alone sees
     a separatrix; the refined pair holds both. The scipy reference (an independent integrator)
     confirms both places."""
-    from solver.reference import reference
+    from rimroll.solver.analysis.reference import reference
 
     p = solver.Params(mu=float("inf"))
     inside, outside = [BETA[80], W1, 65.0, 10.0], [BETA[79], W1, 65.0, 10.0]

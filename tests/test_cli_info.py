@@ -6,8 +6,8 @@ import re
 
 import pytest
 
-from study import registry
-from study.cli import main, natural_order
+from rimroll.study import registry
+from rimroll.study.cli import main, natural_order
 
 
 def test_list_is_in_natural_order(capsys):
@@ -60,7 +60,7 @@ def test_version(capsys):
     with pytest.raises(SystemExit) as exc:
         main(["--version"])
     assert exc.value.code == 0
-    from study.dataset import rimroll_version
+    from rimroll.study.dataset import rimroll_version
 
     assert capsys.readouterr().out.startswith(f"study (rimroll) {rimroll_version()}")
 

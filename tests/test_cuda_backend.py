@@ -1,4 +1,4 @@
-"""The CUDA backend of solver.simulate (solver.backends, solver.cuda_backend).
+"""The CUDA backend of solver.simulate (solver.engine.backends, solver.engine.cuda_backend).
 
 Without a device (CI):
 
@@ -25,8 +25,8 @@ import sys
 import numpy as np
 import pytest
 
-import solver
-from solver import backends
+from rimroll import solver
+from rimroll.solver.engine import backends
 
 HERE = pathlib.Path(__file__).resolve().parent
 HAS_NUMBA_CUDA = importlib.util.find_spec("numba_cuda") is not None
@@ -63,7 +63,7 @@ def _same(a: np.ndarray, b: np.ndarray, rtol: float) -> np.ndarray:
 
 def test_simulator_gives_the_cpu_engines_results_in_every_scene(simulated_run):
     """A few dozen states per scene: same outcome, status, counts; t_end and every float within 1e-12."""
-    from solver.simulate import FLOAT_FIELDS, INT_FIELDS
+    from rimroll.solver.engine.simulate import FLOAT_FIELDS, INT_FIELDS
 
     saved = simulated_run
     assert str(saved["device"]) == f"cuda ({backends.SIMULATOR_NAME})"
@@ -87,7 +87,7 @@ def test_simulator_gives_the_cpu_engines_results_in_every_scene(simulated_run):
 def test_simulator_batches_equal_one_launch(simulated_run):
     """Batches of 7 states on two alternating streams give the rows of one launch, in order."""
     saved = simulated_run
-    from solver.kernels import RF_T_END, RI_N_STEPS, RI_OUTCOME
+    from rimroll.solver.engine.kernels import RF_T_END, RI_N_STEPS, RI_OUTCOME
 
     res_f, res_i = saved["batched/res_f"], saved["batched/res_i"]
     assert np.isfinite(res_f[:, RF_T_END]).all() and (res_i[:, RI_N_STEPS] >= 0).all()  # every row written
@@ -98,7 +98,7 @@ def test_simulator_batches_equal_one_launch(simulated_run):
 def test_batch_size_from_free_memory():
     """Two batches fit in MEMORY_FRACTION of the free memory; big inputs overlap; a section is one launch."""
     pytest.importorskip("numba_cuda")
-    from solver import cuda_backend as cb
+    from rimroll.solver.engine import cuda_backend as cb
 
     gib = 2**30
     assert cb.batch_size(86_400, 70 * gib) == 86_400  # a section: one launch
@@ -146,7 +146,7 @@ def test_missing_device_is_one_line():
 
 
 def _study(*args, env=None) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "study", *args], capture_output=True, text=True, timeout=900,
+    return subprocess.run([sys.executable, "-m", "rimroll.study", *args], capture_output=True, text=True, timeout=900,
                           env=dict(os.environ, **(env or {})))
 
 
@@ -169,7 +169,7 @@ def test_study_run_without_device_exits_with_one_line(tmp_path):
 def test_study_run_on_the_simulated_device_matches_the_cpu_run(tmp_path):
     """``study run fig11 --backend cuda`` under the simulator: one chunk per section (a launch), the
     CPU run's numbers, and the backend and device in the file's attributes."""
-    from study import io
+    from rimroll.study import io
 
     sets = ["--quick", "--set", "n_beta=30", "--set", "n_omega1=8", "--no-progress"]
     proc = _study("run", "fig11", *sets, "--backend", "cuda", "--out", str(tmp_path / "gpu"),
@@ -190,7 +190,7 @@ def test_auto_records_the_backend_in_the_file(tmp_path):
     """Where 'auto' finds no device it runs on the CPU, and the file says so (setting and source)."""
     if _has_device():
         pytest.skip("a CUDA device is present: auto picks it (the gpu tests check that)")
-    from study import io
+    from rimroll.study import io
 
     proc = _study("run", "outcome-cube", "--quick", "--out", str(tmp_path), "--set", "n_beta=3", "--set",
                   "n_omega1=3", "--set", "mu=1", "--set", "k_r=0", "--set", "k_d=0", "--set", "omega2=65",
@@ -202,21 +202,21 @@ def test_auto_records_the_backend_in_the_file(tmp_path):
 
 
 # ----------------------------------------------------------------------------- device compilation
-ENGINE_MODULES = ("rolling", "slipping", "switching", "kinematics", "rules", "flight", "system", "stepper", "events",
-                  "kernels")
+ENGINE_MODULES = ("physics/rolling", "physics/slipping", "physics/switching", "physics/kinematics", "engine/rules",
+                  "physics/flight", "engine/system", "engine/stepper", "engine/events", "engine/kernels")
 """The solver modules whose compiled functions the device kernels reach."""
 
 
 @needs_numba_cuda
 def test_the_engine_calls_only_numpy_functions_the_device_lowers():
     """Every ``np.<f>(...)`` call in a compiled function of the engine (``@kernel``; the CPU chunk
-    driver run_scene, whose work arrays the device launcher replaces, aside) is a ufunc numba-cuda lowers on scalars, or one of the loops solver.cuda_backend adds: a new
+    driver run_scene, whose work arrays the device launcher replaces, aside) is a ufunc numba-cuda lowers on scalars, or one of the loops solver.engine.cuda_backend adds: a new
     numpy call in the engine that the device cannot compile fails here, without the CUDA compiler."""
     import ast
 
     from numba.cuda import ufuncs
 
-    from solver import cuda_backend
+    from rimroll.solver.engine import cuda_backend
 
     lowered = {u.__name__ for u in ufuncs.ufunc_db()} | {u.__name__ for u in cuda_backend.UFUNC_LOOPS}
     lowered |= {"abs"}  # np.abs is np.absolute
@@ -260,7 +260,7 @@ class Device:  # what numba-cuda asks of the device while compiling device funct
 dispatcher.get_current_device = lambda: Device()
 nvrtc.get_supported_ccs = lambda: ((9, 0),)  # NVRTC is asked only for the architectures it knows
 from numba import cuda
-from solver import cuda_backend
+from rimroll.solver.engine import cuda_backend
 t0 = time.perf_counter()
 ptx, _ = cuda.compile_ptx(cuda_backend.launcher(int(sys.argv[1]), sys.argv[2]), cuda_backend.SIGNATURE, cc=(9, 0))
 open(sys.argv[3], "w").write(ptx)
@@ -288,7 +288,7 @@ def _check_ptx(ptx: str, scene: int, method: str) -> None:
 
 def test_the_engine_compiles_for_the_device_from_its_one_source(tmp_path):
     """The hybrid dissipative scene (rolling, slipping, switching, every rule) compiles to PTX."""
-    from solver.kernels import SCENE_HYBRID_DISSIPATIVE
+    from rimroll.solver.engine.kernels import SCENE_HYBRID_DISSIPATIVE
 
     ptx = _compile_ptx(tmp_path, SCENE_HYBRID_DISSIPATIVE, "dp5")
     _check_ptx(ptx, SCENE_HYBRID_DISSIPATIVE, "dp5")
@@ -357,18 +357,18 @@ def test_auto_picks_the_device_and_batches_agree():
     """On a device 'auto' is 'cuda'; an input in many small batches equals one launch."""
     name = _device_or_skip()
     assert backends.resolve("auto") == backends.Backend("cuda", name)
-    from solver import cuda_backend
-    from solver.simulate import scene_of
-    from solver.switching import default_tolerances
+    from rimroll.solver.engine import cuda_backend
+    from rimroll.solver.engine.simulate import scene_of
+    from rimroll.solver.physics.switching import default_tolerances
 
     rng = np.random.default_rng(3)
     states = np.stack([rng.uniform(0.8, 1.8, 5000), rng.uniform(-20, 20, 5000), np.full(5000, 65.0),
                        np.full(5000, 10.0)], -1)
     params = solver.Params(mu=1.0)
     one = solver.simulate(states, params, backend="cuda")
-    res_f = np.full((5000, solver.kernels.N_RF), np.nan)
-    res_i = np.full((5000, solver.kernels.N_RI), -1, dtype=np.int64)
+    res_f = np.full((5000, solver.engine.kernels.N_RF), np.nan)
+    res_i = np.full((5000, solver.engine.kernels.N_RI), -1, dtype=np.int64)
     cuda_backend.run(scene_of(params), "dp5", states, params.as_array(), 20.0, 1e-8, 1e-10, 1_000_000, 10_000,
                      default_tolerances(), res_f, res_i, max_batch=777)
-    np.testing.assert_array_equal(res_i[:, solver.kernels.RI_OUTCOME], one["outcome"])
-    np.testing.assert_array_equal(res_f[:, solver.kernels.RF_T_END], one["t_end"])
+    np.testing.assert_array_equal(res_i[:, solver.engine.kernels.RI_OUTCOME], one["outcome"])
+    np.testing.assert_array_equal(res_f[:, solver.engine.kernels.RF_T_END], one["t_end"])

@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from study import registry
-from study.plan import make_plan
-from study.registry import RESERVED_DIM_NAMES, SWEEP_KEYS, Axis
+from rimroll.study import registry
+from rimroll.study.plan import make_plan
+from rimroll.study.registry import RESERVED_DIM_NAMES, SWEEP_KEYS, Axis
 
 
 def _keywords() -> set[str]:

@@ -8,7 +8,7 @@ import re
 
 import pytest
 
-from study import registry
+from rimroll.study import registry
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 USER_FACING = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md")), *sorted((ROOT / "study").glob("*.py")),

@@ -6,8 +6,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from solver import Params, outcomes, rules, simulate, solution_types, steady
-from solver.reference import reference_one
+from rimroll.solver import Params
+
+from rimroll.solver import simulate
+from rimroll.solver.engine import outcomes, rules
+
+from rimroll.solver.analysis import solution_types, steady
+from rimroll.solver.analysis.reference import reference_one
 
 INF = float("inf")
 ROLL = Params(mu=INF)
@@ -70,7 +75,7 @@ def test_a_small_real_oscillation_is_not_a_steady_motion():
 
 
 def test_one_definition_of_the_steady_and_transversal_rules():
-    """The engine, the scipy reference and the solution types of Theorem 1 all use solver.rules."""
+    """The engine, the scipy reference and the solution types of Theorem 1 all use solver.engine.rules."""
     x = _steady_states(ROLL)[:6]
     for s in x:
         assert reference_one(s, ROLL, t_max=5.0)["outcome"] == outcomes.STEADY_MOTION

@@ -5,8 +5,9 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
-import solver
-from solver import kinematics, rolling, slipping, steady
+from rimroll import solver
+from rimroll.solver.physics import kinematics, rolling, slipping
+from rimroll.solver.analysis import steady
 
 RNG = np.random.default_rng(20261122)
 

@@ -18,11 +18,11 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from study import registry
-from study.cli import main
-from study.parts import PartStore
-from study.plan import make_plan
-from study.registry import PLUGIN_ENV
+from rimroll.study import registry
+from rimroll.study.cli import main
+from rimroll.study.parts import PartStore
+from rimroll.study.plan import make_plan
+from rimroll.study.registry import PLUGIN_ENV
 
 PROBE = str(pathlib.Path(__file__).with_name("fanout_probe.py"))
 N_PROBE = 3 * 2 * 2  # mu x v_throw x (8 x points in chunks of 4)
@@ -110,7 +110,7 @@ def test_bad_set_is_one_line_exit_2(probe, tmp_path, capsys, item, expect):
 
 
 def test_bad_set_in_a_subprocess(tmp_path):
-    run = subprocess.run([sys.executable, "-m", "study", "run", "realisable-cube", "--quick", "--out",
+    run = subprocess.run([sys.executable, "-m", "rimroll.study", "run", "realisable-cube", "--quick", "--out",
                           str(tmp_path), "--set", "rho_over_R=0.5:1.5:3"], capture_output=True, text=True,
                          timeout=120)
     assert run.returncode == 2 and run.stderr.startswith("study: error:"), run.stderr
@@ -121,7 +121,7 @@ def test_bad_set_in_a_subprocess(tmp_path):
 def test_sigkill_then_resume_recomputes_nothing_finished(probe, tmp_path):
     log = tmp_path / "computed.log"
     out = tmp_path / "out"
-    cmd = [sys.executable, "-m", "study", "run", "fanout-probe", "--out", str(out), "--workers", "1",
+    cmd = [sys.executable, "-m", "rimroll.study", "run", "fanout-probe", "--out", str(out), "--workers", "1",
            "--no-progress", "--set", "delay=0.35", "--set", f"log={log}"]
     proc = subprocess.Popen(cmd, env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     plan = make_plan(probe, sets=["delay=0.35", f"log={log}"])
@@ -237,8 +237,7 @@ def test_cube_opens_lazily_chunked_along_swept_axes(tmp_path):
 
 
 def test_outcome_cube_matches_direct_simulate(tmp_path):
-    import solver
-
+    from rimroll import solver
     sets = ["--quick", "--set", "mu=1", "--set", "k_r=0,0.02", "--set", "k_d=0", "--set", "omega2=105",
             "--set", "n_beta=4", "--set", "n_omega1=5"]
     assert _run(tmp_path, *sets, name="outcome-cube") == 0

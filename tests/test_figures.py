@@ -14,11 +14,11 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.collections import LineCollection
 from matplotlib.colors import to_rgba
 
-import solver
-from solver import boundaries
-from study import plotting as P
-from study.cli import main
-from study.registry import get
+from rimroll import solver
+from rimroll.solver.analysis import boundaries
+from rimroll.study import plotting as P
+from rimroll.study.cli import main
+from rimroll.study.registry import get
 
 
 def _run(out, name, *sets):
@@ -41,7 +41,7 @@ def _rendered(fig):
 
 # ------------------------------------------------------------------ one palette
 def test_one_palette_object_for_every_outcome_figure():
-    from workflows import cubes, outcome_grids
+    from rimroll.workflows import cubes, outcome_grids
 
     assert outcome_grids.PALETTE is P.OUTCOME_PALETTE
     assert cubes.PALETTE is P.OUTCOME_PALETTE
@@ -82,7 +82,7 @@ def test_outcome_legend_equals_the_categories_drawn(fig12):
              if isinstance(c, LineCollection) and (c.get_gid() or "").startswith("boundary_")}
     kinds = set(np.unique(fig12["boundary_type"].values)) - {boundaries.NOT_BOUNDARY}
     assert kinds, "the quick fig12 grid has typed boundaries"
-    boundary_texts = {s["label"] for s in __import__("workflows.outcome_grids").outcome_grids.BOUNDARY_STYLES.values()}
+    boundary_texts = {s["label"] for s in __import__("rimroll.workflows.outcome_grids").workflows.outcome_grids.BOUNDARY_STYLES.values()}
     assert {t for t in texts if t in boundary_texts} == set(drawn)
     # the legend draws each boundary exactly as the plot does
     handles = {h.get_label(): h for leg in fig.legends for h in leg.legend_handles}
@@ -92,7 +92,7 @@ def test_outcome_legend_equals_the_categories_drawn(fig12):
 
 
 def test_undetermined_boundary_cells_are_drawn_and_named(fig12):
-    from workflows.outcome_grids import BOUNDARY_STYLES
+    from rimroll.workflows.outcome_grids import BOUNDARY_STYLES
 
     lab = fig12["boundary_type"].values
     if not (lab == boundaries.UNDETERMINED).any():
@@ -102,7 +102,7 @@ def test_undetermined_boundary_cells_are_drawn_and_named(fig12):
 
 
 def test_boundary_lines_run_between_periodic_and_other_cells():
-    from workflows.outcome_grids import boundary_segments
+    from rimroll.workflows.outcome_grids import boundary_segments
 
     w1, beta = np.arange(4.0), np.arange(3.0)
     periodic = np.zeros((3, 4), bool)
@@ -212,7 +212,7 @@ def test_select_names_a_bad_dimension(tmp_path, capsys):
 
 
 def test_a_small_periodic_region_gets_a_zoom_that_shows_it(fig12):
-    from workflows.outcome_grids import _small_region
+    from rimroll.workflows.outcome_grids import _small_region
 
     mask = np.zeros((240, 360), bool)
     mask[120:124, 170:180] = True
@@ -233,21 +233,21 @@ def test_cells_on_the_rim_are_marked_above_the_cells_and_both_islands_outlined(f
     """Cells still on the rim at t_max lie along the boundary lines, which hid their grey: each is
     marked (one marker per on_rim_reason, in the legend); the dissipative panels outline the
     periodic islands of both conservative scenes, each named in the legend."""
-    from workflows.outcome_grids import ISLAND_STYLES, ON_RIM_MARKERS
+    from rimroll.workflows.outcome_grids import ISLAND_STYLES, ON_RIM_MARKERS
 
     ds = fig12.copy(deep=True)
     cells = [(5, 10), (6, 11), (7, 12)]
     for i, j in cells:
-        ds["outcome"].values[1, i, j] = solver.outcomes.ON_RIM_AT_T_MAX
-        ds["on_rim_reason"].values[1, i, j] = solver.outcomes.SLIP_ROLL_CYCLING
+        ds["outcome"].values[1, i, j] = solver.engine.outcomes.ON_RIM_AT_T_MAX
+        ds["on_rim_reason"].values[1, i, j] = solver.engine.outcomes.SLIP_ROLL_CYCLING
     fig = _rendered(get("fig12").plot(ds))
-    marks = [line for line in fig.axes[1].get_lines() if line.get_gid() == f"on_rim_{solver.outcomes.SLIP_ROLL_CYCLING}"]
+    marks = [line for line in fig.axes[1].get_lines() if line.get_gid() == f"on_rim_{solver.engine.outcomes.SLIP_ROLL_CYCLING}"]
     assert len(marks) == 1
     x, y = marks[0].get_data()
     assert sorted(zip(np.round(y, 9), np.round(x, 9))) == sorted(
         (round(float(ds["beta"][i]), 9), round(float(ds["omega1"][j]), 9)) for i, j in cells)
     texts = P.legend_texts(fig)
-    assert ON_RIM_MARKERS[solver.outcomes.SLIP_ROLL_CYCLING]["label"] in texts
+    assert ON_RIM_MARKERS[solver.engine.outcomes.SLIP_ROLL_CYCLING]["label"] in texts
     flags = ds["former_periodic"].values[0]
     assert (flags & 1).any() and (flags & 2).any()
     assert {ISLAND_STYLES["rolling_only"]["label"], ISLAND_STYLES["slipping"]["label"]} <= set(texts)

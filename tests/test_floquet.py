@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-import solver
-from solver import floquet
-from solver.rolling import rolling_rhs
+from rimroll import solver
+from rimroll.solver.analysis import floquet
+from rimroll.solver.physics.rolling import rolling_rhs
 
 X_STD = 0.13 / 0.225  # Table 1: rho/R
 J_STD = 2.0 / 3.0

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 import xarray as xr
 
-import solver
-from solver import floquet, solution_types as st, steady, trajectory
-from study.cli import main
+from rimroll import solver
+from rimroll.solver.analysis import floquet, solution_types as st, steady, trajectory
+from rimroll.study.cli import main
 
 P_ROLL = solver.Params(mu=float("inf"))
 STUDIES = ("fig9", "solution-types", "invariants")

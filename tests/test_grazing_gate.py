@@ -1,4 +1,4 @@
-"""The grazing gate of ``solver.events.trough_possible``: a step skips the search for the
+"""The grazing gate of ``solver.engine.events.trough_possible``: a step skips the search for the
 minimum of F2 only when the Hermite cubic of the event function, minus its interpolation error
 bound, stays above zero. Driven on the oscillator test system (x = cos(t + t0))."""
 
@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from oscillator import exact, one_step as _one_step, pad, values
-from solver import events, stepper
-from solver.tableaus import TABLEAUS
+from rimroll.solver.engine import events, stepper
+from rimroll.solver.engine.tableaus import TABLEAUS
 
 
 def _step(tab, t0, h):

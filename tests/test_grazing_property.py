@@ -1,6 +1,6 @@
 """No grazing fall missed: the engine against an independent reference that finds every interior
 minimum of F2 (scipy DOP853 at rtol 1e-12 with a non-terminal dF2/dt = 0 event, F2 checked at
-each located minimum: ``solver.reference``), on seeded states of the Fig. 11-13 sections, rolling
+each located minimum: ``solver.analysis.reference``), on seeded states of the Fig. 11-13 sections, rolling
 only and with slipping (mu = 1), at rtol 1e-6 and 1e-8.
 
 Where the reference's outcome is a fall whose F2 minimum lies deeper than the engine's resolution
@@ -13,8 +13,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from solver import Params, outcomes, simulate
-from solver.reference import reference
+from rimroll.solver import Params
+
+from rimroll.solver import simulate
+from rimroll.solver.engine import outcomes
+from rimroll.solver.analysis.reference import reference
 
 T_MAX = 5.0
 FALLS = (outcomes.FALL_IN, outcomes.FALL_OUT)
@@ -93,7 +96,7 @@ def _f2_min_before_first_dip(p, x):
     """The reference's first interior minimum of F2 [N] along x (rolling, rtol 1e-12)."""
     from scipy.integrate import solve_ivp
 
-    from solver import rolling
+    from rimroll.solver.physics import rolling
 
     a = p.as_array()
 
@@ -133,7 +136,7 @@ def _dip_width(p, x, depth):
     """Time [s] during which F2 < 0 around the first minimum (reference)."""
     from scipy.optimize import brentq
 
-    from solver import rolling
+    from rimroll.solver.physics import rolling
 
     a = p.as_array()
     fmin, tmin, _ = _f2_min_before_first_dip(p, x)

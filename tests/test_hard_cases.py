@@ -12,8 +12,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import solver
-from solver import boundaries, floquet, outcomes, steady
+from rimroll import solver
+from rimroll.solver.analysis import boundaries, floquet, steady
+from rimroll.solver.engine import outcomes
 
 P = solver.Params()  # Table 1, mu = 1
 ROLL = P.replace(mu=float("inf"))
@@ -160,7 +161,7 @@ def test_nearly_tangential_omega1_crossings_give_a_continuous_half_period():
     """Small orbits round Fig. 11's stable steady motion: omega1 starts at 0 (a crossing at t = 0),
     or at 1e-12..1e-6 (a crossing almost at once); the half period must not jump, and must be the
     linearised one pi / sqrt(-h) of (54) for small amplitude."""
-    from workflows.outcome_grids import steady_beta0
+    from rimroll.workflows.outcome_grids import steady_beta0
 
     b0 = steady_beta0(35.0, 10.0, ROLL, 0.8, 1.8)
     w1 = np.array([0.0, 1e-12, -1e-12, 1e-9, -1e-9, 1e-6, -1e-6])
@@ -221,7 +222,7 @@ def test_long_dissipative_run_loses_energy_monotonically(k):
     """t_max = 600 s with rolling or drilling resistance from Fig. 11's stable steady motion
     (rolling only; k = 0.02 1/s makes it fall after ~10-20 s): the energy at t_end never
     increases with t_max, ends below E0, and the 600 s run ends by the rules (status ok)."""
-    from workflows.outcome_grids import steady_beta0
+    from rimroll.workflows.outcome_grids import steady_beta0
 
     p = ROLL.replace(**k)
     b0 = steady_beta0(35.0, 10.0, p, 0.8, 1.8)

@@ -4,10 +4,12 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from solver import rolling, slipping, steady, switching
-from solver.outcomes import PERIODIC_ROLLING
-from solver.params import Params
-from solver.simulate import simulate
+from rimroll.solver.physics import rolling, slipping, switching
+
+from rimroll.solver.analysis import steady
+from rimroll.solver.engine.outcomes import PERIODIC_ROLLING
+from rimroll.solver.physics.params import Params
+from rimroll.solver.engine.simulate import simulate
 
 INF = float("inf")
 

@@ -1,5 +1,5 @@
-"""Layering: ``solver`` is pure numpy (no xarray, dask, study); ``study`` finds the studies through
-the ``rimroll.studies`` entry-point group and never imports ``workflows`` itself."""
+"""Layering: ``rimroll.solver`` is pure numpy (no xarray, dask, study); ``rimroll.study`` finds the
+studies through the ``rimroll.studies`` entry-point group and never imports ``rimroll.workflows`` itself."""
 
 from __future__ import annotations
 
@@ -12,41 +12,43 @@ ROOT = pathlib.Path(__file__).resolve().parent.parent
 
 
 def _loaded_after(statement: str) -> set[str]:
-    code = f"import sys\n{statement}\nprint(' '.join(sorted({{m.split('.')[0] for m in sys.modules}})))"
+    """Top-level modules loaded by ``statement``, rimroll's subpackages named without the prefix."""
+    code = (f"import sys\n{statement}\n"
+            "print(' '.join(sorted({m.removeprefix('rimroll.').split('.')[0] for m in sys.modules})))")
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True)
     return set(out.stdout.split())
 
 
 def test_import_solver_loads_no_xarray_dask_or_study():
-    loaded = _loaded_after("import solver")
+    loaded = _loaded_after("import rimroll.solver")
     assert not loaded & {"xarray", "dask", "distributed", "netCDF4", "study", "workflows", "matplotlib"}, loaded
 
 
 def test_importing_the_study_layer_imports_no_workflows_module():
     modules = sorted(p.stem for p in (ROOT / "study").glob("*.py") if p.stem not in ("__main__",))
-    loaded = _loaded_after("\n".join(f"import study.{m}" if m != "__init__" else "import study" for m in modules))
+    loaded = _loaded_after("\n".join(f"import rimroll.study.{m}" if m != "__init__" else "import rimroll.study" for m in modules))
     assert "study" in loaded and "workflows" not in loaded
 
 
 def test_import_study_and_its_command_line_load_no_workflows_module():
     """``import study`` and the CLI module alone (what ``study --help`` costs) import no studies."""
-    assert "workflows" not in _loaded_after("import study")
-    assert "workflows" not in _loaded_after("import study.cli")
+    assert "workflows" not in _loaded_after("import rimroll.study")
+    assert "workflows" not in _loaded_after("import rimroll.study.cli")
 
 
 def test_study_sources_never_name_the_workflows_package():
     for path in (ROOT / "study").glob("*.py"):
-        assert not re.search(r"^\s*(import|from)\s+workflows\b", path.read_text(), re.M), path.name
+        assert not re.search(r"^\s*(import|from)\s+(rimroll\.)?workflows\b", path.read_text(), re.M), path.name
 
 
 def test_study_modules_import_no_cycle():
     """The modules of ``study`` import each other without a cycle (read from their sources: every
-    ``from study import x`` / ``from study.x import`` / ``import study.x``, at any depth)."""
+    ``from rimroll.study import x`` / ``from rimroll.study.x import`` / ``import rimroll.study.x``, at any depth)."""
     sources = {p.stem: p.read_text() for p in (ROOT / "study").glob("*.py") if p.stem != "__main__"}
     edges = {}
     for name, text in sources.items():
-        found = set(re.findall(r"^\s*(?:from|import)\s+study\.(\w+)", text, re.M))
-        for group in re.findall(r"^\s*from\s+study\s+import\s+\(?([\w\s,]+?)\)?\s*$", text, re.M):
+        found = set(re.findall(r"^\s*(?:from|import)\s+rimroll\.study\.(\w+)", text, re.M))
+        for group in re.findall(r"^\s*from\s+rimroll\.study\s+import\s+\(?([\w\s,]+?)\)?\s*$", text, re.M):
             found |= {w.split(" as ")[0].strip() for w in group.split(",")}
         edges[name] = {m for m in found if m in sources and m != name}
     state = {}
@@ -65,7 +67,7 @@ def test_study_modules_import_no_cycle():
 
 
 def test_studies_are_found_through_the_entry_point_group():
-    from study import registry
+    from rimroll.study import registry
 
     pyproject = (ROOT / "pyproject.toml").read_text()
     assert '[project.entry-points."rimroll.studies"]' in pyproject
@@ -74,23 +76,23 @@ def test_studies_are_found_through_the_entry_point_group():
     assert {"fig8", "fig11", "work-precision"} <= set(names)
     for name in names:  # one entry per study of rimroll's, naming the module that registers it
         module = registry.get(name).compute.__module__
-        if module.startswith("workflows."):  # (other tests register studies of their own)
+        if module.startswith("rimroll.workflows."):  # (other tests register studies of their own)
             assert entries.get(name) == module, name
     assert set(entries) <= set(names)
 
 
 def test_getting_a_study_imports_only_its_own_module():
     """A warm `study run fig11` skips the imports of the other study families."""
-    code = ("import sys; from study import registry; registry.get('fig11')\n"
-            "print(sorted(m for m in sys.modules if m.startswith('workflows.')))\n")
+    code = ("import sys; from rimroll.study import registry; registry.get('fig11')\n"
+            "print(sorted(m for m in sys.modules if m.startswith('rimroll.workflows.')))\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT)
-    assert out.stdout.strip() == "['workflows.outcome_grids']"
+    assert out.stdout.strip() == "['rimroll.workflows.outcome_grids']"
 
 
 def test_no_entry_points_is_one_line_error(monkeypatch, capsys):
     """An environment where no package declares the group (rimroll not installed): one line, exit 2."""
-    from study import registry
-    from study.cli import main
+    from rimroll.study import registry
+    from rimroll.study.cli import main
 
     monkeypatch.setattr(registry, "_REGISTRY", {})
     monkeypatch.setattr(registry, "_loaded_entry_points", False)

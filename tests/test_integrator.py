@@ -12,8 +12,8 @@ import pytest
 
 from oscillator import AUX, N, N_EVENTS, P, events as osc_events, exact, pad, rhs, values
 from oscillator import one_step as _one_step
-from solver import events, stepper
-from solver.tableaus import TABLEAUS
+from rimroll.solver.engine import events, stepper
+from rimroll.solver.engine.tableaus import TABLEAUS
 
 METHODS = sorted(TABLEAUS)
 

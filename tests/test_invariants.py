@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-import solver
-from solver import floquet
-from solver.invariants import momenta, prop11_invariants, prop12_invariants
-from solver.rolling import rolling_rhs
+from rimroll import solver
+from rimroll.solver.analysis import floquet
+from rimroll.solver.analysis.invariants import momenta, prop11_invariants, prop12_invariants
+from rimroll.solver.physics.rolling import rolling_rhs
 
 P_STD = solver.Params(mu=float("inf"))
 

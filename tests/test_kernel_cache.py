@@ -7,8 +7,10 @@ import pathlib
 import numba
 import pytest
 
-import solver
-from solver import _jit, kernels, rolling
+from rimroll import solver
+from rimroll.solver import _jit
+from rimroll.solver.engine import kernels
+from rimroll.solver.physics import rolling
 
 
 def test_solver_kernels_cache_in_the_per_user_directory_of_the_sources_digest():
@@ -51,7 +53,7 @@ def test_digest_changes_when_any_solver_source_changes(tmp_path, monkeypatch):
 def test_a_first_compile_is_announced_on_stderr_once(monkeypatch, capsys):
     import importlib
 
-    simulate_module = importlib.import_module("solver.simulate")  # the module, not the function
+    simulate_module = importlib.import_module("rimroll.solver.engine.simulate")  # the module, not the function
 
     monkeypatch.setattr(simulate_module, "kernels_cached", lambda scene=None: False)
     monkeypatch.setattr(simulate_module, "_announced", set())
@@ -68,22 +70,20 @@ def test_a_first_compile_is_announced_on_stderr_once(monkeypatch, capsys):
 
 
 def test_the_cache_index_of_the_scene_kernel_is_found_after_a_run():
-    from solver import simulate as run
-
-    run([[1.1, 2.0, 35.0, 10.0]], solver.Params(mu=float("inf")), t_max=0.1)
+    solver.simulate([[1.1, 2.0, 35.0, 10.0]], solver.Params(mu=float("inf")), t_max=0.1)
     assert any(_jit.cache_dir().glob("**/kernels.scene_rolling_conservative-*.nbi"))
 
 
 def test_functions_taking_compiled_functions_are_not_cached_on_their_own():
     """Their cache key would name one process's function object (see solver._compile.kernel)."""
-    from solver import events, stepper
+    from rimroll.solver.engine import events, stepper
 
     for func in (kernels.run_phase, events.next_event, events.locate, events.minimum, events.value_at,
                  stepper.initial_step, stepper.dense_prepare, stepper.rk_step, stepper.attempt):
         assert type(func._cache).__name__ == "NullCache", func
 
 
-_CHILD = ("import sys, time, solver; from solver import kernels\n"
+_CHILD = ("import sys, time; from rimroll import solver; from rimroll.solver.engine import kernels\n"
           "t = time.perf_counter()\n"
           "solver.simulate([[1.1, 2.0, 35.0, 10.0]], solver.Params(mu=float(sys.argv[1]), k_r=float(sys.argv[2])),"
           " t_max=0.1, workers=1)\n"
@@ -94,7 +94,7 @@ def _child(tmp_path, mu, k_r, cache):
     import subprocess
     import sys
 
-    env = {**os.environ, "PYTHONPATH": str(pathlib.Path(solver.__file__).parents[1])}
+    env = dict(os.environ)  # the installed rimroll
     if cache is not None:
         env["RIMROLL_CACHE_DIR"] = str(cache)
     out = subprocess.run([sys.executable, "-c", _CHILD, str(mu), str(k_r)], capture_output=True, text=True,
@@ -133,13 +133,12 @@ def test_the_step_loop_is_compiled_three_times_for_the_four_scenes(tmp_path):
     import subprocess
     import sys
 
-    code = ("import solver; from solver import kernels\n"
+    code = ("from rimroll import solver; from rimroll.solver.engine import kernels\n"
             "for mu, k_r in ((float('inf'), 0.0), (float('inf'), 0.02), (1.0, 0.0), (1.0, 0.02)):\n"
             "    solver.simulate([[1.1, 2.0, 35.0, 10.0]], solver.Params(mu=mu, k_r=k_r), t_max=0.1, workers=1)\n"
             "for s in kernels.run_phase.signatures:\n"
             "    print(str(s[0]).split('function ')[1].split(' ')[0], s[3])\n")
-    env = {**os.environ, "PYTHONPATH": str(pathlib.Path(solver.__file__).parents[1]),
-           "RIMROLL_CACHE_DIR": str(tmp_path / "cache")}
+    env = {**os.environ, "RIMROLL_CACHE_DIR": str(tmp_path / "cache")}
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, env=env)
     assert out.returncode == 0, out.stderr[-2000:]
     assert sorted(out.stdout.split("\n")[:-1]) == ["rolling_rhs Literal[bool](False)", "rolling_rhs Literal[bool](True)",

@@ -8,15 +8,15 @@ import pytest
 import xarray as xr
 from scipy import ndimage
 
-import solver
-from solver import outcomes
+from rimroll import solver
+from rimroll.solver.engine import outcomes
 
 ROLL, SLIP, DRILL, RRES = range(4)
 
 
 @pytest.fixture(scope="module")
 def sections(tmp_path_factory):
-    from study.cli import main
+    from rimroll.study.cli import main
 
     out = tmp_path_factory.mktemp("outcomes")
     for name in ("fig11", "fig12", "fig13"):

@@ -11,10 +11,11 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-import solver
+from rimroll import solver
 from dissipation_readings import DISSIPATIONS, FIGURES, ISLANDS, READINGS, all_counts, dissipative_params, table
-from solver import rolling, steady, trajectory
-from solver.params import moment_normalised
+from rimroll.solver.physics import rolling
+from rimroll.solver.analysis import steady, trajectory
+from rimroll.solver.physics.params import moment_normalised
 
 README = (pathlib.Path(__file__).resolve().parent.parent / "README.md").read_text()
 P_ROLL = solver.Params(mu=float("inf"))

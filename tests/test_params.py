@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-import solver
-from solver.params import N_PARAMS, P_MU, P_RHO
+from rimroll import solver
+from rimroll.solver.physics.params import N_PARAMS, P_MU, P_RHO
 
 
 def test_table1_defaults_and_rho():

@@ -5,10 +5,12 @@ import math
 import numpy as np
 import pytest
 
-from solver import rolling, steady
-from solver.outcomes import FALL_OUT, PERIODIC_ROLLING
-from solver.params import Params
-from solver.simulate import simulate
+from rimroll.solver.physics import rolling
+
+from rimroll.solver.analysis import steady
+from rimroll.solver.engine.outcomes import FALL_OUT, PERIODIC_ROLLING
+from rimroll.solver.physics.params import Params
+from rimroll.solver.engine.simulate import simulate
 
 INF = float("inf")
 ROLL = Params(mu=INF)

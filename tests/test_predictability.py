@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import solver
-from solver import predictability as P
+from rimroll import solver
+from rimroll.solver.analysis import predictability as P
 
 ROLLING = solver.Params(mu=float("inf"))
 QUICK = dict(t_max=20.0, rtol=1e-6, atol=1e-9)
@@ -326,7 +326,7 @@ def test_uncertainty_fraction_rejects_bad_scale_and_eps():
 def studies(tmp_path_factory):
     import xarray as xr
 
-    from study.cli import main
+    from rimroll.study.cli import main
 
     out = tmp_path_factory.mktemp("predictability")
     assert main(["run", "predictability", "--quick", "--set", "omega2=65", "--set", "n_sample=50",
@@ -369,7 +369,7 @@ def test_make_probability_study_file(studies):
 
 
 def test_negative_noise_level_is_a_user_error(tmp_path, capsys):
-    from study.cli import main
+    from rimroll.study.cli import main
 
     assert main(["run", "make-probability", "--quick", "--set", "sigma=-1,1", "--out", str(tmp_path)]) == 2
     assert "sigma" in capsys.readouterr().err
@@ -378,8 +378,8 @@ def test_negative_noise_level_is_a_user_error(tmp_path, capsys):
 def test_derive_may_add_a_dimension_only_with_its_coordinate():
     import xarray as xr
 
-    from study.derived import derived_variables
-    from study.registry import Study, Var
+    from rimroll.study.derived import derived_variables
+    from rimroll.study.registry import Study, Var
 
     ds = xr.Dataset({"x": (("a",), np.arange(3.0))})
     attrs = {"units": "1", "long_name": "test"}
@@ -400,9 +400,9 @@ def test_derive_may_add_a_dimension_only_with_its_coordinate():
 def test_settings_checks_accept_predictabilitys_zero_counts_and_refuse_its_ignored_parameters(tmp_path, capsys):
     """Merged with the run checks of study.checks: n_fine, n_coarse, n_sample may be 0 (the study's
     own rule) while a grid size may not; mu, k_r, k_d are set by the scenes, so --set refuses them."""
-    from study.checks import check_setting
-    from study.cli import main
-    from study.registry import UserError
+    from rimroll.study.checks import check_setting
+    from rimroll.study.cli import main
+    from rimroll.study.registry import UserError
 
     for key in ("n_fine", "n_coarse", "n_sample"):
         check_setting("predictability", key, 0)

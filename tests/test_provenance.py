@@ -11,8 +11,8 @@ import sys
 import pytest
 import xarray as xr
 
-from study import dataset
-from study.cli import main
+from rimroll.study import dataset
+from rimroll.study.cli import main
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 
@@ -25,15 +25,16 @@ def _git_head() -> str | None:
 
 
 def test_build_records_the_git_revision_of_the_source_tree(tmp_path):
-    """setup.py's build_py writes study/_build_info.json, what an installed build reads."""
+    """setup.py's build_py writes rimroll/study/_build_info.json, what an installed build reads."""
     head = _git_head()
     if head is None:
         pytest.skip("not a git checkout")
     subprocess.run([sys.executable, "setup.py", "-q", "build_py", "--build-lib", str(tmp_path)], cwd=ROOT,
                    check=True, capture_output=True)
-    info = json.loads((tmp_path / "study" / "_build_info.json").read_text())
+    info = json.loads((tmp_path / "rimroll" / "study" / "_build_info.json").read_text())
     assert info["git_revision"].removesuffix("-dirty") == head
-    assert (tmp_path / "solver" / "__init__.py").is_file()  # a normal build otherwise
+    assert (tmp_path / "rimroll" / "solver" / "__init__.py").is_file()  # a normal build otherwise
+    assert not (tmp_path / "solver").exists()  # nothing named solver at the top
 
 
 def test_an_installed_build_reports_its_build_revision(tmp_path, monkeypatch):

@@ -58,11 +58,11 @@ def test_your_first_hour_runs_as_written(tmp_path, monkeypatch):
     bin_dir = tmp_path / "bin"
     bin_dir.mkdir()
     shim = bin_dir / "study"
-    shim.write_text(f'#!/bin/sh\nexec "{sys.executable}" -m study "$@"\n')
+    shim.write_text(f'#!/bin/sh\nexec "{sys.executable}" -m rimroll.study "$@"\n')
     shim.chmod(0o755)
     work = tmp_path / "work"
     work.mkdir()
-    env = dict(os.environ, PATH=f"{bin_dir}{os.pathsep}{os.environ['PATH']}", PYTHONPATH=str(ROOT),
+    env = dict(os.environ, PATH=f"{bin_dir}{os.pathsep}{os.environ['PATH']}",
                MPLBACKEND="Agg")
     monkeypatch.chdir(work)
     monkeypatch.setenv("MPLBACKEND", "Agg")

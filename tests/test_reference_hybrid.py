@@ -1,7 +1,7 @@
 """solver.simulate against the scipy reference in the hybrid scenes (finite mu): issue 3's agreement test.
 
-The reference (``solver.reference``) integrates each phase with scipy ``solve_ivp`` DOP853 and
-applies the engine's switching rules with the engine's own maps (``solver.switching``): slip
+The reference (``solver.analysis.reference``) integrates each phase with scipy ``solve_ivp`` DOP853 and
+applies the engine's switching rules with the engine's own maps (``solver.physics.switching``): slip
 onset on the friction margin (39), impulse launch u = delta e(phi1), fall on F2 (41) with the
 slip velocities, return where ``try_return`` first allows it. Scenes: slipping (mu = 1),
 slipping + drilling resistance (k_d = 0.02), slipping + rolling resistance (k_r = 0.02), on
@@ -23,11 +23,11 @@ Criteria (issue 3), as in ``tests/test_simulate.py`` for the rolling-only scenes
 import numpy as np
 import pytest
 
-from solver import rolling
-from solver.outcomes import ON_RIM_AT_T_MAX, PERIODIC_ROLLING
-from solver.params import Params
-from solver.reference import reference, reference_hybrid, reference_one
-from solver.simulate import simulate
+from rimroll.solver.physics import rolling
+from rimroll.solver.engine.outcomes import ON_RIM_AT_T_MAX, PERIODIC_ROLLING
+from rimroll.solver.physics.params import Params
+from rimroll.solver.analysis.reference import reference, reference_hybrid, reference_one
+from rimroll.solver.engine.simulate import simulate
 
 from scipy_agreement import compare_with_scipy
 
@@ -156,7 +156,7 @@ def test_reference_counts_the_steps_of_each_phase():
     """
     from scipy.integrate import solve_ivp
 
-    from solver.kinematics import angle_rates
+    from rimroll.solver.physics.kinematics import angle_rates
 
     p = Params(mu=1.0)
     pa = p.as_array()

@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from study import compare, reference
-from study.io import open_result
+from rimroll.study import compare, reference
+from rimroll.study.io import open_result
 
 # (atol, rtol) per continuous variable, |x - x_ref| <= atol + rtol |x_ref|, and why:
 OUTCOME_TOLERANCES = {
@@ -29,7 +29,7 @@ OUTCOME_TOLERANCES = {
     "half_period": (1e-7, 1e-7),
     # alpha quadrature over the whole run, same error budget as t_end: observed <= 1.4e-5
     "revolutions": (2e-4, 2e-4),
-    # slip phases end on the switching tolerances (solver.switching), observed <= 3e-7 s
+    # slip phases end on the switching tolerances (solver.physics.switching), observed <= 3e-7 s
     "slip_time": (1e-5, 1e-4),
     # conservative: integration drift ~1e-8..1e-7; dissipative: energy lost, O(1): observed <= 6e-7
     "energy_drift": (1e-5, 1e-4),
@@ -82,8 +82,8 @@ def test_every_map_and_outcome_study_has_a_small_slice_with_provenance():
 
 def test_the_quick_slice_is_the_whole_quick_grid():
     """What ``study run NAME --quick`` computes, every point of it (so verify covers all of it)."""
-    from study import registry
-    from study.plan import make_plan
+    from rimroll.study import registry
+    from rimroll.study.plan import make_plan
 
     for name in reference.SPECS:
         with xr.open_dataset(reference.reference_path(name, grid="quick")) as ref:

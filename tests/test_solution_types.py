@@ -9,9 +9,10 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq, newton
 
-import solver
-from solver import floquet, reduced, rolling, solution_types as st, steady, trajectory
-from solver.kinematics import alpha_rate
+from rimroll import solver
+from rimroll.solver.analysis import floquet, reduced, solution_types as st, steady, trajectory
+from rimroll.solver.physics import rolling
+from rimroll.solver.physics.kinematics import alpha_rate
 
 P_ROLL = solver.Params(mu=float("inf"))
 SADDLES = [(1.0, 5.0), (0.0, 10.0), (-0.5, 10.0), (-1.5, 5.0)]  # (beta0, omega30) with h > 0 in (54)
@@ -218,7 +219,7 @@ def test_alpha_advance_of_a_periodic_orbit_against_direct_integration():
 
 # ----------------------------------------------------------------------------- what docs/solution-types.md says
 def test_connections_subset_gives_connections_all_homoclinic():
-    from workflows.global_dynamics import sample_states
+    from rimroll.workflows.global_dynamics import sample_states
 
     s = {"n_samples": 10, "seed": 0, "subset": "connections", "omega1_max": 20.0, "omega2_max": 70.0,
          "omega3_max": 70.0}

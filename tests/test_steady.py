@@ -3,9 +3,10 @@
 import numpy as np
 import pytest
 
-import solver
-from solver import rolling, steady
-from solver._jit import vectorised
+from rimroll import solver
+from rimroll.solver.physics import rolling
+from rimroll.solver.analysis import steady
+from rimroll.solver._jit import vectorised
 
 P = solver.Params()
 rhs = vectorised(rolling.rolling_rhs)

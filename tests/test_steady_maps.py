@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 import xarray as xr
 
-import solver
-from solver import steady
-from study import execute, registry
-from study.dataset import params_of
-from study.plan import make_plan
+from rimroll import solver
+from rimroll.solver.analysis import steady
+from rimroll.study import execute, registry
+from rimroll.study.dataset import params_of
+from rimroll.study.plan import make_plan
 
 
 def _run(name, *sets, quick=True):

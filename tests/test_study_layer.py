@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from study import registry
-from study.cli import main
+from rimroll.study import registry
+from rimroll.study.cli import main
 STEADY_STUDIES = ("fig3", "fig5", "fig6", "fig7", "fig8")  # as in conftest.py
 PROVENANCE = ("Conventions", "study", "created", "history", "rimroll_version", "param_rho")
 
@@ -95,7 +95,7 @@ def test_results_get_the_permissions_of_any_new_file(tmp_path, umask):
 
 
 def test_failed_write_leaves_nothing(tmp_path):
-    from study import io
+    from rimroll.study import io
 
     with pytest.raises(RuntimeError):
         with io.atomic_path(tmp_path / "x.nc") as tmp:
@@ -155,12 +155,12 @@ def test_not_a_rimroll_file(tmp_path, capsys):
 
 
 def test_entry_point_in_a_subprocess(tmp_path):
-    """``python -m study`` really runs (the console script calls the same main)."""
-    run = subprocess.run([sys.executable, "-m", "study", "run", "fig8", "--quick", "--out", str(tmp_path)],
+    """``python -m rimroll.study`` really runs (the console script calls the same main)."""
+    run = subprocess.run([sys.executable, "-m", "rimroll.study", "run", "fig8", "--quick", "--out", str(tmp_path)],
                          capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stderr
     assert (tmp_path / "fig8.nc").exists() and (tmp_path / "fig8.png").exists()
-    bad = subprocess.run([sys.executable, "-m", "study", "run", "fig8", "--set", "j=-1", "--out", str(tmp_path)],
+    bad = subprocess.run([sys.executable, "-m", "rimroll.study", "run", "fig8", "--set", "j=-1", "--out", str(tmp_path)],
                          capture_output=True, text=True, timeout=120)
     assert bad.returncode == 2 and bad.stderr.startswith("study: error:") and "Traceback" not in bad.stderr
 

@@ -1,4 +1,4 @@
-"""``study trace`` and ``solver.trace``: one trajectory, sampled from the dense output of each phase.
+"""``study trace`` and ``solver.analysis.trace``: one trajectory, sampled from the dense output of each phase.
 
 The trace is an independent integration (scipy DOP853, phase by phase) of the same physics as
 ``solver.simulate``; it must end where simulate ends, with the same outcome.
@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 import xarray as xr
 
-import solver
-from solver import outcomes
-from solver.trace import SLIPPING, trace
-from study.cli import main
+from rimroll import solver
+from rimroll.solver.engine import outcomes
+from rimroll.solver.analysis.trace import SLIPPING, trace
+from rimroll.study.cli import main
 
 SCENES = {
     "rolling_only": (solver.Params(mu=float("inf")), 20.0),

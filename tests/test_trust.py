@@ -21,11 +21,11 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from study import registry
-from study.cli import main, natural_order
-from study.parts import PartStore
-from study.plan import make_plan
-from study.registry import PLUGIN_ENV
+from rimroll.study import registry
+from rimroll.study.cli import main, natural_order
+from rimroll.study.parts import PartStore
+from rimroll.study.plan import make_plan
+from rimroll.study.registry import PLUGIN_ENV
 
 PROBE = str(pathlib.Path(__file__).with_name("fanout_probe.py"))
 N_PROBE = 12  # chunks of the probe at its defaults: mu (3) x v_throw (2) x x (2 chunks)
@@ -55,7 +55,7 @@ def _one_line_error(err: str, *needles):
 
 
 def _cli(*args, env=None, timeout=120, **kw):
-    return subprocess.run([sys.executable, "-m", "study", *args], capture_output=True, text=True,
+    return subprocess.run([sys.executable, "-m", "rimroll.study", *args], capture_output=True, text=True,
                           timeout=timeout, env=env or _env(), **kw)
 
 
@@ -121,7 +121,7 @@ def test_concurrent_runs_of_different_inputs_never_both_write(tmp_path):
     out = tmp_path / "out"
     cmds = [["run", "fanout-probe", "--out", str(out), "--no-progress", "--workers", "1", "--set", "delay=0.2",
              "--set", f"v_throw={v}"] for v in (1.5, 2.5)]
-    procs = [subprocess.Popen([sys.executable, "-m", "study", *c], env=_env(), stdout=subprocess.PIPE,
+    procs = [subprocess.Popen([sys.executable, "-m", "rimroll.study", *c], env=_env(), stdout=subprocess.PIPE,
                               stderr=subprocess.PIPE, text=True) for c in cmds]
     results = [(p.wait(timeout=120), *p.communicate()) for p in procs]
     assert sorted(r[0] for r in results) == [0, 2], results
@@ -186,7 +186,7 @@ def test_flipped_byte_in_zip_directory_is_recomputed(probe, tmp_path):
 @pytest.fixture(scope="module")
 def fig8_full(tmp_path_factory):
     """fig8 on the reference's sub-grid at default settings (every slice point, cheap)."""
-    from study import reference
+    from rimroll.study import reference
 
     path = tmp_path_factory.mktemp("verify8") / "fig8.nc"
     reference.recompute("fig8", workers=1).to_netcdf(path)
@@ -203,8 +203,8 @@ def test_verify_fails_when_a_variable_is_missing(fig8_full, tmp_path, capsys, dr
 
 
 def test_verify_states_coverage_and_fails_below_minimum(fig8_full, quick_results, tmp_path, capsys):
-    from study import reference
-    from study.compare import MIN_COVERAGE
+    from rimroll.study import reference
+    from rimroll.study.compare import MIN_COVERAGE
 
     assert main(["verify", str(fig8_full)]) == 0
     assert "coverage: 9680 of the reference's 9680 points compared (100.0%" in capsys.readouterr().out
@@ -221,21 +221,21 @@ def test_slices_are_package_data_found_with_importlib(monkeypatch):
     import importlib.resources
     import tomllib
 
-    from study import reference
+    from rimroll.study import reference
 
     monkeypatch.delenv(reference.ENV_DIR, raising=False)
-    packaged = pathlib.Path(str(importlib.resources.files("study") / "reference_slices"))
+    packaged = pathlib.Path(str(importlib.resources.files("rimroll.study") / "reference_slices"))
     assert reference.reference_dir() == packaged
     assert {p.stem for p in packaged.glob("*.nc")} == set(reference.SPECS)
     assert {p.stem for p in (packaged / "quick").glob("*.nc")} == set(reference.SPECS)
     root = pathlib.Path(__file__).resolve().parent.parent
     config = tomllib.loads((root / "pyproject.toml").read_text())
     for pattern in ("reference_slices/*.nc", "reference_slices/quick/*.nc"):
-        assert pattern in config["tool"]["setuptools"]["package-data"]["study"]
+        assert pattern in config["tool"]["setuptools"]["package-data"]["rimroll.study"]
 
 
 def test_reference_build_never_writes_an_installed_package(monkeypatch, tmp_path, capsys):
-    from study import reference
+    from rimroll.study import reference
 
     monkeypatch.setattr(reference, "checkout_dir", lambda: None)  # as after pip install
     monkeypatch.delenv(reference.ENV_DIR, raising=False)
@@ -371,7 +371,7 @@ def test_last_worker_lost_mid_run(tmp_path):
         try:
             with Client(cluster) as c:
                 c.wait_for_workers(1, timeout=60)
-            run = subprocess.Popen([sys.executable, "-m", "study", "run", "fanout-probe", "--out", str(out),
+            run = subprocess.Popen([sys.executable, "-m", "rimroll.study", "run", "fanout-probe", "--out", str(out),
                                     "--no-progress", "--scheduler", cluster.scheduler_address, "--timeout", "3",
                                     "--set", "delay=0.3"], env=_env(), stdout=subprocess.PIPE,
                                    stderr=subprocess.PIPE, text=True)
@@ -481,7 +481,7 @@ def test_file_size_limit_mid_run_is_one_line(tmp_path):
 
 def test_ctrl_c_says_what_was_saved(tmp_path):
     out = tmp_path / "out"
-    proc = subprocess.Popen([sys.executable, "-m", "study", "run", "fanout-probe", "--out", str(out),
+    proc = subprocess.Popen([sys.executable, "-m", "rimroll.study", "run", "fanout-probe", "--out", str(out),
                              "--no-progress", "--workers", "1", "--set", "delay=0.3"], env=_env(),
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 60
@@ -513,7 +513,7 @@ def test_info_of_a_file_with_label_coordinates(tmp_path, capsys):
 
 
 def test_info_into_a_closed_pipe(quick_results):
-    cmd = f"{sys.executable} -m study info {quick_results / 'fig8.nc'} | head -c 10 >/dev/null"
+    cmd = f"{sys.executable} -m rimroll.study info {quick_results / 'fig8.nc'} | head -c 10 >/dev/null"
     run = subprocess.run(["bash", "-o", "pipefail", "-c", cmd], capture_output=True, text=True, timeout=120)
     assert "Traceback" not in run.stderr and "BrokenPipe" not in run.stderr and run.returncode == 0, run.stderr
 
@@ -553,7 +553,7 @@ def test_parts_left_by_a_kill_during_cleanup_are_removed(probe, tmp_path, capsys
 def test_estimate_line_only_for_long_runs(probe):
     import io as _io
 
-    from study import runguard
+    from rimroll.study import runguard
 
     plan = make_plan(probe)
     quiet, loud = _io.StringIO(), _io.StringIO()

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from study import reference
-from study.cli import main
+from rimroll.study import reference
+from rimroll.study.cli import main
 
 
 @pytest.fixture(scope="module")
@@ -107,8 +107,8 @@ def test_reference_build_writes_a_slice_with_provenance(tmp_path, capsys):
 def test_boundary_types_are_compared_on_the_reference_grid_only():
     """boundary_type describes a cell's neighbours on its own grid: on a finer grid (a full-resolution
     run) the neighbours differ, so verify compares it only on the reference's own grid."""
-    from study import compare
-    from study.io import open_result
+    from rimroll.study import compare
+    from rimroll.study.io import open_result
 
     ref = open_result(reference.reference_path("fig13"))
     same = ref.copy(deep=True)

@@ -7,13 +7,13 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from workflows.outcome_grids import SCENES
-from workflows.work_precision import INTEGRATORS, speed_ratio
+from rimroll.workflows.outcome_grids import SCENES
+from rimroll.workflows.work_precision import INTEGRATORS, speed_ratio
 
 
 @pytest.fixture(scope="module")
 def wp(tmp_path_factory):
-    from study.cli import main
+    from rimroll.study.cli import main
 
     out = tmp_path_factory.mktemp("wp")
     args = ["run", "work-precision", "--quick", "--out", str(out), "--no-progress",
@@ -50,7 +50,7 @@ def test_speed_ratio_is_computed_on_identical_states(wp):
 
 
 def test_speed_ratio_is_stored_with_its_spread_and_the_figure_shows_misclassification(wp):
-    from workflows.work_precision import _plot
+    from rimroll.workflows.work_precision import _plot
 
     ratio = wp["speed_ratio_rk45_dp5"]
     assert ratio.dims == ("scene",) and ratio.attrs["units"] == "1"
@@ -68,7 +68,7 @@ def test_files_of_the_older_layout_read_the_same(wp):
     """A file written before the labelled dimensions (numeric scene 0..3, numeric ``method`` with
     ``method_name`` labels such as scipy_RK45) gives the same speed ratio, derived ratio and
     figure layout as the labelled one."""
-    from workflows.work_precision import _derive, _plot, integrator_names
+    from rimroll.workflows.work_precision import _derive, _plot, integrator_names
 
     old = wp.drop_vars("speed_ratio_rk45_dp5").rename({"integrator": "method"})
     old = old.assign_coords(method=np.arange(old.sizes["method"]), scene=np.arange(old.sizes["scene"]))

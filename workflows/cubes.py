@@ -16,11 +16,12 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.lines import Line2D
 
-import solver
-from solver import outcomes, steady
-from study import plotting as P
-from study.dataset import setting_of
-from study.registry import Axis, Study, Var, register
+from rimroll import solver
+from rimroll.solver.engine import outcomes
+from rimroll.solver.analysis import steady
+from rimroll.study import plotting as P
+from rimroll.study.dataset import setting_of
+from rimroll.study.registry import Axis, Study, Var, register
 
 STANDARD = solver.Params()
 STANDARD_RHO_OVER_R = STANDARD.rho / STANDARD.R  # 0.5778: the ball of Table 1

@@ -3,10 +3,10 @@
 - ``fig9``: Floquet stability of omega2 = omega3 = 0 in (62) over the physically relevant
   parameters 0 < rho/R < 1 - a/R, 0 < j <= 2/3 (Prop. 7), from ``solver.floquet``.
 - ``solution_types``: the type of Theorem 1 / Table 2 of seeded states sampled from a box of
-  the phase space (beta, omega1, omega2, omega3), from ``solver.solution_types``.
+  the phase space (beta, omega1, omega2, omega3), from ``solver.analysis.solution_types``.
 - ``invariants``: relative change of E (60), P_I and P_II (65)-(68) along seeded trajectories
   of the conservative rolling equations near stable steady motions, from
-  ``solver.trajectory`` and ``solver.invariants``.
+  ``solver.analysis.trajectory`` and ``solver.invariants``.
 """
 
 from __future__ import annotations
@@ -15,11 +15,11 @@ import numpy as np
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
-import solver
-from solver import floquet, reduced, solution_types as st, steady, trajectory
-from study import plotting as P
-from study.dataset import setting_of
-from study.registry import Axis, Study, Var, register
+from rimroll import solver
+from rimroll.solver.analysis import floquet, reduced, solution_types as st, steady, trajectory
+from rimroll.study import plotting as P
+from rimroll.study.dataset import setting_of
+from rimroll.study.registry import Axis, Study, Var, register
 
 
 def _flag(name, long_name, meanings, values=None):
@@ -161,7 +161,7 @@ def sample_states(s: dict, p) -> np.ndarray:
     motions (h > 0 in (54)) with beta0, omega30 drawn as in ``steady`` (draws with h <= 0 are
     skipped), every fifth the ball on top x0+ with |omega20| <= omega2_max; each state lies
     0.02-0.1 rad in beta from its saddle on the side drawn at random
-    (``solver.reduced.stable_manifold_state``).
+    (``solver.analysis.reduced.stable_manifold_state``).
     """
     n = int(s["n_samples"])
     rng = np.random.default_rng(int(s["seed"]))
@@ -214,7 +214,7 @@ def _types_compute(coords, p, s):
             "omega3_init": x[..., 3], "E": e}
 
 
-# one colour per code of solver.solution_types (0 undetermined grey, then Theorem 1's items 1-7)
+# one colour per code of solver.analysis.solution_types (0 undetermined grey, then Theorem 1's items 1-7)
 TYPE_COLOURS = ("0.5", "tab:red", "tab:orange", "tab:purple", "tab:pink", "tab:green", "tab:blue", "tab:cyan")
 
 

@@ -14,7 +14,7 @@ The physical settings (r, R, a, m, j, g) apply to every scene; the scene's mu, k
 override the run's. Every result field of ``solver.simulate`` is stored (with ``on_rim_reason``:
 why a run is still on the rim), plus two variables derived once from the whole grid:
 
-- ``boundary_type`` (``solver.boundaries``): which cells lie on a boundary of periodic rolling and
+- ``boundary_type`` (``solver.analysis.boundaries``): which cells lie on a boundary of periodic rolling and
   of which kind (deadlock, separatrix, slipping-induced, or a band thinner than a cell holding a
   separatrix and a deadlock; paper Sect. 5.1, 5.2.3), each boundary pair of a conservative scene
   refined by simulation (``boundaries.refine_grid``);
@@ -29,11 +29,12 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from scipy.optimize import brentq
 
-import solver
-from solver import boundaries, outcomes, steady
-from study import plotting as P
-from study.dataset import params_of, setting_of
-from study.registry import Axis, Study, Var, register
+from rimroll import solver
+from rimroll.solver.analysis import boundaries, steady
+from rimroll.solver.engine import outcomes
+from rimroll.study import plotting as P
+from rimroll.study.dataset import params_of, setting_of
+from rimroll.study.registry import Axis, Study, Var, register
 
 SCENES = P.SCENE_KEYS
 """Labels of the ``scene`` coordinate, in file order (the plots' ``study.plotting.SCENE_KEYS``)."""
@@ -134,12 +135,12 @@ BOUNDARY_ATTRS = {
     "flag_values": np.array(boundaries.BOUNDARY_FLAG_VALUES, dtype="int8"),
     "flag_meanings": boundaries.BOUNDARY_FLAG_MEANINGS,
     "comment": "conservative scenes: every pair of a periodic cell and a falling or still-on-the-rim 4-neighbour "
-               "is typed by simulation along the segment between them (solver.boundaries.refine_grid, with "
+               "is typed by simulation along the segment between them (solver.analysis.boundaries.refine_grid, with "
                + ", ".join(f"{k}={v:g}" for k, v in boundaries.REFINE_DEFAULTS.items())
                + f", f2_rel={boundaries.DEFAULTS['f2_rel']:g}; the scene's t_max, rtol, atol and method; with finite "
                "mu the runs stop at the first slip); a cell takes the first type of its pairs in the order "
                "separatrix_and_deadlock, deadlock, slipping_induced, separatrix, undetermined. A pair that cannot "
-               "be refined keeps the grid-only label of solver.boundaries.classify ("
+               "be refined keeps the grid-only label of solver.analysis.boundaries.classify ("
                + ", ".join(f"{k}={v:g}" for k, v in boundaries.DEFAULTS.items()) + ")",
 }
 

@@ -23,13 +23,13 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.ticker import FixedLocator, FuncFormatter, NullLocator
 
-import solver
-from solver import outcomes
-from solver import predictability as pred
-from study import plotting as P
-from study.dataset import setting_of
-from study.registry import Axis, Study, Var, register
-from workflows import outcome_grids
+from rimroll import solver
+from rimroll.solver.engine import outcomes
+from rimroll.solver.analysis import predictability as pred
+from rimroll.study import plotting as P
+from rimroll.study.dataset import setting_of
+from rimroll.study.registry import Axis, Study, Var, register
+from rimroll.workflows import outcome_grids
 
 # ================================================================ outcome names and colours
 OUTCOME_NAMES = {code: meaning.split(":")[0] for code, meaning in solver.OUTCOME_MEANINGS.items()}

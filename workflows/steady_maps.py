@@ -12,10 +12,10 @@ import numpy as np
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
-from solver import steady
-from study import plotting as P
-from study.dataset import params_of, setting_of
-from study.registry import Axis, Study, Var, register
+from rimroll.solver.analysis import steady
+from rimroll.study import plotting as P
+from rimroll.study.dataset import params_of, setting_of
+from rimroll.study.registry import Axis, Study, Var, register
 
 GRID = {"n_beta0": 721, "n_omega30": 560, "omega30_max": 70.0}
 QUICK = {"n_beta0": 121, "n_omega30": 80}

@@ -4,7 +4,7 @@ One seeded sample of initial states from the three outcome sections (omega2 = 35
 105 1/s; omega3 = 10 1/s; beta in [0.8, 1.8] rad; omega1 in [-20, 20] 1/s) is run in every
 scene by each method at each tolerance, in the same process at the same moment: rimroll's
 compiled DP5 and DOP853 and scipy's ``solve_ivp`` RK45, DOP853 and LSODA (same right-hand
-side, same event rules: ``solver.reference``). The reference is rimroll's DOP853 at
+side, same event rules: ``solver.analysis.reference``). The reference is rimroll's DOP853 at
 rtol = 1e-12. Recorded per (scene, integrator, rtol): seconds per trajectory (one thread),
 misclassified fraction, |t_end| error (median, max), median energy drift.
 
@@ -22,11 +22,11 @@ import time
 import numpy as np
 from matplotlib.figure import Figure
 
-import solver
-from solver import reference
-from study import plotting as P
-from study.registry import Axis, Study, Var, register
-from workflows.outcome_grids import scene_axis, scene_index, scene_table
+from rimroll import solver
+from rimroll.solver.analysis import reference
+from rimroll.study import plotting as P
+from rimroll.study.registry import Axis, Study, Var, register
+from rimroll.workflows.outcome_grids import scene_axis, scene_index, scene_table
 
 INTEGRATORS = ("rimroll_dp5", "rimroll_dop853", "scipy_rk45", "scipy_dop853", "scipy_lsoda")
 """Labels of the ``integrator`` coordinate: rimroll's compiled methods, then scipy's solve_ivp."""

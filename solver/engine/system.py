@@ -1,6 +1,6 @@
 """The integrated systems of the outcome engine: state layouts, right-hand sides, event tables.
 
-Two phases, each a system the generic integrator (``solver.stepper``, ``solver.events``) is
+Two phases, each a system the generic integrator (``solver.engine.stepper``, ``solver.engine.events``) is
 handed as functions:
 
 * rolling:  y = (beta, omega1, omega2, omega3, alpha), n = 5, rates (33)-(36)/(83);
@@ -13,7 +13,7 @@ comes from ``solver.kinematics`` (19)-(20).
 Per phase, ``*_rhs(y, p, K, s)`` writes the rates of y into row s of the 2-D array K (the one
 right-hand side of the phase), and ``*_events(y, f, p, aux, hybrid, g, gr)`` writes the event
 values into g and their time derivatives (along the rates f) into gr; a derivative that is not
-available cheaply is NaN. ``aux`` is the switching-tolerance vector of ``solver.switching``.
+available cheaply is NaN. ``aux`` is the switching-tolerance vector of ``solver.physics.switching``.
 
 The event tables (declared data, read by the engine and the locator):
 
@@ -34,7 +34,7 @@ index  slipping                            dir.   min        action
 =====  ==================================  =====  =========  ==========================
 
 "dir." is the crossing direction that fires (-1 down, +1 up, 0 both); "min" marks the event
-whose minimum over each step the locator tracks (``solver.events``: a dip of F2 below zero
+whose minimum over each step the locator tracks (``solver.engine.events``: a dip of F2 below zero
 inside a step is a fall even if F2 is positive at both step ends).
 """
 
@@ -42,9 +42,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from solver import kinematics, rolling, slipping
-from solver._compile import kernel
-from solver.switching import SW_DELTA, SW_U_STOP
+from rimroll.solver.physics import kinematics, rolling, slipping
+from rimroll.solver._compile import kernel
+from rimroll.solver.physics.switching import SW_DELTA, SW_U_STOP
 
 N_ROLLING = 5  # beta, omega1, omega2, omega3, alpha
 N_SLIPPING = 7  # beta, omega1, omega2, omega3, u1, u3, alpha

@@ -2,7 +2,7 @@
 
 The classification is about the conservative rolling equations (33)-(36) as a mathematical
 system: falling (F2 < 0) and slipping are NOT considered (paper Sect. 4), so it integrates
-:func:`solver.rolling.rolling_rhs` itself (``solver.trajectory``) instead of ``solver.simulate``,
+:func:`solver.rolling.rolling_rhs` itself (``solver.analysis.trajectory``) instead of ``solver.simulate``,
 which stops at a fall. The phase space is (beta, omega1, omega2, omega3) with beta an angle;
 the angle alpha round the rim is not part of it (paper Sect. 4.1).
 
@@ -33,7 +33,7 @@ How each is decided, and what "within resolution" means:
   omega3 with eq_tol S and E with m g rho to eq_tol.
 * Connections (3, 4). Along a solution (omega2, omega3) is a function of beta fixed by the
   conserved P_I, P_II, and (beta, omega1) obey a planar conservative system
-  (``solver.reduced``) whose saddles are the unstable equilibria of Theorem 1. The solution is
+  (``solver.analysis.reduced``) whose saddles are the unstable equilibria of Theorem 1. The solution is
   integrated (DOP853 at rtol) up to its second omega1 zero or t_max; where it comes close to an
   equilibrium, the equilibrium x* on its level of (P_I, P_II) is found by Newton's method
   (``reduced.equilibrium``). It is a connection if x* is a saddle, the scaled distance
@@ -69,9 +69,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from solver import kinematics, reduced, rolling, rules, trajectory
-from solver._jit import vectorised
-from solver.params import Params
+from rimroll.solver.physics import kinematics, rolling
+
+from rimroll.solver.analysis import reduced, trajectory
+
+from rimroll.solver.engine import rules
+from rimroll.solver._jit import vectorised
+from rimroll.solver.physics.params import Params
 
 UNDETERMINED = 0
 TRIVIAL_EQUILIBRIUM = 1

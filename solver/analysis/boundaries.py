@@ -1,7 +1,7 @@
 """Types of the boundaries of periodic rolling on an outcome grid (paper Sect. 5.1, Fig. 10).
 
 An outcome section (Figs. 11-13) is a 2-D grid of initial states, each with an outcome code
-(``solver.outcomes``), the smallest normal force ``f2_min`` [N] along the run, the
+(``solver.engine.outcomes``), the smallest normal force ``f2_min`` [N] along the run, the
 ``half_period`` [s] of periodic rolling (NaN otherwise) and the run's ``t_end`` [s]. Where a
 periodic cell P has a falling 4-neighbour F (fall_in or fall_out), P and F lie on a boundary of
 periodic rolling, and the paper tells two kinds apart:
@@ -45,7 +45,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from solver import outcomes
+from rimroll.solver.engine import outcomes
 
 NOT_BOUNDARY = 0
 DEADLOCK = 1
@@ -277,7 +277,7 @@ def refine_pairs(inside, outside, params, t_max: float = 20.0, *, f2_rel: float 
     ``separatrix_at_boundary``, ``slipped`` (bool), ``other_outcome``, ``other_t_end`` [s];
     and ``n_runs``, the number of simulated states (an int).
     """
-    from solver.simulate import simulate
+    from rimroll.solver.engine.simulate import simulate
 
     opts = dict(REFINE_DEFAULTS)
     sim_kw = {k: options.pop(k) for k in list(options) if k not in REFINE_DEFAULTS}

@@ -1,6 +1,6 @@
 """The CUDA backend of ``solver.simulate``: one GPU thread per trajectory, the same engine source.
 
-Imported only when ``backend="cuda"`` is resolved (``solver.backends``); it needs numba-cuda
+Imported only when ``backend="cuda"`` is resolved (``solver.engine.backends``); it needs numba-cuda
 (the optional extra ``rimroll[gpu]``).
 
 **One source.** The kernel of a (scene, method) is a small launcher (:func:`launcher`) that gives
@@ -46,11 +46,11 @@ import threading
 import numpy as np
 from numba import cuda, types
 
-from solver import kernels
-from solver.backends import simulated
-from solver.kernels import N_G, N_RF, N_RI, N_W
-from solver.system import N_EVENTS, N_MAX
-from solver.tableaus import TABLEAUS
+from rimroll.solver.engine import kernels
+from rimroll.solver.engine.backends import simulated
+from rimroll.solver.engine.kernels import N_G, N_RF, N_RI, N_W
+from rimroll.solver.engine.system import N_EVENTS, N_MAX
+from rimroll.solver.engine.tableaus import TABLEAUS
 
 SIMULATED = simulated()
 
@@ -69,7 +69,7 @@ the transfers of one batch overlap the computation of the next; a section is one
 OVERLAP_BATCHES = 4
 BYTES_PER_STATE = 8 * (4 + N_RF + N_RI)
 """Device (and pinned host) bytes per state: the initial state and its two result rows."""
-SCENE_FLAGS = {  # scene: (hybrid, conservative), the literal flags of the scene kernels of solver.kernels
+SCENE_FLAGS = {  # scene: (hybrid, conservative), the literal flags of the scene kernels of solver.engine.kernels
     kernels.SCENE_ROLLING_CONSERVATIVE: (False, True),
     kernels.SCENE_ROLLING_DISSIPATIVE: (False, False),
     kernels.SCENE_HYBRID_CONSERVATIVE: (True, True),
@@ -108,7 +108,7 @@ if not SIMULATED:
     try:
         register_ufuncs()
     except (ImportError, AttributeError, TypeError) as exc:  # a numba-cuda without that table
-        from solver.backends import BackendUnavailable
+        from rimroll.solver.engine.backends import BackendUnavailable
 
         raise BackendUnavailable(f"backend 'cuda': this numba-cuda has no table of scalar ufuncs to extend "
                                  f"({type(exc).__name__}: {exc}); install numba-cuda >= 0.30") from None
@@ -223,7 +223,7 @@ def batch_size(m: int, free_bytes: float, max_batch: int | None = None) -> int:
     if max_batch is not None:
         batch = min(batch, int(max_batch))
     if batch < 1:
-        from solver.backends import BackendUnavailable
+        from rimroll.solver.engine.backends import BackendUnavailable
 
         raise BackendUnavailable(f"backend 'cuda': the device has {free_bytes / 2**20:.0f} MiB free, too little "
                                  f"for even one state ({BYTES_PER_STATE} bytes); free device memory or use 'cpu'")

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from solver._jit import kernel
-from solver.params import P_R_BALL, P_R_RIM, P_RHO
+from rimroll.solver._jit import kernel
+from rimroll.solver.physics.params import P_R_BALL, P_R_RIM, P_RHO
 
 
 @kernel

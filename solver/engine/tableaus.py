@@ -1,4 +1,4 @@
-"""Coefficient tables of the embedded Runge-Kutta pairs used by ``solver.stepper``.
+"""Coefficient tables of the embedded Runge-Kutta pairs used by ``solver.engine.stepper``.
 
 A method is data: a :class:`Tableau` holds the Butcher coefficients of the step, the error
 estimator and the dense-output polynomial, all as plain float64 arrays that the one generic

@@ -25,10 +25,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from solver import floquet, rolling, steady
-from solver._jit import vectorised
-from solver.invariants import momenta
-from solver.params import Params
+from rimroll.solver.analysis import floquet, steady
+
+from rimroll.solver.physics import rolling
+from rimroll.solver._jit import vectorised
+from rimroll.solver.analysis.invariants import momenta
+from rimroll.solver.physics.params import Params
 
 _rhs = vectorised(rolling.rolling_rhs)
 

@@ -17,8 +17,8 @@ from typing import NamedTuple
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from solver import rolling
-from solver.params import Params
+from rimroll.solver.physics import rolling
+from rimroll.solver.physics.params import Params
 
 DEFAULT_RTOL = 1e-10
 DEFAULT_ATOL = 1e-12

@@ -49,11 +49,11 @@ x <= 0.99 (see tests/test_floquet.py).
 from __future__ import annotations
 
 import numpy as np
-from solver.tableaus import _A853, _DOP853_C
+from rimroll.solver.engine.tableaus import _A853, _DOP853_C
 
 _SYSTEMS = ("motion", "coefficients")
-# DOP853 (Hairer's coefficients as scipy ships them, solver.tableaus): 12 stages, weights = row 12.
-# Read from solver.tableaus, not scipy.integrate, whose import costs ~0.5 s of every `import solver`.
+# DOP853 (Hairer's coefficients as scipy ships them, solver.engine.tableaus): 12 stages, weights = row 12.
+# Read from solver.engine.tableaus, not scipy.integrate, whose import costs ~0.5 s of every `import solver`.
 _A = _A853[:12, :12]
 _B = _A853[12, :12]
 _C = np.array(_DOP853_C[:12])

@@ -1,8 +1,8 @@
 """The simulation rules of the outcome engine, written once (docs/outcome-engine.md).
 
-Every implementation of the rules — the compiled engine (``solver.kernels``), the scipy
-reference (``solver.reference``) and the solution types of Theorem 1
-(``solver.solution_types``) — calls these functions; only the integration and the event
+Every implementation of the rules — the compiled engine (``solver.engine.kernels``), the scipy
+reference (``solver.analysis.reference``) and the solution types of Theorem 1
+(``solver.analysis.solution_types``) — calls these functions; only the integration and the event
 location differ between them. All functions are compiled scalar kernels that take a flat
 parameter vector ``p`` (:meth:`solver.Params.as_array`); ``.py_func`` is the plain-Python
 version, which broadcasts over numpy arrays.
@@ -35,7 +35,7 @@ Rules:
 * **Phase start** (:func:`phase_start_action`): F2 < 0 -> the ball separates now (free flight);
   rolling outside the friction cone (39) (finite mu) -> slipping starts now; a rolling state on
   a steady motion at t = 0 -> ``steady_motion``; otherwise the phase runs.
-* **Free flight** (:func:`fall_outcome`): ``solver.flight.flight_outcome`` from the state at
+* **Free flight** (:func:`fall_outcome`): ``solver.physics.flight.flight_outcome`` from the state at
   separation (with the slip velocity if slipping).
 """
 
@@ -43,10 +43,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from solver import rolling
-from solver._compile import kernel
-from solver.flight import flight_outcome
-from solver.params import P_G, P_J, P_K_R, P_R_BALL, P_R_RIM, P_RHO
+from rimroll.solver.physics import rolling
+from rimroll.solver._compile import kernel
+from rimroll.solver.physics.flight import flight_outcome
+from rimroll.solver.physics.params import P_G, P_J, P_K_R, P_R_BALL, P_R_RIM, P_RHO
 
 STEADY_TOL = 1e-7
 """Largest relative residual of the rates (``steady_residual``) of a state on a steady motion."""

@@ -13,10 +13,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from solver import kinematics
-from solver._compile import kernel
-from solver.outcomes import FALL_IN, FALL_OUT
-from solver.params import P_G, P_R_RIM
+from rimroll.solver.physics import kinematics
+from rimroll.solver._compile import kernel
+from rimroll.solver.engine.outcomes import FALL_IN, FALL_OUT
+from rimroll.solver.physics.params import P_G, P_R_RIM
 
 
 @kernel

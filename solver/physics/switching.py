@@ -29,9 +29,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from solver import kinematics, rolling, slipping
-from solver._compile import kernel
-from solver.params import P_J, P_M, P_R_BALL
+from rimroll.solver.physics import kinematics, rolling, slipping
+from rimroll.solver._compile import kernel
+from rimroll.solver.physics.params import P_J, P_M, P_R_BALL
 
 DELTA = 1e-5
 """Initial slip speed when slipping starts [m/s] (delta of Sect. 5.2.2), set by a contact impulse.

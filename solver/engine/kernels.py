@@ -17,14 +17,14 @@ on the argument's type, which names one process's function object, so such an en
 in another process and re-saving the index can fail. Their machine code is cached inside the
 scene kernels, which take arrays and numbers only.
 
-A trajectory is a loop over phases and reads as the rules do (``solver.rules``):
+A trajectory is a loop over phases and reads as the rules do (``solver.engine.rules``):
 
 1. phase-start checks (F2 < 0: fall now; rolling outside the friction cone: slip now; the
    initial state on a steady motion: ``steady_motion``);
 2. run one phase (:func:`run_phase`) to its terminal event: steps of the generic stepper
-   (``solver.stepper.attempt``), each searched for events on its dense output
-   (``solver.events``) when the gate asks for it;
-3. apply the event's action from the phase's event table (``solver.system``): fall (free
+   (``solver.engine.stepper.attempt``), each searched for events on its dense output
+   (``solver.engine.events``) when the gate asks for it;
+3. apply the event's action from the phase's event table (``solver.engine.system``): fall (free
    flight), periodic orbit, switch to slipping (``switching.enter_slipping``) or back to
    rolling (``switching.try_return``).
 
@@ -37,10 +37,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from solver import rolling, rules, slipping, system
-from solver._compile import kernel
-from solver.events import fires, hermite_at, initial_signs, next_event, trough_possible, update_signs, value_at
-from solver.outcomes import (
+from rimroll.solver.physics import rolling, slipping
+
+from rimroll.solver.engine import rules, system
+from rimroll.solver._compile import kernel
+from rimroll.solver.engine.events import fires, hermite_at, initial_signs, next_event, trough_possible, update_signs, value_at
+from rimroll.solver.engine.outcomes import (
     MAX_STEPS,
     NON_FINITE,
     OK,
@@ -51,10 +53,10 @@ from solver.outcomes import (
     STIFF_SLIP,
     TOO_MANY_SWITCHES,
 )
-from solver.params import P_G, P_M, P_RHO
-from solver.stepper import ACCEPTED, BUDGET_SPENT, UNDERFLOW, attempt, dense_eval, dense_prepare, initial_step
-from solver.switching import enter_slipping, try_return
-from solver.system import (
+from rimroll.solver.physics.params import P_G, P_M, P_RHO
+from rimroll.solver.engine.stepper import ACCEPTED, BUDGET_SPENT, UNDERFLOW, attempt, dense_eval, dense_prepare, initial_step
+from rimroll.solver.physics.switching import enter_slipping, try_return
+from rimroll.solver.engine.system import (
     ACT_FALL,
     ACT_OMEGA1,
     ACT_RETURN,
@@ -101,7 +103,7 @@ def run_phase(rhs, events, rolling_phase, hybrid, conservative, direction, track
               res_f, res_i):
     """Run one phase from the state W[W_Y] at time res_f[RF_T_END] to its terminal event.
 
-    rhs, events: the phase's right-hand side and event function (``solver.system``);
+    rhs, events: the phase's right-hand side and event function (``solver.engine.system``);
     direction, track_min, action, active: its event table; atol_vec: its absolute tolerance per
     component (``system.*_atol``). Returns (how the phase ends: END_*,
     the time of a return to rolling [s] or -1). On END_SWITCH of a slipping phase W[W_Y_RET]
@@ -317,7 +319,7 @@ def trajectory(hybrid, conservative, x0, p, t_max, rtol, atol, A, E, P, n_stages
     slip_time = 0.0
     t_slip0 = 0.0
     while True:
-        # ---------------- phase-start checks (solver.rules) ----------------
+        # ---------------- phase-start checks (solver.engine.rules) ----------------
         n = N_ROLLING if rolling_phase else N_SLIPPING
         finite = True
         for i in range(n):

@@ -27,9 +27,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from solver import floquet, rolling
-from solver._jit import vectorised
-from solver.params import Params
+from rimroll.solver.analysis import floquet
+
+from rimroll.solver.physics import rolling
+from rimroll.solver._jit import vectorised
+from rimroll.solver.physics.params import Params
 
 _energy = vectorised(rolling.energy)
 

@@ -1,5 +1,5 @@
 """Where ``solver.simulate`` runs: ``cpu`` (threads over the compiled CPU kernels) or ``cuda``
-(one GPU thread per trajectory, ``solver.cuda_backend``), or ``auto`` (the GPU when one is usable).
+(one GPU thread per trajectory, ``solver.engine.cuda_backend``), or ``auto`` (the GPU when one is usable).
 
 Both backends run the same rules, physics and integrator, compiled from the same Python source
 (docs/outcome-engine.md, "Backends"). ``cuda`` needs the optional extra ``rimroll[gpu]``
@@ -55,7 +55,7 @@ def cpu() -> Backend:
 
 def numba_cuda():
     """numba-cuda's ``numba.cuda`` module; BackendUnavailable when the extra is not installed."""
-    from solver import _jit
+    from rimroll.solver import _jit
 
     if _jit._DISABLE:
         raise BackendUnavailable("backend 'cuda' compiles the engine's kernels for the GPU, but RIMROLL_NO_JIT "

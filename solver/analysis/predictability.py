@@ -27,8 +27,8 @@ from typing import Callable, NamedTuple
 import numpy as np
 from scipy.special import ndtri
 
-from solver.outcomes import OUTCOME_MEANINGS
-from solver.params import Params
+from rimroll.solver.engine.outcomes import OUTCOME_MEANINGS
+from rimroll.solver.physics.params import Params
 
 LN2 = float(np.log(2.0))
 """S_bb above ln 2 [nats] is sufficient for a fractal boundary (Daza et al. 2016)."""
@@ -206,7 +206,7 @@ def uncertainty_fraction(states, params: Params, eps, scale, *, reference=None, 
     (:func:`grid_uncertainty_fraction`). ``reference``: the states' outcomes, when known.
     See :func:`perturbation_fraction` for the returned :class:`Fraction`.
     """
-    from solver.simulate import simulate
+    from rimroll.solver.engine.simulate import simulate
 
     def classify(x):
         return simulate(x, params, t_max=t_max, rtol=rtol, atol=atol, method=method, workers=workers)["outcome"]
@@ -454,7 +454,7 @@ def make_probability(states, params: Params, sigma, n_samples: int = 64, seed=0,
     ``lower``, ``upper`` (..., K) the Wilson interval; ``n_samples``; ``n_failed`` (int, (...))
     samples whose ``status`` is not ok (they still count by their outcome).
     """
-    from solver.simulate import simulate
+    from rimroll.solver.engine.simulate import simulate
 
     x = np.asarray(states, dtype=float)
     if x.ndim < 1 or x.shape[-1] != 4:

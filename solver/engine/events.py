@@ -3,7 +3,7 @@
 The locator knows no physics: it is handed the event function of a phase as a compiled function
 ``events(y, f, p, aux, hybrid, g, gr)`` (values of every event at state y into g, their time
 derivatives along the rates f into gr, NaN where not available) and the phase's event table
-(``direction``, ``track_min``, ``active`` arrays; see ``solver.system``).
+(``direction``, ``track_min``, ``active`` arrays; see ``solver.engine.system``).
 
 Rules, shared by every phase and scene:
 
@@ -44,8 +44,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from solver._compile import kernel
-from solver.stepper import dense_eval, dense_slope
+from rimroll.solver._compile import kernel
+from rimroll.solver.engine.stepper import dense_eval, dense_slope
 
 EVENT_SAMPLES = 4  # sign comparisons per step for events without a derivative
 ROOT_XTOL_EPS = 4.0  # root bracket width, in machine epsilons relative to |t|

@@ -2,17 +2,17 @@
 
 Every scene: rolling only (mu = inf) and hybrid rolling/slipping (finite mu), conservative or
 dissipative. Physics and switching maps are the engine's own compiled functions
-(``solver.rolling``, ``solver.slipping``, ``solver.switching``, ``solver.flight``); what is
+(``solver.rolling``, ``solver.slipping``, ``solver.physics.switching``, ``solver.physics.flight``); what is
 independent is the integration (scipy), the event location (scipy's events, ``brentq``,
 bisection) and the bookkeeping of phases written out here.
 
-One loop of phases serves every scene (:func:`integrate`) and also ``solver.trace``, which
+One loop of phases serves every scene (:func:`integrate`) and also ``solver.analysis.trace``, which
 samples the dense output of the phases it records. In rolling-only scenes there is one rolling
 phase (the hybrid scenes' rolling phase below, without the slip onset): F2 < 0 at t = 0 falls at once; a fall is classified by the free flight of
-``solver.flight``; two transversal omega1 zeros give ``periodic_rolling`` with half_period =
+``solver.physics.flight``; two transversal omega1 zeros give ``periodic_rolling`` with half_period =
 t2 - t1; otherwise the ball is on the rim at t_max.
 
-Hybrid scenes (finite mu; the rules of ``solver.switching`` and ``solver.kernels``). One
+Hybrid scenes (finite mu; the rules of ``solver.physics.switching`` and ``solver.engine.kernels``). One
 ``solve_ivp`` call per phase (plus, rarely, a second one, below):
 
 * a phase starts with its checks, in the engine's order: F2 < 0 (31)/(41): fall now (free flight
@@ -41,7 +41,7 @@ friction margin (39) has no cheap derivative: its downward crossings are also sa
 dense output, GRAZE_SAMPLES points per step.
 
 Rules that are not integration — the steady-motion test at t = 0, what counts as a transversal
-omega1 zero, the free flight — are ``solver.rules``, the same functions the engine calls.
+omega1 zero, the free flight — are ``solver.engine.rules``, the same functions the engine calls.
 
 Results per state: outcome, t_end, half_period, nfev (right-hand-side evaluations of every
 ``solve_ivp`` call), slip_phases, slip_time [s] (0 in rolling-only scenes) and energy_drift,
@@ -58,9 +58,11 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
-from solver import kinematics, rolling, rules, slipping, switching
-from solver.outcomes import ON_RIM_AT_T_MAX, PERIODIC_ROLLING, STEADY_MOTION
-from solver.params import P_G, P_M, P_RHO, Params
+from rimroll.solver.physics import kinematics, rolling, slipping, switching
+
+from rimroll.solver.engine import rules
+from rimroll.solver.engine.outcomes import ON_RIM_AT_T_MAX, PERIODIC_ROLLING, STEADY_MOTION
+from rimroll.solver.physics.params import P_G, P_M, P_RHO, Params
 
 ROLLING, SLIPPING = 0, 1
 PHASE_MEANINGS = {ROLLING: "rolling", SLIPPING: "slipping"}
@@ -122,7 +124,7 @@ def _omega1_zero():
 
 
 def _transversal_zeros(t_w1, y_w1, p, rtol) -> list[float]:
-    """Times of the transversal omega1 zeros (``solver.rules``) among scipy's omega1 events."""
+    """Times of the transversal omega1 zeros (``solver.engine.rules``) among scipy's omega1 events."""
     return [float(t) for t, y in zip(t_w1, y_w1) if rules.transversal_omega1_zero(y[0], y[1], y[2], y[3], p, rtol)]
 
 
@@ -199,7 +201,7 @@ def integrate(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, method=
     the engine's overheads: ``tests/benchmark_slipping.py`` compares them across methods);
     ``reason`` the kind of the event that ended the run (or ``too_many_switches``,
     ``integration_failed``); ``phases`` the :class:`Phase` list and ``events`` the (t [s], kind)
-    list, kinds of :data:`EVENT_KINDS` (``solver.trace`` samples them).
+    list, kinds of :data:`EVENT_KINDS` (``solver.analysis.trace`` samples them).
     """
     p = params.as_array()
     sw = switching.default_tolerances(**(switching_tolerances or {}))

@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from solver import rolling
-from solver._jit import vectorised
-from solver.params import Params
+from rimroll.solver.physics import rolling
+from rimroll.solver._jit import vectorised
+from rimroll.solver.physics.params import Params
 
 # Region labels of Fig. 8 (CF flag_values / flag_meanings).
 REGION_NONE, REGION_A, REGION_B, REGION_C = 0, 1, 2, 3

@@ -1,10 +1,10 @@
 """``solver.simulate``: classify rolling initial states by the rules of docs/outcome-engine.md.
 
 Validates the arguments, picks the scene from ``Params`` (docs/outcome-engine.md, Scenes) and
-the method's table, flattens the states and hands them to the backend (``solver.backends``): on
+the method's table, flattens the states and hands them to the backend (``solver.engine.backends``): on
 the CPU, interleaved chunks (chunk c: states c, c + n, ...) go to the compiled, ``nogil`` scene
 kernel on a pool of threads (one per core by default; callers that already run threads (dask)
-can pass ``workers=1``); on a CUDA device, to ``solver.cuda_backend`` (one GPU thread per
+can pass ``workers=1``); on a CUDA device, to ``solver.engine.cuda_backend`` (one GPU thread per
 trajectory).
 """
 
@@ -17,12 +17,14 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from solver import _jit, backends, kernels
-from solver.outcomes import STEADY_MOTION, on_rim_reason
-from solver.params import Params
-from solver.steady import stability
-from solver.switching import default_tolerances
-from solver.tableaus import TABLEAUS
+from rimroll.solver import _jit
+
+from rimroll.solver.engine import backends, kernels
+from rimroll.solver.engine.outcomes import STEADY_MOTION, on_rim_reason
+from rimroll.solver.physics.params import Params
+from rimroll.solver.analysis.steady import stability
+from rimroll.solver.physics.switching import default_tolerances
+from rimroll.solver.engine.tableaus import TABLEAUS
 
 FLOAT_FIELDS = {
     "t_end": kernels.RF_T_END,
@@ -110,7 +112,7 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
     rtol, atol : float
         Relative tolerance (1e-14 <= rtol <= 1e-2) and absolute tolerance (0 < atol <= 1, in the
         units of each state component) of the embedded error estimate. rtol also sets what
-        counts as a steady motion and as a transversal omega1 zero (``solver.rules``).
+        counts as a steady motion and as a transversal omega1 zero (``solver.engine.rules``).
     method : {"dp5", "dop853"}
         Dormand-Prince 5(4) with 4th-order dense output, or DOP853 with 7th-order dense output.
     max_steps : int
@@ -121,11 +123,11 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
         Threads of the CPU backend (default: ``os.cpu_count()``); the compiled kernels release the GIL.
     switching : dict or None
         Overrides of the switching tolerances ``delta``, ``u_stop``, ``phi_tol``, ``u_floor``
-        [m/s, m/s, rad, m/s] of ``solver.switching`` (for convergence checks).
+        [m/s, m/s, rad, m/s] of ``solver.physics.switching`` (for convergence checks).
     backend : {"cpu", "cuda", "auto"}
-        Where to run (``solver.backends``): the CPU; a CUDA device, one thread per trajectory
+        Where to run (``solver.engine.backends``): the CPU; a CUDA device, one thread per trajectory
         (needs the extra ``rimroll[gpu]`` and a device); or the device when one is usable, else
-        the CPU. ``solver.backends.resolve(backend)`` says which one "auto" picks, and on what.
+        the CPU. ``solver.engine.backends.resolve(backend)`` says which one "auto" picks, and on what.
 
     Returns
     -------
@@ -138,7 +140,7 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
     steps of slip phases), ``beta_end``, ``omega1_end``, ``omega2_end``, ``omega3_end`` (the state at t_end, before
     any free flight), ``steady_h`` [1/s^2] (h of (54) for ``steady_motion`` lanes: < 0 stable,
     > 0 unstable; NaN elsewhere), ``status`` (int8, see ``STATUS_MEANINGS``; ``stiff_slip`` when the step
-    budget ran out mostly in slip phases) and ``on_rim_reason`` (int8, ``solver.outcomes.ON_RIM_REASON_MEANINGS``:
+    budget ran out mostly in slip phases) and ``on_rim_reason`` (int8, ``solver.engine.outcomes.ON_RIM_REASON_MEANINGS``:
     why a run ended on the rim, from outcome, status and slip_phases). A failing lane is recorded in
     ``status`` and never raises.
 
@@ -146,7 +148,7 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
     ------
     ValueError
         For a bad argument; the message names it and what is allowed.
-    solver.backends.BackendUnavailable
+    solver.engine.backends.BackendUnavailable
         For ``backend="cuda"`` without the extra or a device (one line saying which).
     """
     if not isinstance(params, Params):
@@ -184,7 +186,7 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
     scene = scene_of(params)
 
     if where.name == "cuda":
-        from solver import cuda_backend
+        from rimroll.solver.engine import cuda_backend
 
         cuda_backend.run(scene, method, flat, p, t_max, rtol, atol, max_steps, max_switches, sw, res_f, res_i)
         return _fields(flat, shape, res_f, res_i, params)

@@ -1,6 +1,6 @@
 """One generic embedded Runge-Kutta step, its error norm, step-size control and dense output.
 
-Everything here reads a method from the arrays of a :class:`solver.tableaus.Tableau` (``A``,
+Everything here reads a method from the arrays of a :class:`solver.engine.tableaus.Tableau` (``A``,
 ``C``, ``E``, ``P`` and a few integers), so DP5 and DOP853 share every line, and knows no
 physics: the right-hand side is a compiled function ``rhs(y, p, K, s)`` passed in (it writes
 the rates of y into row s of the 2-D array K; ``p`` is whatever parameter vector it needs).
@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from solver._compile import kernel
+from rimroll.solver._compile import kernel
 
 SAFETY = 0.9  # fraction of the optimal step actually taken
 MIN_FACTOR = 0.2  # largest decrease of h in one rejection (also the cut after a non-finite trial)

@@ -1,9 +1,9 @@
 """One trajectory in time: the rolling/slipping phases of one initial state, sampled densely.
 
 ``solver.simulate`` returns what happened (outcome, t_end, ...) for millions of states; this
-module shows how, for one. The phases come from ``solver.reference.integrate``, the scipy
+module shows how, for one. The phases come from ``solver.analysis.reference.integrate``, the scipy
 reference of ``solver.simulate`` (the same compiled right-hand sides and switching maps, the
-rules of ``solver.rules``, scipy ``solve_ivp`` phase by phase; see that module for how every
+rules of ``solver.engine.rules``, scipy ``solve_ivp`` phase by phase; see that module for how every
 event is located), which keeps every phase's dense output; :func:`trace` samples all of them on
 one time grid and adds the derived quantities. The result's outcome and t_end agree with
 ``solver.simulate`` to the integration tolerances (``tests/test_trace.py``); this path is for
@@ -14,9 +14,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from solver import reference, rolling, slipping
-from solver.params import P_MU, P_R_BALL, P_R_RIM, P_RHO, Params
-from solver.reference import EVENT_KINDS, PHASE_MEANINGS, ROLLING, SLIPPING, Phase
+from rimroll.solver.analysis import reference
+
+from rimroll.solver.physics import rolling, slipping
+from rimroll.solver.physics.params import P_MU, P_R_BALL, P_R_RIM, P_RHO, Params
+from rimroll.solver.analysis.reference import EVENT_KINDS, PHASE_MEANINGS, ROLLING, SLIPPING, Phase
 
 __all__ = ["EVENT_KINDS", "PHASE_MEANINGS", "ROLLING", "SLIPPING", "Phase", "sample", "trace", "trace_phases"]
 
