@@ -7,6 +7,7 @@ import pytest
 
 from rimroll import solver
 from rimroll.solver.physics import flight, rolling
+from rimroll.solver.engine import rules
 from rimroll.solver.engine.outcomes import FALL_IN, FALL_OUT, ON_RIM_AT_T_MAX
 from rimroll.solver.physics.params import Params
 from rimroll.solver.analysis.reference import reference
@@ -124,14 +125,14 @@ def test_flight_in_and_out_by_position():
     p = Params()
     a = p.as_array()
     # at rest on top of the rim's tube, slightly inside / outside: drops straight down
-    assert flight.flight_outcome(math.pi / 2 - 0.01, 0.0, 0.0, 0.0, 0.0, a) == FALL_IN
-    assert flight.flight_outcome(math.pi / 2 + 0.01, 0.0, 0.0, 0.0, 0.0, a) == FALL_OUT
+    assert rules.fall_outcome(math.pi / 2 - 0.01, 0.0, 0.0, 0.0, 0.0, a) == FALL_IN
+    assert rules.fall_outcome(math.pi / 2 + 0.01, 0.0, 0.0, 0.0, 0.0, a) == FALL_OUT
     # from outside-above, rolling inwards over the top: too slow lands outside, fast enough inside,
     # much too fast overshoots the whole rim (distance from the axis is again > R)
     beta = 2.5
-    assert flight.flight_outcome(beta, -5.0, 0.0, 0.0, 0.0, a) == FALL_OUT
-    assert flight.flight_outcome(beta, -8.0, 0.0, 0.0, 0.0, a) == FALL_IN
-    assert flight.flight_outcome(beta, -40.0, 0.0, 0.0, 0.0, a) == FALL_OUT
+    assert rules.fall_outcome(beta, -5.0, 0.0, 0.0, 0.0, a) == FALL_OUT
+    assert rules.fall_outcome(beta, -8.0, 0.0, 0.0, 0.0, a) == FALL_IN
+    assert rules.fall_outcome(beta, -40.0, 0.0, 0.0, 0.0, a) == FALL_OUT
     # closed form of one case: x = d + v_rad t, y = v_tan t at the landing time
     w1, w3 = -8.0, 10.0
     bd = p.r * w1 / p.rho
@@ -148,7 +149,7 @@ def test_fall_at_t0_when_f2_negative():
     assert rolling.normal_force(x[0], x[1], x[3], p.as_array()) < 0
     res = simulate(x[None], p)
     assert res["t_end"][0] == 0.0 and res["n_steps"][0] == 0
-    assert res["outcome"][0] == flight.flight_outcome(x[0], x[1], x[3], 0.0, 0.0, p.as_array())
+    assert res["outcome"][0] == rules.fall_outcome(x[0], x[1], x[3], 0.0, 0.0, p.as_array())
 
 
 def test_fall_event_state_has_f2_at_zero():

@@ -1,10 +1,13 @@
 """Steady motions of the rolling ball and their limits (paper Sect. 3).
 
-A non-trivial steady motion (47) is fixed by the height angle beta0 [rad] and the circular
-angular velocity omega30 [1/s]; (48) gives the orthogonal angular velocity omega20 [1/s] it
-needs. Every function broadcasts over numpy arrays of beta0 and omega30 and takes a
-:class:`solver.Params`. Points on the singular lines cos(beta0) = 0 or omega30 = 0 give
-inf/NaN, never an exception.
+The closed forms (46)-(48) and h (54) are ``solver.physics.steady_motion`` (re-exported here:
+``steady.omega20``, ``steady.stability``, ``steady.steady_state``, ``steady.trivial_state``); this
+module adds what limits them: stability bands, the friction they need, falling, the throw speed
+and the realisable regions A/B/C of Fig. 8.
+
+Every function broadcasts over numpy arrays of beta0 [rad] and omega30 [1/s] and takes a
+:class:`Params`. Points on the singular lines cos(beta0) = 0 or omega30 = 0 give inf/NaN, never
+an exception.
 """
 
 from __future__ import annotations
@@ -14,6 +17,7 @@ import numpy as np
 from rimroll.solver.physics import rolling
 from rimroll.solver._jit import vectorised
 from rimroll.solver.physics.params import Params
+from rimroll.solver.physics.steady_motion import omega20, stability, steady_state, trivial_state
 
 # Region labels of Fig. 8 (CF flag_values / flag_meanings).
 REGION_NONE, REGION_A, REGION_B, REGION_C = 0, 1, 2, 3
@@ -21,49 +25,6 @@ REGION_FLAG_VALUES = (REGION_NONE, REGION_A, REGION_B, REGION_C)
 REGION_FLAG_MEANINGS = "not_realisable A_inside_above B_inside_below C_outside_above"
 
 _contact_forces = vectorised(rolling.contact_forces)
-
-
-def omega20(beta0, omega30, p: Params):
-    """Orthogonal angular velocity (48) of the non-trivial steady motion [1/s]."""
-    beta0 = np.asarray(beta0, dtype=float)
-    omega30 = np.asarray(omega30, dtype=float)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return (1 + p.j) * omega30 * np.sin(beta0) / (p.j * np.cos(beta0)) - p.g * (
-            p.R - p.rho * np.cos(beta0)
-        ) / (p.j * p.r**2 * omega30)
-
-
-def steady_state(beta0, omega30, p: Params):
-    """The rolling state (beta0, 0, omega20, omega30) of (47), shape broadcast(beta0, omega30) + (4,)."""
-    beta0, omega30 = np.broadcast_arrays(np.asarray(beta0, float), np.asarray(omega30, float))
-    return np.stack([beta0, np.zeros_like(beta0), omega20(beta0, omega30, p), omega30], axis=-1)
-
-
-def trivial_state(sign: int, omega20_value, p: Params):
-    """Trivial steady motion x0+ (sign=+1, ball on top) or x0- (sign=-1, hanging) of (46)."""
-    w2 = np.asarray(omega20_value, float)
-    beta = np.full_like(w2, np.pi / 2 * np.sign(sign))
-    zero = np.zeros_like(w2)
-    return np.stack([beta, zero, w2, zero], axis=-1)
-
-
-def stability(beta0, omega30, p: Params):
-    """h(beta0, omega30) of (54) [1/s^2]: the squared non-zero eigenvalues of the linearisation.
-
-    h < 0: a neutrally stable centre (eigenvalues +-i sqrt(-h)); h > 0: a saddle (+-sqrt(h)).
-    """
-    beta0 = np.asarray(beta0, dtype=float)
-    omega30 = np.asarray(omega30, dtype=float)
-    r, R, rho, j, g = p.r, p.R, p.rho, p.j, p.g
-    c = np.cos(beta0)
-    s = np.sin(beta0)
-    D = R - rho * c
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return (
-            omega30**2 * r**2 * (R * c - (1 + j) * rho) / ((1 + j) * rho * D**2)
-            - 2 * g * s * c / ((1 + j) * D)
-            + g**2 * c * D / (r**2 * rho * (1 + j) ** 2 * omega30**2)
-        )
 
 
 def beta_star(p: Params) -> float:
@@ -197,3 +158,8 @@ def minimal_throw_speed(region: int, p: Params, mu: float | None = None, n: int 
         b_lo, b_hi = b[max(i - 3, 0)], b[min(i + 3, b.size - 1)]
         w_lo, w_hi = w[max(jw - 3, 0)], w[min(jw + 3, w.size - 1)]
     return best
+
+
+__all__ = ["omega20", "stability", "steady_state", "trivial_state", "beta_star", "beta_hat",
+           "trivial_eigenvalue", "contact_forces", "required_friction", "rolls_without_slipping", "stays_on_rim",
+           "throw_speed", "region_of", "realisable", "realisable_region", "minimal_throw_speed"]

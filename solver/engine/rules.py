@@ -35,7 +35,7 @@ Rules:
 * **Phase start** (:func:`phase_start_action`): F2 < 0 -> the ball separates now (free flight);
   rolling outside the friction cone (39) (finite mu) -> slipping starts now; a rolling state on
   a steady motion at t = 0 -> ``steady_motion``; otherwise the phase runs.
-* **Free flight** (:func:`fall_outcome`): ``solver.physics.flight.flight_outcome`` from the state at
+* **Free flight** (:func:`fall_outcome`): ``solver.physics.flight.lands_inside`` from the state at
   separation (with the slip velocity if slipping).
 """
 
@@ -45,7 +45,8 @@ import numpy as np
 
 from rimroll.solver.physics import rolling
 from rimroll.solver._compile import kernel
-from rimroll.solver.physics.flight import flight_outcome
+from rimroll.solver.engine.outcomes import FALL_IN, FALL_OUT
+from rimroll.solver.physics.flight import lands_inside
 from rimroll.solver.physics.params import P_G, P_J, P_K_R, P_R_BALL, P_R_RIM, P_RHO
 
 STEADY_TOL = 1e-7
@@ -130,4 +131,6 @@ def phase_start_action(rolling_phase, hybrid, first, f2, friction_margin, steady
 @kernel
 def fall_outcome(beta, omega1, omega3, u1, u3, p):
     """FALL_IN or FALL_OUT by free flight from the separation state (u1 = u3 = 0 when rolling)."""
-    return flight_outcome(beta, omega1, omega3, u1, u3, p)
+    if lands_inside(beta, omega1, omega3, u1, u3, p):
+        return FALL_IN
+    return FALL_OUT

@@ -22,7 +22,7 @@ from rimroll.solver import _jit
 from rimroll.solver.engine import backends, kernels
 from rimroll.solver.engine.outcomes import STEADY_MOTION, on_rim_reason
 from rimroll.solver.physics.params import Params
-from rimroll.solver.analysis.steady import stability
+from rimroll.solver.physics.steady_motion import stability
 from rimroll.solver.physics.switching import default_tolerances
 from rimroll.solver.engine.tableaus import TABLEAUS
 

@@ -5,8 +5,9 @@ z = rho sin(beta) (12); its velocity is radial beta_dot rho sin(beta), vertical
 beta_dot rho cos(beta), tangential alpha_dot (R - rho cos(beta)), with
 alpha_dot = (u1 - r omega3)/(R - rho cos beta) and beta_dot = (u3 + r omega1)/rho (19), (20).
 The centre follows a parabola under gravity -g to the first instant it is at z <= 0 while
-descending (at once if z <= 0 already). ``fall_in`` if its horizontal distance from the rim's
-axis is then < R, else ``fall_out``.
+descending (at once if z <= 0 already). The ball falls in (a score) if the centre's horizontal
+distance from the rim's axis is then < R (:func:`lands_inside`); the engine's rules turn that into
+the outcome codes ``fall_in`` / ``fall_out``.
 """
 
 from __future__ import annotations
@@ -15,7 +16,6 @@ import numpy as np
 
 from rimroll.solver.physics import kinematics
 from rimroll.solver._compile import kernel
-from rimroll.solver.engine.outcomes import FALL_IN, FALL_OUT
 from rimroll.solver.physics.params import P_G, P_R_RIM
 
 
@@ -42,8 +42,6 @@ def landing_distance(beta, omega1, omega3, u1, u3, p):
 
 
 @kernel
-def flight_outcome(beta, omega1, omega3, u1, u3, p):
-    """FALL_IN or FALL_OUT for a ball separating from the rim in the given state."""
-    if landing_distance(beta, omega1, omega3, u1, u3, p) < p[P_R_RIM]:
-        return FALL_IN
-    return FALL_OUT
+def lands_inside(beta, omega1, omega3, u1, u3, p):
+    """Whether a ball separating from the rim in the given state comes down inside the rim (a score)."""
+    return landing_distance(beta, omega1, omega3, u1, u3, p) < p[P_R_RIM]
