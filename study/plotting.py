@@ -8,6 +8,8 @@ import numpy as np
 from matplotlib.figure import Figure
 from scipy import ndimage
 
+from rimroll.solver.engine import scenes
+
 PI_TICKS = np.arange(-2, 3) * np.pi / 2
 PI_LABELS = [r"$-\pi$", r"$-\pi/2$", r"$0$", r"$\pi/2$", r"$\pi$"]
 
@@ -169,14 +171,9 @@ OUTCOME_PALETTE = _outcome_palette()
 
 
 # ---------------------------------------------------------------- scenes of the outcome sections
-SCENE_KEYS = ("rolling_only", "slipping", "drilling", "rolling_resistance")
-"""Labels of the ``scene`` dimension; files written before the labels were strings hold 0..3."""
-SCENE_TEXT = {
-    "rolling_only": "rolling only",
-    "slipping": "slipping",
-    "drilling": "slipping + drilling resistance",
-    "rolling_resistance": "slipping + rolling resistance",
-}
+SCENE_KEYS = tuple(s.name for s in scenes.NAMED)
+"""Labels of the ``scene`` dimension (``solver.engine.scenes.NAMED``); files written before the labels
+were strings hold 0..3."""
 
 
 def scene_key(value) -> str:
@@ -191,8 +188,10 @@ def scene_key(value) -> str:
 
 def scene_text(value) -> str:
     """Reader-facing name of a scene (label or old numeric code)."""
-    key = scene_key(value)
-    return SCENE_TEXT.get(key, key.replace("_", " "))
+    try:
+        return scenes.named(scene_key(value)).text
+    except ValueError:
+        return scene_key(value).replace("_", " ")
 
 
 def scene_title(sel) -> str:

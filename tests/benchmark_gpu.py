@@ -40,7 +40,7 @@ import numpy as np
 
 from rimroll import solver
 from rimroll.solver.engine import backends, kernels
-from rimroll.solver.engine.simulate import scene_of
+from rimroll.solver.engine.scenes import scene_of
 from rimroll.solver.physics.switching import default_tolerances
 
 SECTION = dict(beta=(0.8, 1.8, 240), omega1=(-20.0, 20.0, 360), omega2=35.0, omega3=10.0)
@@ -65,7 +65,7 @@ def timed(fn, repeat: int) -> dict:
     return {"best_ms": 1e3 * min(times), "median_ms": 1e3 * statistics.median(times), "runs": repeat}
 
 
-def kernel_time(cb, cuda, scene: int, states: np.ndarray, params, repeat: int) -> dict:
+def kernel_time(cb, cuda, scene, states: np.ndarray, params, repeat: int) -> dict:
     """Kernel alone (CUDA events), the states and buffers resident on the device."""
     m = states.shape[0]
     k = cb.kernel(scene, RUN["method"])
@@ -93,7 +93,7 @@ def kernel_time(cb, cuda, scene: int, states: np.ndarray, params, repeat: int) -
     return {"best_ms": min(times), "median_ms": statistics.median(times), "runs": repeat}
 
 
-def device_run(cb, scene: int, states: np.ndarray, params):
+def device_run(cb, scene, states: np.ndarray, params):
     """cuda_backend.run on the states: (res_f, res_i)."""
     m = states.shape[0]
     res_f = np.empty((m, kernels.N_RF))

@@ -260,15 +260,16 @@ class Device:  # what numba-cuda asks of the device while compiling device funct
 dispatcher.get_current_device = lambda: Device()
 nvrtc.get_supported_ccs = lambda: ((9, 0),)  # NVRTC is asked only for the architectures it knows
 from numba import cuda
-from rimroll.solver.engine import cuda_backend
+from rimroll.solver.engine import cuda_backend, scenes
 t0 = time.perf_counter()
-ptx, _ = cuda.compile_ptx(cuda_backend.launcher(int(sys.argv[1]), sys.argv[2]), cuda_backend.SIGNATURE, cc=(9, 0))
+scene = scenes.named(sys.argv[1])
+ptx, _ = cuda.compile_ptx(cuda_backend.launcher(scene, sys.argv[2]), cuda_backend.SIGNATURE, cc=(9, 0))
 open(sys.argv[3], "w").write(ptx)
 print(f"{time.perf_counter() - t0:.1f}")
 '''
 
 
-def _compile_ptx(tmp_path, scene: int, method: str) -> str:
+def _compile_ptx(tmp_path, scene: str, method: str) -> str:
     reason = _nvvm_reason()
     if reason:
         pytest.skip(reason)
@@ -279,8 +280,10 @@ def _compile_ptx(tmp_path, scene: int, method: str) -> str:
     return out.read_text()
 
 
-def _check_ptx(ptx: str, scene: int, method: str) -> None:
-    assert ".visible .entry" in ptx and f"launch_scene{scene}_{method}" in ptx
+def _check_ptx(ptx: str, scene: str, method: str) -> None:
+    from rimroll.solver.engine import scenes
+
+    assert ".visible .entry" in ptx and f"launch_{scenes.named(scene).kernel}_{method}" in ptx
     assert ".f64" in ptx and ".local" in ptx  # float64 arithmetic, per-thread local work arrays
     # the tableau is baked in: its first nonzero coefficient appears as a float64 immediate or constant
     assert ".const" in ptx or "0d3FC999999999999A" in ptx  # 1/5 = A[1, 0] of DP5
@@ -288,15 +291,13 @@ def _check_ptx(ptx: str, scene: int, method: str) -> None:
 
 def test_the_engine_compiles_for_the_device_from_its_one_source(tmp_path):
     """The hybrid dissipative scene (rolling, slipping, switching, every rule) compiles to PTX."""
-    from rimroll.solver.engine.kernels import SCENE_HYBRID_DISSIPATIVE
-
-    ptx = _compile_ptx(tmp_path, SCENE_HYBRID_DISSIPATIVE, "dp5")
-    _check_ptx(ptx, SCENE_HYBRID_DISSIPATIVE, "dp5")
+    ptx = _compile_ptx(tmp_path, "drilling", "dp5")  # slipping + drilling resistance: the hybrid dissipative kernel
+    _check_ptx(ptx, "drilling", "dp5")
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("method", ["dp5", "dop853"])
-@pytest.mark.parametrize("scene", [0, 1, 2, 3])
+@pytest.mark.parametrize("scene", ["rolling_only", "rolling_only+drilling", "slipping", "drilling"])  # the 4 kernels
 def test_every_scene_and_method_compiles_for_the_device(tmp_path, scene, method):
     ptx = _compile_ptx(tmp_path, scene, method)
     _check_ptx(ptx, scene, method)
@@ -358,7 +359,7 @@ def test_auto_picks_the_device_and_batches_agree():
     name = _device_or_skip()
     assert backends.resolve("auto") == backends.Backend("cuda", name)
     from rimroll.solver.engine import cuda_backend
-    from rimroll.solver.engine.simulate import scene_of
+    from rimroll.solver.engine.scenes import scene_of
     from rimroll.solver.physics.switching import default_tolerances
 
     rng = np.random.default_rng(3)

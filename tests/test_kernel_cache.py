@@ -87,7 +87,7 @@ _CHILD = ("import sys, time; from rimroll import solver; from rimroll.solver.eng
           "t = time.perf_counter()\n"
           "solver.simulate([[1.1, 2.0, 35.0, 10.0]], solver.Params(mu=float(sys.argv[1]), k_r=float(sys.argv[2])),"
           " t_max=0.1, workers=1)\n"
-          "print([bool(k.signatures) for k in kernels.SCENE_KERNELS], time.perf_counter() - t)\n")
+          "print([bool(k.signatures) for k in kernels.SCENE_KERNELS.values()], time.perf_counter() - t)\n")
 
 
 def _child(tmp_path, mu, k_r, cache):

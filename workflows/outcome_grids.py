@@ -31,15 +31,14 @@ from scipy.optimize import brentq
 
 from rimroll import solver
 from rimroll.solver.analysis import boundaries, steady
+from rimroll.solver.engine import scenes
 from rimroll.solver.engine import outcomes
 from rimroll.study import plotting as P
 from rimroll.study.dataset import params_of, setting_of
 from rimroll.study.registry import Axis, Study, Var, register
 
-SCENES = P.SCENE_KEYS
-"""Labels of the ``scene`` coordinate, in file order (the plots' ``study.plotting.SCENE_KEYS``)."""
-SCENE_TITLES = {label: P.scene_text(label) for label in SCENES}
-"""Reader-facing name of each scene (``study.plotting.SCENE_TEXT``), e.g. in the axis long_name."""
+SCENES = tuple(s.name for s in scenes.NAMED)
+"""Labels of the ``scene`` coordinate, in file order (the named scenes of ``solver.engine.scenes``)."""
 
 SETTINGS = {
     "omega3": 10.0,  # [1/s]
@@ -82,14 +81,12 @@ VARIABLES = [
 
 
 def scene_table(s: dict) -> dict[str, np.ndarray]:
-    """mu, k_r, k_d [1/s] and t_max [s] of the four scenes, from the settings."""
-    k, mu = s["k_dissipation"], s["mu_slip"]
-    return {
-        "mu": np.array([np.inf, mu, mu, mu]),
-        "k_r": np.array([0.0, 0.0, 0.0, k]),
-        "k_d": np.array([0.0, 0.0, k, 0.0]),
-        "t_max": np.array([s["t_max"], s["t_max"], s["t_max_dissipative"], s["t_max_dissipative"]]),
-    }
+    """mu, k_r, k_d [1/s] and t_max [s] of the four named scenes, from the settings: mu_slip for the
+    scenes that slip, k_dissipation for the parameter of each scene's term (``Scene.parameters``)."""
+    rows = [scene.parameters(s["mu_slip"], s["k_dissipation"]) for scene in scenes.NAMED]
+    table = {key: np.array([row[key] for row in rows]) for key in ("mu", "k_r", "k_d")}
+    table["t_max"] = np.array([s["t_max"] if scene.conservative else s["t_max_dissipative"] for scene in scenes.NAMED])
+    return table
 
 
 def scene_axis(s: dict) -> Axis:
@@ -97,7 +94,7 @@ def scene_axis(s: dict) -> Axis:
     and t_max [s] as non-index coordinates along it."""
     table = scene_table(s)
     return Axis("scene", np.array(SCENES), "", "physical scene (docs/outcome-studies.md#scenes): " + "; ".join(
-        f"{label} = {title}" for label, title in SCENE_TITLES.items()), aux={
+        f"{scene.name} = {scene.text}" for scene in scenes.NAMED), aux={
         "mu": (table["mu"], "1", "Coulomb friction coefficient of the scene (inf: rolling only)"),
         "k_r": (table["k_r"], "s-1", "rolling-resistance rate k_r of the scene, paper (83)"),
         "k_d": (table["k_d"], "s-1", "drilling-resistance rate k_d of the scene, paper (83)"),

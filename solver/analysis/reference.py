@@ -61,6 +61,7 @@ from scipy.optimize import brentq
 from rimroll.solver.physics import kinematics, rolling, slipping, switching
 
 from rimroll.solver.engine import rules
+from rimroll.solver.engine.scenes import scene_of
 from rimroll.solver.engine.outcomes import ON_RIM_AT_T_MAX, PERIODIC_ROLLING, STEADY_MOTION
 from rimroll.solver.physics.params import P_G, P_M, P_RHO, Params
 
@@ -205,8 +206,7 @@ def integrate(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, method=
     """
     p = params.as_array()
     sw = switching.default_tolerances(**(switching_tolerances or {}))
-    conservative = not params.dissipative
-    hybrid = not params.rolling_only
+    hybrid, conservative = scene_of(params).flags
     u_stop = sw[switching.SW_U_STOP]
 
     rolling_rhs = rolling.rolling_rhs

@@ -48,6 +48,7 @@ from numba import cuda, types
 
 from rimroll.solver.engine import kernels
 from rimroll.solver.engine.backends import simulated
+from rimroll.solver.engine.scenes import Scene
 from rimroll.solver.engine.kernels import N_G, N_RF, N_RI, N_W
 from rimroll.solver.engine.system import N_EVENTS, N_MAX
 from rimroll.solver.engine.tableaus import TABLEAUS
@@ -69,12 +70,6 @@ the transfers of one batch overlap the computation of the next; a section is one
 OVERLAP_BATCHES = 4
 BYTES_PER_STATE = 8 * (4 + N_RF + N_RI)
 """Device (and pinned host) bytes per state: the initial state and its two result rows."""
-SCENE_FLAGS = {  # scene: (hybrid, conservative), the literal flags of the scene kernels of solver.engine.kernels
-    kernels.SCENE_ROLLING_CONSERVATIVE: (False, True),
-    kernels.SCENE_ROLLING_DISSIPATIVE: (False, False),
-    kernels.SCENE_HYBRID_CONSERVATIVE: (True, True),
-    kernels.SCENE_HYBRID_DISSIPATIVE: (True, False),
-}
 
 UFUNC_LOOPS = {  # numpy ufunc: (loop, math function whose numba-cuda lowering implements it)
     np.sqrt: ("d->d", math.sqrt),
@@ -124,7 +119,7 @@ else:
         return np.asarray(a)
 
 
-def launcher(scene: int, method: str):
+def launcher(scene: Scene, method: str):
     """The Python source of the kernel of a scene and method: one trajectory per thread.
 
     ``launch(states, m, p, t_max, rtol, atol, max_steps, max_switches, sw, res_f, res_i)``:
@@ -132,7 +127,7 @@ def launcher(scene: int, method: str):
     and ``res_i`` (m, N_RI), exactly as ``kernels.run_chunk`` does for one row.
     """
     trajectory = kernels.trajectory  # the CPU engine's trajectory body
-    hybrid, conservative = SCENE_FLAGS[scene]  # compile-time constants, as in the scene kernels
+    hybrid, conservative = scene.flags  # compile-time constants, as in the scene kernels
     tab = TABLEAUS[method]
     A, E, P = tab.A, tab.E, tab.P  # constants of the kernel
     n_stages, err_mode, error_order = tab.n_stages, tab.err_mode, tab.error_order
@@ -169,7 +164,7 @@ def launcher(scene: int, method: str):
                    err_mode, error_order, max_steps, max_switches, native(sw), W, K, Q, G, sign, search, act_r,
                    act_s, native(res_f[k]), native(res_i[k]))
 
-    launch.__qualname__ = launch.__name__ = f"launch_scene{scene}_{method}"
+    launch.__qualname__ = launch.__name__ = f"launch_{scene.kernel}_{method}"
     return launch
 
 
@@ -181,10 +176,10 @@ _KERNELS: dict = {}
 _LOCK = threading.RLock()  # one call at a time uses the device (and the kept buffers) of this process
 
 
-def kernel(scene: int, method: str):
+def kernel(scene: Scene, method: str):
     """The kernel of a scene and method (numba-cuda compiles it at its first launch in this process;
     :func:`compile_kernel` does that ahead of time)."""
-    key = (scene, method, MAX_REGISTERS)
+    key = (scene.flags, method, MAX_REGISTERS)
     with _LOCK:
         if key not in _KERNELS:
             options = {} if MAX_REGISTERS is None or SIMULATED else {"max_registers": MAX_REGISTERS}
@@ -192,7 +187,7 @@ def kernel(scene: int, method: str):
         return _KERNELS[key]
 
 
-def compile_kernel(scene: int, method: str) -> None:
+def compile_kernel(scene: Scene, method: str) -> None:
     """Compile the kernel of a scene and method for this process's device now (no launch)."""
     k = kernel(scene, method)
     if not SIMULATED:
@@ -200,11 +195,11 @@ def compile_kernel(scene: int, method: str) -> None:
             k.compile(SIGNATURE)
 
 
-def _announce(scene: int, method: str) -> None:
+def _announce(scene: Scene, method: str) -> None:
     """One line on stderr before a kernel's first compile in this process: a long silence otherwise."""
     import sys
 
-    sys.stderr.write(f"rimroll: compiling the CUDA kernel of scene {scene} ({method}) for the device, once per "
+    sys.stderr.write(f"rimroll: compiling the CUDA kernel of the {scene.kernel.removeprefix('scene_')} scene ({method}) for the device, once per "
                      "process: about a minute\n")
     sys.stderr.flush()
 
@@ -274,7 +269,7 @@ def release_buffers() -> None:
         _SLOTS = []
 
 
-def run(scene: int, method: str, states: np.ndarray, p: np.ndarray, t_max: float, rtol: float, atol: float,
+def run(scene: Scene, method: str, states: np.ndarray, p: np.ndarray, t_max: float, rtol: float, atol: float,
         max_steps: int, max_switches: int, sw: np.ndarray, res_f: np.ndarray, res_i: np.ndarray,
         max_batch: int | None = None) -> None:
     """Simulate the rows of ``states`` (m, 4) on the device; results into ``res_f``, ``res_i``.

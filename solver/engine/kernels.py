@@ -77,12 +77,6 @@ N_RF = 10
 RI_OUTCOME, RI_SLIP_PHASES, RI_N_STEPS, RI_STATUS, RI_N_SEARCHED, RI_N_SLIP_STEPS = 0, 1, 2, 3, 4, 5
 N_RI = 6
 
-# Scenes.
-SCENE_ROLLING_CONSERVATIVE = 0
-SCENE_ROLLING_DISSIPATIVE = 1
-SCENE_HYBRID_CONSERVATIVE = 2
-SCENE_HYBRID_DISSIPATIVE = 3
-
 # How a phase ends (run_phase).
 END_T_MAX = 0
 END_FALL = 1
@@ -464,7 +458,7 @@ def scene_hybrid_dissipative(states, p, t_max, rtol, atol, A, E, P, n_stages, er
               max_switches, sw, res_f, res_i)
 
 
-SCENE_KERNELS = (scene_rolling_conservative, scene_rolling_dissipative, scene_hybrid_conservative,
-                 scene_hybrid_dissipative)
-"""The kernel of each ``SCENE_*`` code (``SCENE_KERNELS[scene]``): (states, p, t_max, rtol, atol, A, E,
-P, n_stages, err_mode, error_order, max_steps, max_switches, sw, res_f, res_i)."""
+SCENE_KERNELS = {kernel.py_func.__name__: kernel for kernel in (
+    scene_rolling_conservative, scene_rolling_dissipative, scene_hybrid_conservative, scene_hybrid_dissipative)}
+"""The kernel of each scene by name (``SCENE_KERNELS[scene.kernel]``, ``solver.engine.scenes``): (states, p,
+t_max, rtol, atol, A, E, P, n_stages, err_mode, error_order, max_steps, max_switches, sw, res_f, res_i)."""

@@ -21,6 +21,7 @@ from rimroll.solver import _jit
 
 from rimroll.solver.engine import backends, kernels
 from rimroll.solver.engine.outcomes import STEADY_MOTION, on_rim_reason
+from rimroll.solver.engine.scenes import Scene, scene_of
 from rimroll.solver.physics.params import Params
 from rimroll.solver.physics.steady_motion import stability
 from rimroll.solver.physics.switching import default_tolerances
@@ -59,40 +60,32 @@ DEFAULT_MAX_SWITCHES = 10_000
 _CHUNKS_PER_WORKER = 8  # chunks per thread: balances fast falls against long periodic runs
 
 
-COLD_COMPILE_S = {kernels.SCENE_ROLLING_CONSERVATIVE: 20, kernels.SCENE_ROLLING_DISSIPATIVE: 20,
-                  kernels.SCENE_HYBRID_CONSERVATIVE: 30, kernels.SCENE_HYBRID_DISSIPATIVE: 30}
+COLD_COMPILE_S = {"scene_rolling_conservative": 20, "scene_rolling_dissipative": 20, "scene_hybrid_conservative": 30,
+                  "scene_hybrid_dissipative": 30}
 """Measured first compile of each scene's kernel on 2 cores [s], in a fresh process (printed, not
 enforced); a scene compiled after another one reuses the step loops they share."""
 _announced = set()
 
 
-def kernels_cached(scene: int | None = None) -> bool:
-    """Whether the kernel of ``scene`` (default: every scene) is compiled in this process or cached on disk."""
-    scenes = range(len(kernels.SCENE_KERNELS)) if scene is None else (scene,)
-    for k in scenes:
-        func = kernels.SCENE_KERNELS[k]
-        name = func.py_func.__name__
+def kernels_cached(scene: Scene | None = None) -> bool:
+    """Whether the kernel of ``scene`` (default: every scene kernel) is compiled in this process or cached on disk."""
+    names = list(kernels.SCENE_KERNELS) if scene is None else [scene.kernel]
+    for name in names:
+        func = kernels.SCENE_KERNELS[name]
         if not (func.signatures or any(_jit.cache_dir().glob(f"**/kernels.{name}-*.nbi"))):
             return False
     return True
 
 
-def _announce_compile(scene: int):
-    """One line on stderr before a scene's first compile in this environment: a long silence otherwise."""
-    if scene in _announced or _jit._DISABLE or kernels_cached(scene):
+def _announce_compile(scene: Scene):
+    """One line on stderr before a scene kernel's first compile in this environment: a long silence otherwise."""
+    if scene.kernel in _announced or _jit._DISABLE or kernels_cached(scene):
         return
-    _announced.add(scene)
-    name = kernels.SCENE_KERNELS[scene].py_func.__name__.removeprefix("scene_")
+    _announced.add(scene.kernel)
+    name = scene.kernel.removeprefix("scene_")
     sys.stderr.write(f"rimroll: compiling the simulation kernel of the {name} scene, first run only: about "
-                     f"{COLD_COMPILE_S[scene]} s on 2 cores (cached in {_jit.cache_dir()})\n")
+                     f"{COLD_COMPILE_S[scene.kernel]} s on 2 cores (cached in {_jit.cache_dir()})\n")
     sys.stderr.flush()
-
-
-def scene_of(params: Params) -> int:
-    """The compiled scene for the parameters: rolling-only or hybrid, conservative or dissipative."""
-    if params.rolling_only:
-        return kernels.SCENE_ROLLING_DISSIPATIVE if params.dissipative else kernels.SCENE_ROLLING_CONSERVATIVE
-    return kernels.SCENE_HYBRID_DISSIPATIVE if params.dissipative else kernels.SCENE_HYBRID_CONSERVATIVE
 
 
 def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="dp5", *,
@@ -192,7 +185,7 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
         return _fields(flat, shape, res_f, res_i, params)
 
     _announce_compile(scene)
-    scene_kernel = kernels.SCENE_KERNELS[scene]
+    scene_kernel = kernels.SCENE_KERNELS[scene.kernel]
 
     n_chunks = min(m, workers * _CHUNKS_PER_WORKER) if workers > 1 else min(m, 1)
     if n_chunks <= 1:
