@@ -13,7 +13,7 @@ continuous variables as a scaled error ``|x - x_ref| / (atol + rtol |x_ref|)`` a
 away from boundaries where every categorical variable agrees (elsewhere they describe different
 motions), with NaN == NaN and inf == inf of the same sign counted as equal.
 
-A result passes only if it holds every variable of the reference (but ``n_steps``), and if its
+A result passes only if it holds every variable of the reference (but those its study never compares, such as ``n_steps``), and if its
 common points cover at least :data:`MIN_COVERAGE` of the reference's points: a coarse grid that
 shares a few corners with the slice has checked almost nothing.
 """
@@ -29,27 +29,9 @@ import xarray as xr
 COORD_RTOL = 1e-6
 # settings that only set grid size or precision: they may differ between a file and the reference
 NUMERICAL_SETTINGS = ("rtol", "atol", "method", "max_steps", "backend")  # how, not what, is computed
-NOT_COMPARED = ("n_steps",)  # integrator work, differs by design between precisions
-
-# Default tolerances (atol, rtol) of continuous variables for `study verify` and the regression
-# tests, for results at the studies' default precision against references at rtol 1e-12:
 DEFAULT_TOLERANCE = (1e-9, 1e-9)
-TOLERANCES = {
-    # outcome sections: dp5 at rtol 1e-8 vs dop853 at 1e-12 on runs of up to 60 s, events located
-    # on dense output; slip/roll switching with tolerances of 1e-6..1e-9 m/s (solver.physics.switching)
-    "t_end": (1e-3, 1e-3),
-    "f2_min": (1e-3, 1e-3),
-    "half_period": (1e-4, 1e-4),
-    "revolutions": (1e-3, 1e-3),
-    "slip_time": (1e-3, 1e-2),
-    "energy_drift": (1e-5, 1e-2),
-    "beta_end": (1e-3, 1e-3),
-    "omega1_end": (1e-2, 1e-3),
-    "omega2_end": (1e-2, 1e-3),
-    "omega3_end": (1e-2, 1e-3),
-    # fig9: tr M from the same fixed-step integration; the moduli of the multipliers follow it
-    "trace_M": (1e-9, 1e-9),
-}
+"""(atol, rtol) of a continuous variable whose study declares no tolerance of its own (``Var.tolerance``;
+the outputs of ``simulate`` declare theirs in ``solver.engine.outputs``)."""
 MIN_AGREEMENT_AWAY = 1.0  # categorical: fraction identical away from boundaries needed to pass
 MIN_COVERAGE = 0.5  # common points / points of the reference slice needed to pass
 
@@ -154,10 +136,25 @@ def _away_from_boundaries(ref: xr.Dataset, names: list[str]) -> np.ndarray:
     return away
 
 
+def declared(study: str) -> tuple[dict, set]:
+    """The tolerances the variables of ``study`` declare (``Var.tolerance``: name -> (atol, rtol)) and
+    the names of those never compared (``Var.compared``: integrator work); empty for an unknown study."""
+    from rimroll.study import registry
+
+    try:
+        variables = registry.get(study).variables
+    except registry.UserError:
+        return {}, set()
+    return ({v.name: v.tolerance for v in variables if v.tolerance is not None},
+            {v.name for v in variables if not v.compared})
+
+
 def compare(ds: xr.Dataset, ref: xr.Dataset, tolerances: dict | None = None) -> Report:
-    """Agreement of ``ds`` with the reference slice ``ref`` (see the module docstring)."""
-    tol = dict(TOLERANCES, **(tolerances or {}))
+    """Agreement of ``ds`` with the reference slice ``ref`` (see the module docstring); ``tolerances``
+    (name -> (atol, rtol)) override those the study declares."""
     study = str(ref.attrs.get("study"))
+    tol, not_compared = declared(study)
+    tol.update(tolerances or {})
     mismatch = _setting_mismatch(ds, ref)
     if mismatch:
         return Report(study, 0, "settings differ, so no point is common: " + "; ".join(mismatch))
@@ -180,7 +177,7 @@ def compare(ds: xr.Dataset, ref: xr.Dataset, tolerances: dict | None = None) -> 
         sel_f[d], sel_r[d] = i_f, i_r
     a = ds.isel(sel_f)
     b = ref.isel(sel_r)
-    names = [n for n in ref.data_vars if n in ds.data_vars and n not in NOT_COMPARED]
+    names = [n for n in ref.data_vars if n in ds.data_vars and n not in not_compared]
     if not all(len(sel_f[d]) == ds.sizes[d] == ref.sizes[d] for d in dims):
         # a derived categorical variable (boundary_type) describes the neighbours on its own grid: a
         # finer grid has other neighbours, so only the same grid compares it
@@ -194,7 +191,7 @@ def compare(ds: xr.Dataset, ref: xr.Dataset, tolerances: dict | None = None) -> 
         tuple(len(sel_r[d]) for d in cat_dims), dtype=bool)
     report = Report(study, int(np.prod([len(sel_r[d]) for d in dims])),
                     n_reference=int(np.prod([ref.sizes[d] for d in dims])),
-                    missing=[n for n in ref.data_vars if n not in ds.data_vars and n not in NOT_COMPARED])
+                    missing=[n for n in ref.data_vars if n not in ds.data_vars and n not in not_compared])
     agree_all = np.ones_like(away)
     for n in categorical:
         x, y = a[n].transpose(*cat_dims).values, b[n].transpose(*cat_dims).values

@@ -111,6 +111,9 @@ class Var:
     flag_meanings: str | None = None
     outer: bool = False  # one value per point of the swept (outer) axes, e.g. an area over the grid
     standard_name: str | None = None  # CF standard name, where CF defines one (e.g. status_flag)
+    comment: str | None = None  # the detail behind a short long_name (CF comment)
+    tolerance: tuple | None = None  # (atol, rtol) of `study verify` for a continuous variable (None: the default)
+    compared: bool = True  # False: never compared with a reference (integrator work, ...)
 
     def __post_init__(self):
         if not _NAME.match(self.name):
@@ -128,10 +131,24 @@ class Var:
         out = {"units": self.units, "long_name": self.long_name}
         if self.standard_name:
             out["standard_name"] = self.standard_name
+        if self.comment:
+            out["comment"] = self.comment
         if self.flag_values is not None:
             out["flag_values"] = np.array(self.flag_values, dtype=self.dtype)
             out["flag_meanings"] = self.flag_meanings
         return out
+
+
+def output_var(name: str, **changes) -> Var:
+    """The variable of one output of ``simulate``, as ``solver.engine.outputs`` declares it (units,
+    long_name, comment, dtype, flags, tolerance); ``changes`` overrides fields (e.g. ``outer``)."""
+    from rimroll.solver.engine.outputs import output
+
+    item = output(name)
+    fields = dict(name=item.name, units=item.units, long_name=item.long_name, dtype=item.dtype,
+                  flag_values=item.flag_values, flag_meanings=item.flag_meanings, standard_name=item.standard_name,
+                  comment=item.comment or None, tolerance=item.tolerance, compared=item.compared)
+    return Var(**{**fields, **changes})
 
 
 @dataclasses.dataclass(frozen=True)

@@ -13,7 +13,7 @@ import numpy as np
 
 from rimroll import solver
 from rimroll.solver.engine import cuda_backend
-from rimroll.solver.engine.simulate import FLOAT_FIELDS, INT_FIELDS
+from rimroll.solver.engine.outputs import OUTPUTS
 
 SCENES = {  # label: (Params changes, t_max [s]) as the outcome sections (workflows/outcome_grids.py)
     "rolling_only": ({"mu": np.inf}, 20.0),
@@ -48,7 +48,7 @@ def main(out: str, n: int, max_batch: int | None) -> None:
         params = solver.Params(**changes)
         for backend in ("cpu", "cuda"):
             res = solver.simulate(states, params, t_max=t_max, backend=backend, workers=1)
-            for name in (*FLOAT_FIELDS, *INT_FIELDS, "steady_h", "on_rim_reason"):
+            for name in (o.name for o in OUTPUTS):
                 saved[f"{label}/{backend}/{name}"] = res[name]
     if max_batch:  # the batched path: several launches, both slots, against one launch
         params = solver.Params(mu=np.inf)

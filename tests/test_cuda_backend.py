@@ -63,7 +63,7 @@ def _same(a: np.ndarray, b: np.ndarray, rtol: float) -> np.ndarray:
 
 def test_simulator_gives_the_cpu_engines_results_in_every_scene(simulated_run):
     """A few dozen states per scene: same outcome, status, counts; t_end and every float within 1e-12."""
-    from rimroll.solver.engine.simulate import FLOAT_FIELDS, INT_FIELDS
+    from rimroll.solver.engine.outputs import OUTPUTS
 
     saved = simulated_run
     assert str(saved["device"]) == f"cuda ({backends.SIMULATOR_NAME})"
@@ -71,11 +71,11 @@ def test_simulator_gives_the_cpu_engines_results_in_every_scene(simulated_run):
     assert labels == ["drilling", "rolling_only", "rolling_resistance", "slipping"]
     kinds = set()
     for label in labels:
-        cpu = {name: saved[f"{label}/cpu/{name}"] for name in (*FLOAT_FIELDS, *INT_FIELDS, "steady_h", "on_rim_reason")}
+        cpu = {o.name: saved[f"{label}/cpu/{o.name}"] for o in OUTPUTS}
         gpu = {name: saved[f"{label}/cuda/{name}"] for name in cpu}
-        for name in (*INT_FIELDS, "on_rim_reason"):
+        for name in (o.name for o in OUTPUTS if o.dtype != "float64"):
             np.testing.assert_array_equal(gpu[name], cpu[name], err_msg=f"{label}: {name}")
-        for name in (*FLOAT_FIELDS, "steady_h"):
+        for name in (o.name for o in OUTPUTS if o.dtype == "float64"):
             ok = _same(gpu[name], cpu[name], 1e-12)
             assert ok.all(), f"{label}: {name} differs at {np.flatnonzero(~ok)}: {gpu[name][~ok]} vs {cpu[name][~ok]}"
         kinds |= set(np.unique(cpu["outcome"]).tolist())

@@ -21,7 +21,7 @@ from rimroll.solver.engine import outcomes
 from rimroll.solver.analysis import steady
 from rimroll.study import plotting as P
 from rimroll.study.dataset import setting_of
-from rimroll.study.registry import Axis, Study, Var, register
+from rimroll.study.registry import Axis, Study, Var, output_var, register
 
 STANDARD = solver.Params()
 STANDARD_RHO_OVER_R = STANDARD.rho / STANDARD.R  # 0.5778: the ball of Table 1
@@ -183,11 +183,6 @@ def _outcome_plot(ds):
     return fig
 
 
-def _flag_var(name, long_name, values, meanings, standard_name=None):
-    return Var(name, "1", long_name, dtype="int8", flag_values=tuple(values), flag_meanings=meanings,
-               standard_name=standard_name)
-
-
 register(Study(
     name="outcome-cube",
     title="Outcomes of rolling initial states (Figs. 11-13, reduced grid) over mu x k_r x k_d x omega2",
@@ -198,12 +193,7 @@ register(Study(
            "n_beta": 12, "n_omega1": 18},
     sweepable=("mu", "k_r", "k_d", "omega2", "omega3", "j", "rho_over_R"),
     axes=_outcome_axes,
-    variables=[_flag_var("outcome", "outcome of the rolling initial state (rules: docs/outcome-studies.md)", outcomes.OUTCOME_FLAG_VALUES,
-                         outcomes.OUTCOME_FLAG_MEANINGS),
-               Var("t_end", "s", "time the ball leaves the rim, starts periodic rolling or reaches t_max"),
-               Var("revolutions", "1", "revolutions around the rim's axis until t_end (alpha / 2 pi)"),
-               _flag_var("status", "integration status of the trajectory", outcomes.STATUS_FLAG_VALUES,
-                         outcomes.STATUS_FLAG_MEANINGS, standard_name="status_flag")],
+    variables=[output_var(name) for name in ("outcome", "t_end", "revolutions", "status")],
     compute=_outcome_compute,
     plot=_outcome_plot,
 ))

@@ -35,7 +35,7 @@ from rimroll.solver.engine import scenes
 from rimroll.solver.engine import outcomes
 from rimroll.study import plotting as P
 from rimroll.study.dataset import params_of, setting_of
-from rimroll.study.registry import Axis, Study, Var, register
+from rimroll.study.registry import Axis, Study, Var, output_var, register
 
 SCENES = tuple(s.name for s in scenes.NAMED)
 """Labels of the ``scene`` coordinate, in file order (the named scenes of ``solver.engine.scenes``)."""
@@ -53,31 +53,10 @@ SETTINGS = {
 }
 QUICK = {"n_beta": 24, "n_omega1": 36}
 
-FLOAT_VARS = [
-    Var("t_end", "s", "time of separation from the rim, of periodicity detection, or t_max"),
-    Var("f2_min", "N", "smallest normal contact force F2 along the run"),
-    Var("half_period", "s", "half period t2 - t1 of periodic rolling (NaN unless periodic)"),
-    Var("revolutions", "1", "angle alpha travelled around the rim / 2 pi"),
-    Var("slip_time", "s", "total time spent slipping"),
-    Var("energy_drift", "1", "relative change of the mechanical energy over the run"),
-    Var("beta_end", "rad", "height angle at t_end"),
-    Var("omega1_end", "s-1", "transversal angular velocity at t_end"),
-    Var("omega2_end", "s-1", "orthogonal angular velocity at t_end"),
-    Var("omega3_end", "s-1", "circular angular velocity at t_end"),
-    Var("steady_h", "s-2", "h of (54) for states on a steady motion (< 0 stable; NaN otherwise)"),
-]
-VARIABLES = [
-    Var("outcome", "1", "outcome of the ball on the rim", dtype="int8",
-        flag_values=outcomes.OUTCOME_FLAG_VALUES, flag_meanings=outcomes.OUTCOME_FLAG_MEANINGS),
-    *FLOAT_VARS,
-    Var("slip_phases", "1", "number of slipping phases", dtype="int32"),
-    Var("n_steps", "1", "attempted integrator steps", dtype="int64"),
-    Var("status", "1", "integration status", dtype="int8", standard_name="status_flag",
-        flag_values=outcomes.STATUS_FLAG_VALUES, flag_meanings=outcomes.STATUS_FLAG_MEANINGS),
-    Var("on_rim_reason", "1", "why the ball is still on the rim when the run stopped (from outcome, status and "
-        "slip_phases)", dtype="int8", flag_values=outcomes.ON_RIM_REASON_FLAG_VALUES,
-        flag_meanings=outcomes.ON_RIM_REASON_FLAG_MEANINGS),
-]
+VARIABLES = [output_var(name) for name in (
+    "outcome", "t_end", "f2_min", "half_period", "revolutions", "slip_time", "energy_drift", "beta_end", "omega1_end",
+    "omega2_end", "omega3_end", "steady_h", "slip_phases", "n_steps", "status", "on_rim_reason")]
+"""The outputs of ``simulate`` stored for every cell (``solver.engine.outputs``), in file order."""
 
 
 def scene_table(s: dict) -> dict[str, np.ndarray]:

@@ -28,7 +28,7 @@ from rimroll.solver.engine import outcomes
 from rimroll.solver.analysis import predictability as pred
 from rimroll.study import plotting as P
 from rimroll.study.dataset import setting_of
-from rimroll.study.registry import Axis, Study, Var, register
+from rimroll.study.registry import Axis, Study, Var, output_var, register
 from rimroll.workflows import outcome_grids
 
 # ================================================================ outcome names and colours
@@ -44,8 +44,7 @@ def _outcome_map(ax, w1, beta, codes):
 
 
 def _outcome_var() -> Var:
-    return Var("outcome", "1", "deterministic outcome of the nominal state", dtype="int8",
-               flag_values=outcomes.OUTCOME_FLAG_VALUES, flag_meanings=outcomes.OUTCOME_FLAG_MEANINGS)
+    return output_var("outcome", long_name="deterministic outcome of the nominal state")
 
 
 def _section_states(beta, omega1, s):
@@ -120,8 +119,7 @@ PRED_VARIABLES = [
     Var("uncertain", "1", "bit i set: the outcome changes when beta or omega1 moves by +-eps[i] grid steps "
         "(eps[i] = 2**(i - n_fine)); bits of eps < 1 are known where sample_weight > 0", dtype="int32"),
     Var("sample_weight", "1", "grid points this point stands for in the eps < 1 test (0: not simulated)"),
-    Var("status", "1", "integration status of the nominal state", dtype="int8",
-        flag_values=outcomes.STATUS_FLAG_VALUES, flag_meanings=outcomes.STATUS_FLAG_MEANINGS),
+    output_var("status", long_name="integration status of the nominal state"),
 ]
 
 

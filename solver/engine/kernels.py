@@ -42,6 +42,7 @@ from rimroll.solver.physics import rolling, slipping
 from rimroll.solver.engine import rules, system
 from rimroll.solver._compile import kernel
 from rimroll.solver.engine.events import fires, hermite_at, initial_signs, next_event, trough_possible, update_signs, value_at
+from rimroll.solver.engine.outputs import FLOAT_COLUMNS, INT_COLUMNS, column
 from rimroll.solver.engine.outcomes import (
     MAX_STEPS,
     NON_FINITE,
@@ -70,12 +71,14 @@ from rimroll.solver.engine.system import (
     N_SLIPPING,
 )
 
-# Result columns.
-RF_T_END, RF_F2_MIN, RF_HALF_PERIOD, RF_REVOLUTIONS, RF_SLIP_TIME, RF_ENERGY_DRIFT = 0, 1, 2, 3, 4, 5
-RF_BETA, RF_OMEGA1, RF_OMEGA2, RF_OMEGA3 = 6, 7, 8, 9
-N_RF = 10
-RI_OUTCOME, RI_SLIP_PHASES, RI_N_STEPS, RI_STATUS, RI_N_SEARCHED, RI_N_SLIP_STEPS = 0, 1, 2, 3, 4, 5
-N_RI = 6
+# Result columns (solver.engine.outputs): float64 outputs in res_f, integer ones in res_i.
+RF_T_END, RF_F2_MIN, RF_HALF_PERIOD = column("t_end"), column("f2_min"), column("half_period")
+RF_REVOLUTIONS, RF_SLIP_TIME, RF_ENERGY_DRIFT = column("revolutions"), column("slip_time"), column("energy_drift")
+RF_BETA, RF_OMEGA1, RF_OMEGA2, RF_OMEGA3 = (column(f"{x}_end") for x in ("beta", "omega1", "omega2", "omega3"))
+N_RF = len(FLOAT_COLUMNS)
+RI_OUTCOME, RI_SLIP_PHASES, RI_N_STEPS = column("outcome"), column("slip_phases"), column("n_steps")
+RI_STATUS, RI_N_SEARCHED, RI_N_SLIP_STEPS = column("status"), column("n_searched"), column("n_slip_steps")
+N_RI = len(INT_COLUMNS)
 
 # How a phase ends (run_phase).
 END_T_MAX = 0

@@ -21,32 +21,13 @@ from rimroll.solver import _jit
 
 from rimroll.solver.engine import backends, kernels
 from rimroll.solver.engine.outcomes import STEADY_MOTION, on_rim_reason
+from rimroll.solver.engine.outputs import OUTPUTS, column
 from rimroll.solver.engine.scenes import Scene, scene_of
 from rimroll.solver.physics.params import Params
 from rimroll.solver.physics.steady_motion import stability
 from rimroll.solver.physics.switching import default_tolerances
 from rimroll.solver.engine.tableaus import TABLEAUS
 
-FLOAT_FIELDS = {
-    "t_end": kernels.RF_T_END,
-    "f2_min": kernels.RF_F2_MIN,
-    "half_period": kernels.RF_HALF_PERIOD,
-    "revolutions": kernels.RF_REVOLUTIONS,
-    "slip_time": kernels.RF_SLIP_TIME,
-    "energy_drift": kernels.RF_ENERGY_DRIFT,
-    "beta_end": kernels.RF_BETA,
-    "omega1_end": kernels.RF_OMEGA1,
-    "omega2_end": kernels.RF_OMEGA2,
-    "omega3_end": kernels.RF_OMEGA3,
-}
-INT_FIELDS = {  # name: (column, dtype)
-    "outcome": (kernels.RI_OUTCOME, np.int8),
-    "slip_phases": (kernels.RI_SLIP_PHASES, np.int32),
-    "n_steps": (kernels.RI_N_STEPS, np.int64),
-    "n_searched": (kernels.RI_N_SEARCHED, np.int64),
-    "n_slip_steps": (kernels.RI_N_SLIP_STEPS, np.int64),
-    "status": (kernels.RI_STATUS, np.int8),
-}
 
 RTOL_RANGE = (1e-14, 1e-2)
 """Relative tolerances for which the error control means something: below 1e-14 the steps
@@ -214,10 +195,12 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
 
 
 def _fields(flat, shape, res_f, res_i, params):
-    """The result dict of :func:`simulate` from the result rows of the kernels."""
-    out = {name: res_f[:, col].reshape(shape).copy() for name, col in FLOAT_FIELDS.items()}
-    for name, (col, dtype) in INT_FIELDS.items():
-        out[name] = res_i[:, col].astype(dtype).reshape(shape)
+    """The result dict of :func:`simulate` (``solver.engine.outputs``) from the result rows of the kernels."""
+    out = {}
+    for item in OUTPUTS:
+        if item.in_kernel:
+            rows = res_f if item.dtype == "float64" else res_i
+            out[item.name] = rows[:, column(item.name)].astype(item.dtype).reshape(shape)
     out["steady_h"] = _steady_h(flat, out["outcome"].reshape(-1), params).reshape(shape)
     out["on_rim_reason"] = on_rim_reason(out["outcome"], out["status"], out["slip_phases"])
     return out
