@@ -55,11 +55,13 @@ def main(out: str, n: int, max_batch: int | None) -> None:
         flat = np.ascontiguousarray(states)
         res_f = np.full((n, solver.engine.kernels.N_RF), np.nan)
         res_i = np.full((n, solver.engine.kernels.N_RI), -1, dtype=np.int64)
+        from rimroll.solver.engine.kernels import Limits
         from rimroll.solver.engine.scenes import scene_of
         from rimroll.solver.physics.switching import default_tolerances
 
-        cuda_backend.run(scene_of(params), "dp5", flat, params.as_array(), 20.0, 1e-8, 1e-10, 1_000_000, 10_000,
-                         default_tolerances(), res_f, res_i, max_batch=max_batch)
+        cuda_backend.run(scene_of(params), "dp5", flat, params.as_array(),
+                         Limits(20.0, 1e-8, 1e-10, 1_000_000, 10_000), default_tolerances(), res_f, res_i,
+                         max_batch=max_batch)
         saved["batched/res_f"] = res_f
         saved["batched/res_i"] = res_i
     saved["device"] = np.array(solver.engine.backends.resolve("cuda").describe())

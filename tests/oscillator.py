@@ -55,7 +55,7 @@ def one_step(stepper, tab, y, h):
     tmp = np.zeros(7)
     stepper.rk_step(rhs, y, f, h, N, tab.A, tab.n_stages, K, y_new, tmp, P)
     Q = np.zeros((7, tab.n_poly))
-    stepper.dense_prepare(rhs, y, h, N, tab.A, tab.n_stages, tab.n_dense, tab.P, tab.n_poly, K, Q, tmp, P)
+    stepper.dense_prepare(rhs, tab.method, y, h, N, K, Q, tmp, P)
     return y_new, K, Q
 
 

@@ -210,7 +210,7 @@ ENGINE_MODULES = ("physics/rolling", "physics/slipping", "physics/switching", "p
 @needs_numba_cuda
 def test_the_engine_calls_only_numpy_functions_the_device_lowers():
     """Every ``np.<f>(...)`` call in a compiled function of the engine (``@kernel``; the CPU chunk
-    driver run_scene, whose work arrays the device launcher replaces, aside) is a ufunc numba-cuda lowers on scalars, or one of the loops solver.engine.cuda_backend adds: a new
+    driver run_scene and its new_work, whose work arrays the device launcher replaces, aside) is a ufunc numba-cuda lowers on scalars, or one of the loops solver.engine.cuda_backend adds: a new
     numpy call in the engine that the device cannot compile fails here, without the CUDA compiler."""
     import ast
 
@@ -224,7 +224,7 @@ def test_the_engine_calls_only_numpy_functions_the_device_lowers():
     calls = {}
     for name in ENGINE_MODULES:
         tree = ast.parse((root / f"{name}.py").read_text())
-        for fn in (n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name != "run_scene"
+        for fn in (n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name not in ("run_scene", "new_work")
                    and any("kernel" in ast.unparse(d) for d in n.decorator_list)):
             for node in ast.walk(fn):
                 if (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
@@ -359,6 +359,7 @@ def test_auto_picks_the_device_and_batches_agree():
     name = _device_or_skip()
     assert backends.resolve("auto") == backends.Backend("cuda", name)
     from rimroll.solver.engine import cuda_backend
+    from rimroll.solver.engine.kernels import Limits
     from rimroll.solver.engine.scenes import scene_of
     from rimroll.solver.physics.switching import default_tolerances
 
@@ -369,7 +370,7 @@ def test_auto_picks_the_device_and_batches_agree():
     one = solver.simulate(states, params, backend="cuda")
     res_f = np.full((5000, solver.engine.kernels.N_RF), np.nan)
     res_i = np.full((5000, solver.engine.kernels.N_RI), -1, dtype=np.int64)
-    cuda_backend.run(scene_of(params), "dp5", states, params.as_array(), 20.0, 1e-8, 1e-10, 1_000_000, 10_000,
-                     default_tolerances(), res_f, res_i, max_batch=777)
+    cuda_backend.run(scene_of(params), "dp5", states, params.as_array(),
+                     Limits(20.0, 1e-8, 1e-10, 1_000_000, 10_000), default_tolerances(), res_f, res_i, max_batch=777)
     np.testing.assert_array_equal(res_i[:, solver.engine.kernels.RI_OUTCOME], one["outcome"])
     np.testing.assert_array_equal(res_f[:, solver.engine.kernels.RF_T_END], one["t_end"])

@@ -6,6 +6,7 @@ the physics systems.
 """
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 import pytest
@@ -81,19 +82,27 @@ def test_dense_output_reproduces_ends_and_interpolates(name):
         assert np.abs(out[:3] - exact(theta * h)).max() < bound
 
 
+class EventTable(NamedTuple):
+    """An event table as the locator reads it (a phase's ``system.Phase`` has these fields too)."""
+
+    active: np.ndarray
+    direction: np.ndarray
+    track_min: np.ndarray
+
+
+def scratch():
+    return events.Scratch(np.zeros(7), np.zeros(7), *(np.zeros(N_EVENTS) for _ in range(4)))
+
+
 def search_step(tab, y, h, t, sign, direction, active, track_min, search):
     """Step once with fixed h and search its dense output for events. Returns (y_new, Q, event, theta, mins)."""
     y_new, K, Q = one_step(tab, y, h)
     g0, _ = values(y)
     g1, gr1 = values(y_new, K[tab.n_stages])
-    th_min = np.full(N_EVENTS, 0.5)
-    mins = np.full(N_EVENTS, np.inf)
-    w = [np.zeros(7) for _ in range(2)]
-    gs = [np.zeros(N_EVENTS) for _ in range(4)]
-    ev, theta = events.next_event(osc_events, active, direction, track_min, sign, search, th_min, 0.0, g0, g1, gr1,
-                                  y, h, t, Q, N, tab.n_poly, P, AUX, False, w[0], w[1], gs[0], gs[1], gs[2], gs[3],
-                                  mins)
-    return y_new, Q, ev, theta, mins
+    tracking = events.Tracking(sign, search, np.full(N_EVENTS, 0.5), np.full(N_EVENTS, np.inf))
+    ev, theta = events.next_event(osc_events, EventTable(active, direction, track_min), tracking, 0.0, g0, g1, gr1,
+                                  events.Dense(y, h, t, Q, N), P, AUX, False, scratch())
+    return y_new, Q, ev, theta, tracking.mins
 
 
 @pytest.mark.parametrize("name", METHODS)
@@ -155,12 +164,9 @@ def test_grazing_dip_inside_one_step_is_decided_at_its_minimum(h, depth, tol):
     assert g0[0] > 0 and g1[0] > 0
     width = 2 * math.sqrt(2 * depth)  # where x + c < 0
     assert width < 0.1 * h
-    mins = np.full(N_EVENTS, np.inf)
-    w = [np.zeros(7) for _ in range(2)]
-    gs = [np.zeros(N_EVENTS) for _ in range(4)]
-    ev, theta = events.next_event(shifted_events, active, direction, track, sign, search, np.full(3, 0.5), 0.0, g0,
-                                  g1, gr1, y, h, t_start, Q, N, tab.n_poly, np.array([c]), AUX, False, w[0], w[1],
-                                  gs[0], gs[1], gs[2], gs[3], mins)
+    tracking = events.Tracking(sign, search, np.full(3, 0.5), np.full(N_EVENTS, np.inf))
+    ev, theta = events.next_event(shifted_events, EventTable(active, direction, track), tracking, 0.0, g0, g1, gr1,
+                                  events.Dense(y, h, t_start, Q, N), np.array([c]), AUX, False, scratch())
     assert ev == 0
     if tol is not None:  # where the dense output is accurate: the exact first zero
         assert abs(t_start + theta * h - math.acos(-c)) < tol
@@ -185,8 +191,8 @@ def _attempt(tab, t, y, h, budget):
     rhs(y, P, K, 0)
     f = K[0].copy()
     y_new, tmp = np.zeros(7), np.zeros(7)
-    return stepper.attempt(rhs, t, t + 1.0, y, f, h, False, N, N, tab.A, tab.E, tab.n_stages, tab.err_mode,
-                           -1.0 / (tab.error_order + 1.0), 1e-8, np.full(7, 1e-10), budget, K, y_new, tmp, P)
+    control = stepper.Control(N, N, 1e-8, np.full(7, 1e-10), t + 1.0)
+    return stepper.attempt(rhs, tab.method, control, P, stepper.Arrays(y, f, K, y_new, tmp), t, h, False, budget)
 
 
 @pytest.mark.parametrize("name", METHODS)

@@ -277,8 +277,6 @@ def refine_pairs(inside, outside, params, t_max: float = 20.0, *, f2_rel: float 
     ``separatrix_at_boundary``, ``slipped`` (bool), ``other_outcome``, ``other_t_end`` [s];
     and ``n_runs``, the number of simulated states (an int).
     """
-    from rimroll.solver.engine.simulate import simulate
-
     opts = dict(REFINE_DEFAULTS)
     sim_kw = {k: options.pop(k) for k in list(options) if k not in REFINE_DEFAULTS}
     opts.update(options)
@@ -289,96 +287,127 @@ def refine_pairs(inside, outside, params, t_max: float = 20.0, *, f2_rel: float 
     if params.dissipative:
         raise ValueError("refine_pairs needs a conservative scene (k_r = k_d = 0): periodic rolling is detected "
                          f"only there; got k_r = {params.k_r}, k_d = {params.k_d}")
-    a = np.asarray(inside, dtype=float).reshape(-1, 4)
-    b = np.asarray(outside, dtype=float).reshape(-1, 4)
-    if a.shape != b.shape:
-        raise ValueError(f"inside and outside must have the same shape (n, 4); got {a.shape}, {b.shape}")
-    n = a.shape[0]
-    hybrid = not params.rolling_only
-    if hybrid:
-        sim_kw["max_switches"] = 0  # a slip ends the run: periodic rolling without slipping is what is bisected
+    seg = _Segments(inside, outside, params, t_max, sim_kw)
     n_bisect, n_band, n_zoom = int(opts["n_bisect"]), int(opts["n_band"]), int(opts["n_zoom"])
     growth = float(opts["hp_log_growth"])
-    runs = [0]
-
-    def run(s):
-        """simulate the states at fractions s (n, k) or (n,) of each segment."""
-        s = np.asarray(s, dtype=float)
-        shape = s.shape + (4,)
-        x = a.reshape((n,) + (1,) * (s.ndim - 1) + (4,)) + s[..., None] * (b - a).reshape(
-            (n,) + (1,) * (s.ndim - 1) + (4,))
-        runs[0] += s.size
-        return simulate(x.reshape(shape), params, t_max=t_max, **sim_kw)
-
-    def hp_of(r):
-        return np.where(r["outcome"] == outcomes.PERIODIC_ROLLING, r["half_period"], -np.inf)
-
-    ends = run(np.stack([np.zeros(n), np.ones(n)], axis=1))
+    ends = seg.run(np.stack([np.zeros(seg.n), np.ones(seg.n)], axis=1))
     refined = (ends["outcome"][:, 0] == outcomes.PERIODIC_ROLLING) & (ends["outcome"][:, 1] != outcomes.PERIODIC_ROLLING)
-    lo, hi = np.zeros(n), np.ones(n)
+    b = _bisect(seg, ends, n_bisect)
+    at_boundary, S, H = _band(seg, ends, b, n_bisect, n_band, growth)
+    best, s_best, best_half = _golden_peak(seg, S, H, n_zoom)
+    with np.errstate(invalid="ignore"):  # -inf - -inf where a pair is not refined
+        interior = np.isfinite(best_half) & (best - best_half >= growth * best)
+    separatrix = at_boundary | interior
+    deadlock = b["f2_lo"] <= f2_rel * params.m * params.g
+    slipped = seg.hybrid & (b["other_status"] == outcomes.TOO_MANY_SWITCHES)
+    kind = np.select([deadlock & separatrix, deadlock, at_boundary, slipped, interior],
+                     [SEPARATRIX_AND_DEADLOCK, DEADLOCK, SEPARATRIX, SLIPPING_INDUCED, SEPARATRIX], UNDETERMINED)
+    kind = np.where(refined, kind, UNDETERMINED).astype(np.int8)
+    lo, hi = b["lo"], b["hi"]
+    return {"type": kind, "refined": refined, "s_boundary": lo, "periodic": seg.at(lo), "other": seg.at(hi),
+            "f2_min": b["f2_lo"], "half_period": b["hp_lo"], "half_period_start": ends["half_period"][:, 0],
+            "half_period_peak": best, "s_peak": s_best, "deadlock": deadlock & refined,
+            "separatrix": separatrix & refined, "separatrix_at_boundary": at_boundary & refined,
+            "slipped": slipped & refined, "other_outcome": b["other_outcome"], "other_t_end": b["other_t_end"],
+            "n_runs": seg.runs}
+
+
+class _Segments:
+    """The segments a -> b of :func:`refine_pairs`, simulated at fractions s of each (all pairs
+    together, one ``solver.simulate`` call per stage); ``runs`` counts the simulated states."""
+
+    def __init__(self, inside, outside, params, t_max, sim_kw):
+        self.a = np.asarray(inside, dtype=float).reshape(-1, 4)
+        self.b = np.asarray(outside, dtype=float).reshape(-1, 4)
+        if self.a.shape != self.b.shape:
+            raise ValueError(f"inside and outside must have the same shape (n, 4); got {self.a.shape}, {self.b.shape}")
+        self.n = self.a.shape[0]
+        self.params, self.t_max, self.sim_kw = params, t_max, dict(sim_kw)
+        self.hybrid = not params.rolling_only
+        if self.hybrid:
+            self.sim_kw["max_switches"] = 0  # a slip ends the run: periodic rolling without slipping is what is bisected
+        self.runs = 0
+
+    def at(self, s):
+        """The states at fractions s (n,) of the segments, (n, 4)."""
+        return self.a + s[:, None] * (self.b - self.a)
+
+    def run(self, s):
+        """``solver.simulate`` of the states at fractions s (n, k) or (n,) of each segment."""
+        from rimroll.solver.engine.simulate import simulate
+
+        s = np.asarray(s, dtype=float)
+        lead = (self.n,) + (1,) * (s.ndim - 1) + (4,)
+        x = self.a.reshape(lead) + s[..., None] * (self.b - self.a).reshape(lead)
+        self.runs += s.size
+        return simulate(x.reshape(s.shape + (4,)), self.params, t_max=self.t_max, **self.sim_kw)
+
+
+def _half_period(r):
+    """The half period of the periodic runs of a simulate result, -inf elsewhere."""
+    return np.where(r["outcome"] == outcomes.PERIODIC_ROLLING, r["half_period"], -np.inf)
+
+
+def _bisect(seg: _Segments, ends, n_bisect: int) -> dict:
+    """Stage 1 of :func:`refine_pairs`: the bracket [lo, hi] of the end of periodic rolling, F2_min
+    and the half period at lo, and the outcome, t_end and status at the far end of the bracket."""
+    lo, hi = np.zeros(seg.n), np.ones(seg.n)
     f2_lo, hp_lo = ends["f2_min"][:, 0].copy(), ends["half_period"][:, 0].copy()
-    other_outcome = ends["outcome"][:, 1].copy()
-    other_t_end = ends["t_end"][:, 1].copy()
-    other_status = ends["status"][:, 1].copy()
-    # 1. bisection
+    other = {key: ends[key][:, 1].copy() for key in ("outcome", "t_end", "status")}
     for _ in range(n_bisect):
         mid = 0.5 * (lo + hi)
-        r = run(mid)
+        r = seg.run(mid)
         per = r["outcome"] == outcomes.PERIODIC_ROLLING
         lo, hi = np.where(per, mid, lo), np.where(per, hi, mid)
         f2_lo, hp_lo = np.where(per, r["f2_min"], f2_lo), np.where(per, r["half_period"], hp_lo)
-        other_outcome = np.where(per, other_outcome, r["outcome"])
-        other_t_end = np.where(per, other_t_end, r["t_end"])
-        other_status = np.where(per, other_status, r["status"])
-    # 3. the half period over the band [0, lo]: uniform samples, and geometric ones toward lo, from
-    # NEAREST of the segment on: finer distances than the integration resolves show no growth
+        other = {key: np.where(per, value, r[key]) for key, value in other.items()}
+    return {"lo": lo, "hi": hi, "f2_lo": f2_lo, "hp_lo": hp_lo, "other_outcome": other["outcome"],
+            "other_t_end": other["t_end"], "other_status": other["status"]}
+
+
+def _band(seg: _Segments, ends, b: dict, n_bisect: int, n_band: int, growth: float):
+    """Stage 3 of :func:`refine_pairs`: the half period over the band [0, lo], uniform samples and
+    geometric ones toward lo from NEAREST of the segment on (finer distances than the integration
+    resolves show no growth). Returns (growth at the boundary, the sample fractions S and half
+    periods H, sorted by S, with the ends included)."""
+    lo = b["lo"]
     nearest = 2.0 ** -min(n_bisect, NEAREST_EXPONENT)
     uniform = lo[:, None] * (np.arange(1, n_band) / n_band)[None, :]
     geometric = np.clip(lo[:, None] - nearest * 4.0 ** np.arange(0, 7)[None, :], 0.0, None)
-    band = run(np.concatenate([uniform, geometric], axis=1))
-    h_band = hp_of(band)
+    h_band = _half_period(seg.run(np.concatenate([uniform, geometric], axis=1)))
     h_near, h_far = h_band[:, n_band - 1], h_band[:, n_band + 1]  # at nearest and 16 x nearest from lo
     with np.errstate(invalid="ignore"):  # -inf - -inf where a sample is not periodic
         at_boundary = np.isfinite(h_near) & np.isfinite(h_far) & (h_near - h_far >= growth * h_near)
-    S = np.concatenate([np.zeros((n, 1)), uniform, geometric, lo[:, None]], axis=1)
-    H = np.concatenate([ends["half_period"][:, :1], h_band, hp_lo[:, None]], axis=1)
+    S = np.concatenate([np.zeros((seg.n, 1)), uniform, geometric, lo[:, None]], axis=1)
+    H = np.concatenate([ends["half_period"][:, :1], h_band, b["hp_lo"][:, None]], axis=1)
     H = np.where(np.isnan(H), -np.inf, H)  # a pair that is not refined has no half period at its ends
     order = np.argsort(S, axis=1, kind="stable")
-    S, H = np.take_along_axis(S, order, 1), np.take_along_axis(H, order, 1)
-    k = np.arange(n)
+    return at_boundary, np.take_along_axis(S, order, 1), np.take_along_axis(H, order, 1)
+
+
+def _golden_peak(seg: _Segments, S, H, n_zoom: int):
+    """The largest half period of each band: a golden-section search around its largest sample.
+    Returns (the largest half period [s], where (a fraction), the largest after n_zoom // 2 steps)."""
+    k = np.arange(seg.n)
     m = np.argmax(H, axis=1)
     best, s_best = H[k, m], S[k, m]
     left, right = S[k, np.maximum(m - 1, 0)], S[k, np.minimum(m + 1, S.shape[1] - 1)]
     x1, x2 = right - _GOLD * (right - left), left + _GOLD * (right - left)
-    h = hp_of(run(np.stack([x1, x2], axis=1)))
+    h = _half_period(seg.run(np.stack([x1, x2], axis=1)))
     h1, h2 = h[:, 0], h[:, 1]
     best_half = best
     for step in range(n_zoom):
         right_side = h2 > h1  # the larger value brackets the peak: keep its side
         left, right = np.where(right_side, x1, left), np.where(right_side, right, x2)
         x_new = np.where(right_side, left + _GOLD * (right - left), right - _GOLD * (right - left))
-        h_new = hp_of(run(x_new))
+        h_new = _half_period(seg.run(x_new))
         x1, x2 = np.where(right_side, x2, x_new), np.where(right_side, x_new, x1)
         h1, h2 = np.where(right_side, h2, h_new), np.where(right_side, h_new, h1)
         better = h_new > best
         best, s_best = np.where(better, h_new, best), np.where(better, x_new, s_best)
         if step == n_zoom // 2 - 1:
             best_half = best
-    with np.errstate(invalid="ignore"):  # -inf - -inf where a pair is not refined
-        interior = np.isfinite(best_half) & (best - best_half >= growth * best)
-    separatrix = at_boundary | interior
-    weight = params.m * params.g
-    deadlock = f2_lo <= f2_rel * weight
-    slipped = hybrid & (other_status == outcomes.TOO_MANY_SWITCHES)
-    kind = np.select([deadlock & separatrix, deadlock, at_boundary, slipped, interior],
-                     [SEPARATRIX_AND_DEADLOCK, DEADLOCK, SEPARATRIX, SLIPPING_INDUCED, SEPARATRIX], UNDETERMINED)
-    kind = np.where(refined, kind, UNDETERMINED).astype(np.int8)
-    return {"type": kind, "refined": refined, "s_boundary": lo, "periodic": a + lo[:, None] * (b - a),
-            "other": a + hi[:, None] * (b - a), "f2_min": f2_lo, "half_period": hp_lo,
-            "half_period_start": ends["half_period"][:, 0], "half_period_peak": best, "s_peak": s_best,
-            "deadlock": deadlock & refined, "separatrix": separatrix & refined,
-            "separatrix_at_boundary": at_boundary & refined, "slipped": slipped & refined,
-            "other_outcome": other_outcome, "other_t_end": other_t_end, "n_runs": runs[0]}
+    return best, s_best, best_half
 
 
 def refine_grid(outcome, states, params, t_max: float, fallback=None, **options) -> tuple[np.ndarray, dict]:

@@ -191,6 +191,127 @@ class Phase:
     sol: object
 
 
+class _System:
+    """The scipy systems of one run: right-hand sides, event values and ``solve_ivp`` events of the
+    rolling and slipping phases, and the return rule, for one scene and the run's settings."""
+
+    def __init__(self, params: Params, t_max, rtol, atol, method, switching_tolerances):
+        self.p = params.as_array()
+        self.sw = switching.default_tolerances(**(switching_tolerances or {}))
+        self.hybrid, self.conservative = scene_of(params).flags
+        self.u_stop = self.sw[switching.SW_U_STOP]
+        self.t_max, self.rtol, self.atol, self.method = t_max, rtol, atol, method
+        self.out = np.empty(7)  # the rolling state of a return (try_return)
+        self.fall_roll = scipy_event(self.fall_roll_value, terminal=True, direction=-1)
+        self.omega1_zero = _omega1_zero()
+        self.fall_slip = scipy_event(self.fall_slip_value, terminal=True, direction=-1)
+        self.f2_min_roll = scipy_event(self.f2_rate_roll, terminal=False, direction=1)  # interior minima of F2
+        self.f2_min_slip = scipy_event(self.f2_rate_slip, terminal=False, direction=1)
+        self.refused = self._refused_event()
+        # the rolling phase's events by name; only the terminal ones other than omega1 stop it early
+        self.roll_events = {"fall": self.fall_roll, "minimum": self.f2_min_roll}
+        if self.hybrid:
+            self.roll_events["slip"] = scipy_event(self.margin_value, terminal=True, direction=-1)
+        if self.conservative:
+            self.roll_events["omega1"] = self.omega1_zero
+        self.at = {name: i for i, name in enumerate(self.roll_events)}
+
+    def fun_roll(self, t, y):
+        b, w1, w2, w3 = rolling.rolling_rhs(y[0], y[1], y[2], y[3], self.p)
+        alpha_dot, _ = kinematics.angle_rates(y[0], y[1], y[3], 0.0, 0.0, self.p)
+        return [b, w1, w2, w3, alpha_dot]
+
+    def fun_slip(self, t, y):
+        b, w1, w2, w3, du1, du3 = slipping.slipping_rhs(y[0], y[1], y[2], y[3], y[4], y[5], self.p)
+        alpha_dot, _ = kinematics.angle_rates(y[0], y[1], y[3], y[4], y[5], self.p)
+        return [b, w1, w2, w3, du1, du3, alpha_dot]
+
+    def fall_roll_value(self, y):
+        return rolling.normal_force(y[0], y[1], y[3], self.p)
+
+    def margin_value(self, y):
+        return rolling.friction_margin(y[0], y[1], y[2], y[3], self.p)
+
+    def fall_slip_value(self, y):
+        return slipping.slipping_normal_force(y[0], y[1], y[3], y[4], y[5], self.p)
+
+    def f2_rate_roll(self, y):  # dF2/dt of (31)
+        b, w1, _, w3 = rolling.rolling_rhs(y[0], y[1], y[2], y[3], self.p)
+        return rolling.normal_force_rate(y[0], y[1], y[3], b, w1, w3, self.p)
+
+    def f2_rate_slip(self, y):  # dF2/dt of (41)
+        b, w1, _, w3, du1, du3 = slipping.slipping_rhs(y[0], y[1], y[2], y[3], y[4], y[5], self.p)
+        return slipping.slipping_normal_force_rate(y[0], y[1], y[3], y[4], y[5], b, w1, w3, du1, du3, self.p)
+
+    def return_dt(self, t, y):
+        """try_return at (t, y): the time it advances (>= 0), or -1.0 (refused); rolling state in ``out``."""
+        yy = np.ascontiguousarray(y, dtype=float)
+        return switching.try_return(yy, self.p, self.sw, self.t_max - t, self.out)
+
+    def _refused_event(self):
+        """+1 while the return is refused, -1 where it is allowed (depends on t: the time left caps it)."""
+        def refused(t, y):
+            if np.hypot(y[4], y[5]) > self.u_stop:
+                return 1.0
+            return 1.0 if self.return_dt(t, y) < 0.0 else -1.0
+
+        refused.terminal = True
+        refused.direction = -1
+        return refused
+
+    def solve_rolling(self, t, y):
+        """solve_ivp of one rolling phase from (t, y): (solution, its transversal omega1 zeros, the
+        pair of omega1 crossings that makes it periodic or None, rhs evaluations)."""
+        t_start = t if self.conservative and _starts_crossing(y, self.p, self.rtol) else None
+        self.omega1_zero.terminal = 1 if t_start is not None else 2
+
+        def run():
+            sol = solve_ivp(self.fun_roll, (t, self.t_max), y, method=self.method, rtol=self.rtol, atol=self.atol,
+                            events=list(self.roll_events.values()), dense_output=True)
+            if not self.conservative:
+                return sol, [], None
+            zeros = _transversal_zeros(sol.t_events[self.at["omega1"]], sol.y_events[self.at["omega1"]], self.p,
+                                       self.rtol)
+            crossings = ([t_start] if t_start is not None else []) + zeros
+            return sol, zeros, (crossings[:2] if len(crossings) >= 2 else None)
+
+        sol, zeros, pair = run()
+        nfev = sol.nfev
+        others = [self.at[k] for k in ("fall", "slip") if k in self.at]
+        if pair is None and sol.status == 1 and not any(sol.t_events[i].size for i in others):
+            self.omega1_zero.terminal = False  # a touching zero stopped it: on to t_max past omega1 zeros
+            sol, zeros, pair = run()
+            nfev += sol.nfev
+        return sol, zeros, pair, nfev
+
+
+@dataclasses.dataclass
+class _Run:
+    """The state of one run between phases, and what it has recorded so far."""
+
+    y: np.ndarray
+    t: float = 0.0
+    slipping: bool = False
+    done: bool = False
+    outcome: int = ON_RIM_AT_T_MAX
+    reason: str = "t_max"
+    half_period: float = np.nan
+    nfev: int = 0
+    steps: list = dataclasses.field(default_factory=lambda: [0, 0])  # accepted steps rolling, slipping
+    switches: int = 0
+    slip_phases: int = 0
+    slip_time: float = 0.0
+    t_slip0: float = 0.0
+    phases: list = dataclasses.field(default_factory=list)
+    events: list = dataclasses.field(default_factory=lambda: [(0.0, "start")])
+
+    def finish(self, reason: str, outcome: int | None = None) -> None:
+        self.done = True
+        self.reason = reason
+        if outcome is not None:
+            self.outcome = int(outcome)
+
+
 def integrate(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, method="DOP853", *,
               switching_tolerances=None, max_switches=10_000) -> dict:
     """One rolling initial state by ``solve_ivp``, phase by phase, in any scene.
@@ -203,256 +324,171 @@ def integrate(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, method=
     ``reason`` the kind of the event that ended the run (or ``too_many_switches``,
     ``integration_failed``); ``phases`` the :class:`Phase` list and ``events`` the (t [s], kind)
     list, kinds of :data:`EVENT_KINDS` (``solver.analysis.trace`` samples them).
+
+    Every phase starts with the rules' ``rules.phase_start_action`` (fall, slip, steady motion or
+    run), as in the compiled engine; only the integration and the event location differ.
     """
-    p = params.as_array()
-    sw = switching.default_tolerances(**(switching_tolerances or {}))
-    hybrid, conservative = scene_of(params).flags
-    u_stop = sw[switching.SW_U_STOP]
-
-    rolling_rhs = rolling.rolling_rhs
-    slipping_rhs = slipping.slipping_rhs
-    F2_roll = rolling.normal_force
-    F2_slip = slipping.slipping_normal_force
-    margin = rolling.friction_margin
-    angle_rates = kinematics.angle_rates
-
-    def fun_roll(t, y):
-        b, w1, w2, w3 = rolling_rhs(y[0], y[1], y[2], y[3], p)
-        alpha_dot, _ = angle_rates(y[0], y[1], y[3], 0.0, 0.0, p)
-        return [b, w1, w2, w3, alpha_dot]
-
-    def fun_slip(t, y):
-        b, w1, w2, w3, du1, du3 = slipping_rhs(y[0], y[1], y[2], y[3], y[4], y[5], p)
-        alpha_dot, _ = angle_rates(y[0], y[1], y[3], y[4], y[5], p)
-        return [b, w1, w2, w3, du1, du3, alpha_dot]
-
-    def fall_roll_value(y):
-        return F2_roll(y[0], y[1], y[3], p)
-
-    def margin_value(y):
-        return margin(y[0], y[1], y[2], y[3], p)
-
-    def fall_slip_value(y):
-        return F2_slip(y[0], y[1], y[3], y[4], y[5], p)
-
-    out = np.empty(7)
-
-    def return_dt(t, y):
-        """try_return at (t, y): the time it advances (>= 0), or -1.0 (refused); rolling state in out."""
-        yy = np.ascontiguousarray(y, dtype=float)
-        return switching.try_return(yy, p, sw, t_max - t, out)
-
-    fall_roll = scipy_event(fall_roll_value, terminal=True, direction=-1)
-    slip_onset = scipy_event(margin_value, terminal=True, direction=-1)
-    omega1_zero = _omega1_zero()
-    fall_slip = scipy_event(fall_slip_value, terminal=True, direction=-1)
-
-    def f2_min_roll(t, y):  # dF2/dt = 0 upward: an interior minimum of F2 (31)
-        b, w1, _, w3 = rolling_rhs(y[0], y[1], y[2], y[3], p)
-        return rolling.normal_force_rate(y[0], y[1], y[3], b, w1, w3, p)
-
-    def f2_min_slip(t, y):  # the same for F2 (41)
-        b, w1, _, w3, du1, du3 = slipping_rhs(y[0], y[1], y[2], y[3], y[4], y[5], p)
-        return slipping.slipping_normal_force_rate(y[0], y[1], y[3], y[4], y[5], b, w1, w3, du1, du3, p)
-
-    for minimum in (f2_min_roll, f2_min_slip):
-        minimum.terminal = False
-        minimum.direction = 1
-
-    def refused(t, y):  # depends on t too (the time left caps the return)
-        if np.hypot(y[4], y[5]) > u_stop:
-            return 1.0
-        return 1.0 if return_dt(t, y) < 0.0 else -1.0
-
-    refused.terminal = True
-    refused.direction = -1
-
-    # the rolling phase's events by name; only the terminal ones other than omega1 stop it early
-    roll_events = {"fall": fall_roll, "minimum": f2_min_roll}
-    if hybrid:
-        roll_events["slip"] = slip_onset
-    if conservative:
-        roll_events["omega1"] = omega1_zero
-    at = {name: i for i, name in enumerate(roll_events)}
-
-    def rolling_phase(t, y):
-        """solve_ivp of one rolling phase from (t, y): (solution, its transversal omega1 zeros, the
-        pair of omega1 crossings that makes it periodic or None, rhs evaluations)."""
-        t_start = t if conservative and _starts_crossing(y, p, rtol) else None
-        omega1_zero.terminal = 1 if t_start is not None else 2
-
-        def run():
-            sol = solve_ivp(fun_roll, (t, t_max), y, method=method, rtol=rtol, atol=atol,
-                            events=list(roll_events.values()), dense_output=True)
-            if not conservative:
-                return sol, [], None
-            zeros = _transversal_zeros(sol.t_events[at["omega1"]], sol.y_events[at["omega1"]], p, rtol)
-            crossings = ([t_start] if t_start is not None else []) + zeros
-            return sol, zeros, (crossings[:2] if len(crossings) >= 2 else None)
-
-        sol, zeros, pair = run()
-        nfev = sol.nfev
-        others = [at[k] for k in ("fall", "slip") if k in at]
-        if pair is None and sol.status == 1 and not any(sol.t_events[i].size for i in others):
-            omega1_zero.terminal = False  # a touching zero stopped it: on to t_max past omega1 zeros
-            sol, zeros, pair = run()
-            nfev += sol.nfev
-        return sol, zeros, pair, nfev
-
-    y = np.array([*np.asarray(state, float), 0.0])
-    phase_slipping = False
-    t = 0.0
-    E0 = rolling.energy(y[0], y[1], y[2], y[3], p)
-    outcome = ON_RIM_AT_T_MAX
-    reason = "t_max"
-    half_period = np.nan
-    nfev = 0
-    steps = [0, 0]  # accepted steps in rolling, slipping phases
-    switches = 0
-    slip_phases = 0
-    slip_time = 0.0
-    t_slip0 = 0.0
-    phases, events = [], [(0.0, "start")]
-
-    def to_slipping(y5):
-        y7 = np.empty(7)
-        y7[:5] = y5
-        y7[5:] = 0.0
-        switching.enter_slipping(y7, p, sw)
-        return y7
-
-    while True:
-        if not phase_slipping:
-            # ---------------- rolling phase ----------------
-            if fall_roll_value(y) < 0.0:
-                outcome, reason = int(rules.fall_outcome(y[0], y[1], y[3], 0.0, 0.0, p)), "fall"
-                break
-            if hybrid and margin_value(y) < 0.0:
-                switches += 1
-                if switches > max_switches:
-                    reason = "too_many_switches"
-                    break
-                y = to_slipping(y)
-                phase_slipping = True
-                slip_phases += 1
-                t_slip0 = t
-                events.append((t, "slip_onset"))
-                continue
-            if t == 0.0 and rules.on_steady_motion(y[0], y[1], y[2], y[3], p):
-                outcome, reason = STEADY_MOTION, "steady_motion"
-                break
-            if t >= t_max:
-                break
-            sol, zeros, pair, n = rolling_phase(t, y)
-            nfev += n
-            t_stop = float(sol.t[-1])
-            # candidates (time, rule index): scipy's events and the sampled dips, earliest first
-            cands = []
-            if sol.t_events[at["fall"]].size:
-                cands.append((float(sol.t_events[at["fall"]][0]), 0))
-            if hybrid and sol.t_events[at["slip"]].size:
-                cands.append((float(sol.t_events[at["slip"]][0]), 1))
-            if pair is not None:
-                cands.append((pair[1], 2))
-            t_dip = _first_dip(sol, fall_roll_value, sol.t_events[at["minimum"]], t_stop)
-            if t_dip is not None:
-                cands.append((t_dip, 0))
-            t_dip = _first_down(sol, t_stop, margin_value) if hybrid else None
-            if t_dip is not None:
-                cands.append((t_dip, 1))
-            t_ev, rule = min(cands) if cands else (t_stop, -1)
-            steps[0] += _steps_before(sol, t_ev)
-            phases.append(Phase(ROLLING, t, t_ev, sol.sol))
-            events += [(z, "omega1_zero") for z in zeros if z <= t_ev]
-            if not cands:
-                t = t_stop
-                y = sol.y[:, -1]
-                reason = "integration_failed" if sol.status < 0 else "t_max"
-                break
-            t = t_ev
-            y = sol.sol(t_ev)
-            if rule == 0:
-                outcome, reason = int(rules.fall_outcome(y[0], y[1], y[3], 0.0, 0.0, p)), "fall"
-                break
-            if rule == 2:
-                outcome, reason = PERIODIC_ROLLING, "periodic"
-                half_period = float(pair[1] - pair[0])
-                break
-            switches += 1  # the friction cone is left: slip at the event state
-            if switches > max_switches:
-                reason = "too_many_switches"
-                break
-            y = to_slipping(y)
-            phase_slipping = True
-            slip_phases += 1
-            t_slip0 = t
-            events.append((t, "slip_onset"))
+    system = _System(params, t_max, rtol, atol, method, switching_tolerances)
+    run = _Run(y=np.array([*np.asarray(state, float), 0.0]))
+    p = system.p
+    E0 = rolling.energy(run.y[0], run.y[1], run.y[2], run.y[3], p)
+    while not run.done:
+        action = _start_action(system, run)
+        if action == rules.FALL:
+            _fall(system, run, run.y)
+        elif action == rules.SLIP:
+            _to_slipping(system, run, max_switches)
+        elif action == rules.STEADY:
+            run.finish("steady_motion", STEADY_MOTION)
+        elif run.t >= t_max:
+            run.done = True
+        elif run.slipping:
+            _slipping_phase(system, run, max_switches)
         else:
-            # ---------------- slipping phase ----------------
-            if fall_slip_value(y) < 0.0:
-                outcome, reason = int(rules.fall_outcome(y[0], y[1], y[3], y[4], y[5], p)), "fall"
-                break
-            if t >= t_max:
-                break
-            t_ret = None
-            if np.hypot(y[4], y[5]) <= u_stop and return_dt(t, y) >= 0.0:
-                t_ret = t  # allowed at the start already
-            else:
-                sol = solve_ivp(fun_slip, (t, t_max), y, method=method, rtol=rtol, atol=atol,
-                                events=[fall_slip, refused, f2_min_slip], dense_output=True)
-                nfev += sol.nfev
-                t_stop = float(sol.t[-1])
-                cands = []
-                if sol.t_events[0].size:
-                    cands.append((float(sol.t_events[0][0]), 0))
-                t_dip = _first_dip(sol, fall_slip_value, sol.t_events[2], t_stop)
-                if t_dip is not None:
-                    cands.append((t_dip, 0))
-                t_allowed = _first_allowed(sol, t_stop, u_stop, return_dt)
-                if t_allowed is None and sol.t_events[1].size:
-                    t_allowed = _bisect_allowed(sol, t, float(sol.t_events[1][0]), float(sol.t_events[1][0]),
-                                                return_dt)
-                if t_allowed is not None:
-                    cands.append((t_allowed, 1))
-                t_ev, rule = min(cands) if cands else (t_stop, -1)
-                steps[1] += _steps_before(sol, t_ev)
-                phases.append(Phase(SLIPPING, t, t_ev, sol.sol))
-                if not cands:
-                    t = t_stop
-                    y = sol.y[:, -1]
-                    reason = "integration_failed" if sol.status < 0 else "t_max"
-                    break
-                if rule == 0:
-                    t = t_ev
-                    y = sol.sol(t_ev)
-                    outcome, reason = int(rules.fall_outcome(y[0], y[1], y[3], y[4], y[5], p)), "fall"
-                    break
-                t_ret = t_ev
-                y = sol.sol(t_ev)
-            dt = return_dt(t_ret, y)
-            if dt < 0.0:  # cannot happen: t_ret is an allowed time
-                raise RuntimeError("reference: the located return is refused")
-            switches += 1
-            if switches > max_switches:
-                t = t_ret
-                reason = "too_many_switches"
-                break
-            y = out[:5].copy()
-            t = t_ret + dt
-            slip_time += t - t_slip0
-            phase_slipping = False
-            events.append((t, "return_to_rolling"))
-
-    if phase_slipping:
-        slip_time += t - t_slip0
+            _rolling_phase(system, run, max_switches)
+    y = run.y
+    if run.slipping:
+        run.slip_time += run.t - run.t_slip0
         E1 = slipping.energy(y[0], y[1], y[2], y[3], y[4], y[5], p)
     else:
         E1 = rolling.energy(y[0], y[1], y[2], y[3], p)
-    events.append((t, reason if reason in EVENT_KINDS else "t_max"))
-    return {"outcome": int(outcome), "t_end": float(t), "half_period": half_period, "nfev": int(nfev),
-            "slip_phases": slip_phases, "slip_time": float(slip_time), "energy_drift": _energy_drift(E0, E1, p),
-            "switches": switches, "y_end": np.asarray(y, float), "steps_rolling": steps[0],
-            "steps_slipping": steps[1], "reason": reason, "phases": phases, "events": events}
+    run.events.append((run.t, run.reason if run.reason in EVENT_KINDS else "t_max"))
+    return {"outcome": int(run.outcome), "t_end": float(run.t), "half_period": run.half_period,
+            "nfev": int(run.nfev), "slip_phases": run.slip_phases, "slip_time": float(run.slip_time),
+            "energy_drift": _energy_drift(E0, E1, p), "switches": run.switches, "y_end": np.asarray(y, float),
+            "steps_rolling": run.steps[0], "steps_slipping": run.steps[1], "reason": run.reason,
+            "phases": run.phases, "events": run.events}
+
+
+def _start_action(system: _System, run: _Run) -> int:
+    """``rules.phase_start_action`` at the start of the current phase: FALL, SLIP, STEADY or RUN."""
+    y = run.y
+    if run.slipping:
+        return int(rules.phase_start_action(False, system.hybrid, False, system.fall_slip_value(y), 1.0, False))
+    first = run.t == 0.0 and run.switches == 0
+    margin = system.margin_value(y) if system.hybrid else 1.0
+    steady = first and bool(rules.on_steady_motion(y[0], y[1], y[2], y[3], system.p))
+    return int(rules.phase_start_action(True, system.hybrid, first, system.fall_roll_value(y), margin, steady))
+
+
+def _fall(system: _System, run: _Run, y) -> None:
+    """The ball separates at the state y: fall_in or fall_out by the free flight (``rules.fall_outcome``)."""
+    u1, u3 = (y[4], y[5]) if run.slipping else (0.0, 0.0)
+    run.finish("fall", rules.fall_outcome(y[0], y[1], y[3], u1, u3, system.p))
+
+
+def _to_slipping(system: _System, run: _Run, max_switches: int) -> None:
+    """The friction cone (39) is left at the current state: slipping starts (``switching.enter_slipping``)."""
+    run.switches += 1
+    if run.switches > max_switches:
+        run.finish("too_many_switches")
+        return
+    y7 = np.empty(7)
+    y7[:5] = run.y
+    y7[5:] = 0.0
+    switching.enter_slipping(y7, system.p, system.sw)
+    run.y = y7
+    run.slipping = True
+    run.slip_phases += 1
+    run.t_slip0 = run.t
+    run.events.append((run.t, "slip_onset"))
+
+
+def _rolling_phase(system: _System, run: _Run, max_switches: int) -> None:
+    """One rolling phase from the current state to its first event: a fall (F2 (31) crossing zero, or
+    a dip below zero between two located minima), the slip onset (the friction margin (39), also
+    sampled), periodic rolling (the second transversal omega1 zero) or the end of the integration."""
+    hybrid, at = system.hybrid, system.at
+    sol, zeros, pair, nfev = system.solve_rolling(run.t, run.y)
+    run.nfev += nfev
+    t_stop = float(sol.t[-1])
+    cands = []  # (time, rule): 0 fall, 1 slip, 2 periodic; scipy's events and the sampled dips
+    if sol.t_events[at["fall"]].size:
+        cands.append((float(sol.t_events[at["fall"]][0]), 0))
+    if hybrid and sol.t_events[at["slip"]].size:
+        cands.append((float(sol.t_events[at["slip"]][0]), 1))
+    if pair is not None:
+        cands.append((pair[1], 2))
+    t_dip = _first_dip(sol, system.fall_roll_value, sol.t_events[at["minimum"]], t_stop)
+    if t_dip is not None:
+        cands.append((t_dip, 0))
+    t_dip = _first_down(sol, t_stop, system.margin_value) if hybrid else None
+    if t_dip is not None:
+        cands.append((t_dip, 1))
+    t_ev, rule = min(cands) if cands else (t_stop, -1)
+    run.steps[0] += _steps_before(sol, t_ev)
+    run.phases.append(Phase(ROLLING, run.t, t_ev, sol.sol))
+    run.events += [(z, "omega1_zero") for z in zeros if z <= t_ev]
+    if not cands:
+        run.t = t_stop
+        run.y = sol.y[:, -1]
+        run.finish("integration_failed" if sol.status < 0 else "t_max")
+        return
+    run.t = t_ev
+    run.y = sol.sol(t_ev)
+    if rule == 0:
+        _fall(system, run, run.y)
+    elif rule == 2:
+        run.half_period = float(pair[1] - pair[0])
+        run.finish("periodic", PERIODIC_ROLLING)
+    else:
+        _to_slipping(system, run, max_switches)
+
+
+def _slipping_phase(system: _System, run: _Run, max_switches: int) -> None:
+    """One slipping phase from the current state to its first event: a fall (F2 (41), also between
+    minima) or the first time the return rule (``switching.try_return``) lets the ball roll again;
+    then the return to rolling."""
+    t, y = run.t, run.y
+    if np.hypot(y[4], y[5]) <= system.u_stop and system.return_dt(t, y) >= 0.0:
+        _to_rolling(system, run, t, max_switches)  # allowed at the start already
+        return
+    sol = solve_ivp(system.fun_slip, (t, system.t_max), y, method=system.method, rtol=system.rtol, atol=system.atol,
+                    events=[system.fall_slip, system.refused, system.f2_min_slip], dense_output=True)
+    run.nfev += sol.nfev
+    t_stop = float(sol.t[-1])
+    cands = []  # (time, rule): 0 fall, 1 return
+    if sol.t_events[0].size:
+        cands.append((float(sol.t_events[0][0]), 0))
+    t_dip = _first_dip(sol, system.fall_slip_value, sol.t_events[2], t_stop)
+    if t_dip is not None:
+        cands.append((t_dip, 0))
+    t_allowed = _first_allowed(sol, t_stop, system.u_stop, system.return_dt)
+    if t_allowed is None and sol.t_events[1].size:
+        t_allowed = _bisect_allowed(sol, t, float(sol.t_events[1][0]), float(sol.t_events[1][0]), system.return_dt)
+    if t_allowed is not None:
+        cands.append((t_allowed, 1))
+    t_ev, rule = min(cands) if cands else (t_stop, -1)
+    run.steps[1] += _steps_before(sol, t_ev)
+    run.phases.append(Phase(SLIPPING, t, t_ev, sol.sol))
+    if not cands:
+        run.t = t_stop
+        run.y = sol.y[:, -1]
+        run.finish("integration_failed" if sol.status < 0 else "t_max")
+        return
+    run.y = sol.sol(t_ev)
+    if rule == 0:
+        run.t = t_ev
+        _fall(system, run, run.y)
+        return
+    _to_rolling(system, run, t_ev, max_switches)
+
+
+def _to_rolling(system: _System, run: _Run, t_ret: float, max_switches: int) -> None:
+    """The return to rolling at t_ret [s], an allowed time of the return rule."""
+    dt = system.return_dt(t_ret, run.y)
+    if dt < 0.0:  # cannot happen: t_ret is an allowed time
+        raise RuntimeError("reference: the located return is refused")
+    run.switches += 1
+    if run.switches > max_switches:
+        run.t = t_ret
+        run.finish("too_many_switches")
+        return
+    run.y = system.out[:5].copy()
+    run.t = t_ret + dt
+    run.slip_time += run.t - run.t_slip0
+    run.slipping = False
+    run.events.append((run.t, "return_to_rolling"))
 
 
 def reference_hybrid(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, method="DOP853", *,

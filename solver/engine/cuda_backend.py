@@ -51,6 +51,7 @@ from rimroll.solver.engine.backends import simulated
 from rimroll.solver.engine.scenes import Scene
 from rimroll.solver.engine.kernels import N_G, N_RF, N_RI, N_W
 from rimroll.solver.engine.system import N_EVENTS, N_MAX
+from rimroll.solver.engine import tableaus
 from rimroll.solver.engine.tableaus import TABLEAUS
 
 SIMULATED = simulated()
@@ -122,9 +123,10 @@ else:
 def launcher(scene: Scene, method: str):
     """The Python source of the kernel of a scene and method: one trajectory per thread.
 
-    ``launch(states, m, p, t_max, rtol, atol, max_steps, max_switches, sw, res_f, res_i)``:
-    thread k < m integrates row k of ``states`` (m, 4) and writes rows k of ``res_f`` (m, N_RF)
-    and ``res_i`` (m, N_RI), exactly as ``kernels.run_chunk`` does for one row.
+    ``launch(states, m, p, t_max, rtol, atol, max_steps, max_switches, sw, res_f, res_i)`` (the
+    fields of ``kernels.Limits`` as scalars): thread k < m integrates row k of ``states`` (m, 4) and
+    writes rows k of ``res_f`` (m, N_RF) and ``res_i`` (m, N_RI), exactly as the CPU scene kernels
+    do for one row.
     """
     trajectory = kernels.trajectory  # the CPU engine's trajectory body
     hybrid, conservative = scene.flags  # compile-time constants, as in the scene kernels
@@ -133,6 +135,7 @@ def launcher(scene: Scene, method: str):
     n_stages, err_mode, error_order = tab.n_stages, tab.err_mode, tab.error_order
     n_dense, n_poly = A.shape[0], P.shape[1]
     f64, i64, b1 = types.float64, types.int64, types.boolean
+    Method, Limits, Work = tableaus.Method, kernels.Limits, kernels.Work
 
     def launch(states, m, p, t_max, rtol, atol, max_steps, max_switches, sw, res_f, res_i):
         k = cuda.grid(1)
@@ -144,8 +147,7 @@ def launcher(scene: Scene, method: str):
         G = cuda.local.array((N_G, N_EVENTS), f64)
         sign = cuda.local.array(N_EVENTS, i64)
         search = cuda.local.array(N_EVENTS, b1)
-        act_r = cuda.local.array(N_EVENTS, b1)
-        act_s = cuda.local.array(N_EVENTS, b1)
+        active = cuda.local.array((2, N_EVENTS), b1)
         for i in range(N_MAX):
             for r in range(N_W):
                 W[r, i] = 0.0
@@ -156,13 +158,14 @@ def launcher(scene: Scene, method: str):
         for e in range(N_EVENTS):
             sign[e] = 0
             search[e] = False
-            act_r[e] = True
-            act_s[e] = True
+            active[0, e] = True
+            active[1, e] = True
             for r in range(N_G):
                 G[r, e] = 0.0
-        trajectory(hybrid, conservative, native(states[k]), native(p), t_max, rtol, atol, A, E, P, n_stages,
-                   err_mode, error_order, max_steps, max_switches, native(sw), W, K, Q, G, sign, search, act_r,
-                   act_s, native(res_f[k]), native(res_i[k]))
+        work = Work(W, K, Q, G, sign, search, active)
+        trajectory(hybrid, conservative, native(states[k]), native(p), native(sw),
+                   Method(A, E, P, n_stages, err_mode, error_order),
+                   Limits(t_max, rtol, atol, max_steps, max_switches), work, native(res_f[k]), native(res_i[k]))
 
     launch.__qualname__ = launch.__name__ = f"launch_{scene.kernel}_{method}"
     return launch
@@ -269,13 +272,12 @@ def release_buffers() -> None:
         _SLOTS = []
 
 
-def run(scene: Scene, method: str, states: np.ndarray, p: np.ndarray, t_max: float, rtol: float, atol: float,
-        max_steps: int, max_switches: int, sw: np.ndarray, res_f: np.ndarray, res_i: np.ndarray,
-        max_batch: int | None = None) -> None:
+def run(scene: Scene, method: str, states: np.ndarray, p: np.ndarray, limits: kernels.Limits, sw: np.ndarray,
+        res_f: np.ndarray, res_i: np.ndarray, max_batch: int | None = None) -> None:
     """Simulate the rows of ``states`` (m, 4) on the device; results into ``res_f``, ``res_i``.
 
-    The arguments are those of ``kernels.run_chunk`` (the method by name). Batches as
-    :func:`batch_size` says, double-buffered on two streams with pinned host buffers.
+    The arguments are those of the CPU scene kernels (``kernels.SCENE_KERNELS``), the method by
+    name. Batches as :func:`batch_size` says, double-buffered on two streams with pinned host buffers.
     """
     m = states.shape[0]
     if m == 0:
@@ -308,7 +310,7 @@ def run(scene: Scene, method: str, states: np.ndarray, p: np.ndarray, t_max: flo
                 slot.h_states[:n] = states[lo:hi]
                 slot.d_states[:n].copy_to_device(slot.h_states[:n], stream=slot.stream)
                 launch = _configure(k, -(-n // THREADS_PER_BLOCK), slot.stream)
-                launch(slot.d_states, n, d_p, t_max, rtol, atol, max_steps, max_switches, d_sw, slot.d_f, slot.d_i)
+                launch(slot.d_states, n, d_p, *limits, d_sw, slot.d_f, slot.d_i)
                 slot.d_f[:n].copy_to_host(slot.h_f[:n], stream=slot.stream)
                 slot.d_i[:n].copy_to_host(slot.h_i[:n], stream=slot.stream)
                 slot.rows = (lo, hi)

@@ -42,6 +42,8 @@ Rules, shared by every phase and scene:
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from rimroll.solver._compile import kernel
@@ -55,6 +57,39 @@ MIN_MAX_ITER = 100  # cap on Brent iterations
 GATE_SAFETY = 2.0  # factor on the estimated max|g''''| (its variation over two steps)
 _EPS = np.finfo(np.float64).eps
 _GOLDEN = 0.3819660112501051  # (3 - sqrt(5)) / 2
+
+
+class Dense(NamedTuple):
+    """The dense output of one accepted step: the step's start state y, length h [s], start time
+    t0 [s], the coefficients Q of ``stepper.dense_prepare`` and the number n of live components."""
+
+    y: np.ndarray
+    h: float
+    t0: float
+    Q: np.ndarray
+    n: int
+
+
+class Scratch(NamedTuple):
+    """Scratch arrays of the locator: a state and its slope, event values and rates, and the event
+    values at the two ends of a sampled interval."""
+
+    tmp: np.ndarray
+    slope: np.ndarray
+    g: np.ndarray
+    gr: np.ndarray
+    g_lo: np.ndarray
+    g_hi: np.ndarray
+
+
+class Tracking(NamedTuple):
+    """What the locator keeps of each event along a phase: its sign, whether the gate asks for its
+    minimum in this step (``search``), where to start looking (``th_min``) and its running minimum."""
+
+    sign: np.ndarray
+    search: np.ndarray
+    th_min: np.ndarray
+    mins: np.ndarray
 
 
 @kernel
@@ -168,16 +203,18 @@ def hermite_at(g0, r0, g1, r1, h, theta):
 
 
 @kernel(takes_functions=True)
-def value_at(events, e, theta, y, h, Q, n, n_poly, p, aux, hybrid, tmp, slope, gtmp, grtmp):
-    """Value of event e on the dense output at theta (the state into tmp, its slope into slope)."""
-    dense_eval(theta, y, h, Q, n, n_poly, tmp)
-    dense_slope(theta, Q, n, n_poly, slope)
-    events(tmp, slope, p, aux, hybrid, gtmp, grtmp)
-    return gtmp[e]
+def value_at(events, e, theta, dense, p, aux, hybrid, scratch):
+    """Value of event e on the dense output at theta (the state into scratch.tmp, its slope into
+    scratch.slope, every event's value and rate into scratch.g, scratch.gr)."""
+    n_poly = dense.Q.shape[1]
+    dense_eval(theta, dense.y, dense.h, dense.Q, dense.n, n_poly, scratch.tmp)
+    dense_slope(theta, dense.Q, dense.n, n_poly, scratch.slope)
+    events(scratch.tmp, scratch.slope, p, aux, hybrid, scratch.g, scratch.gr)
+    return scratch.g[e]
 
 
 @kernel(takes_functions=True)
-def locate(events, e, a, ga, b, gb, y, h, t0, Q, n, n_poly, p, aux, hybrid, tmp, slope, gtmp, grtmp):
+def locate(events, e, a, ga, b, gb, dense, p, aux, hybrid, scratch):
     """Root of event e on the dense output in theta in [a, b], ga pre-crossing (or 0), gb post.
 
     Illinois method; returns the post-crossing bracket end (or an exact zero) once the bracket
@@ -185,6 +222,8 @@ def locate(events, e, a, ga, b, gb, y, h, t0, Q, n, n_poly, p, aux, hybrid, tmp,
     """
     if ga == 0.0:
         return a
+    t0 = dense.t0
+    h = dense.h
     tol = ROOT_XTOL_EPS * _EPS * max(abs(t0), abs(t0 + h), abs(h)) / abs(h)
     side = 0
     for _ in range(ROOT_MAX_ITER):
@@ -195,7 +234,7 @@ def locate(events, e, a, ga, b, gb, y, h, t0, Q, n, n_poly, p, aux, hybrid, tmp,
             c = 0.5 * (a + b)
             if not (c > a and c < b):
                 break
-        gc = value_at(events, e, c, y, h, Q, n, n_poly, p, aux, hybrid, tmp, slope, gtmp, grtmp)
+        gc = value_at(events, e, c, dense, p, aux, hybrid, scratch)
         if gc == 0.0:
             return c
         if (gc > 0.0) == (gb > 0.0):
@@ -214,7 +253,7 @@ def locate(events, e, a, ga, b, gb, y, h, t0, Q, n, n_poly, p, aux, hybrid, tmp,
 
 
 @kernel(takes_functions=True)
-def minimum(events, e, a, b, start, sgn, y, h, Q, n, n_poly, p, aux, hybrid, tmp, slope, gtmp, grtmp):
+def minimum(events, e, a, b, start, sgn, dense, p, aux, hybrid, scratch):
     """Local minimum of sgn * (event e) on the dense output over theta in [a, b], from ``start``.
 
     Brent's method (golden section with parabolic steps; Brent, Algorithms for Minimization
@@ -222,7 +261,7 @@ def minimum(events, e, a, b, start, sgn, y, h, Q, n, n_poly, p, aux, hybrid, tmp
     the end values are compared too, so a minimum at an end of [a, b] is found as well.
     """
     x = min(max(start, a), b)
-    fx = sgn * value_at(events, e, x, y, h, Q, n, n_poly, p, aux, hybrid, tmp, slope, gtmp, grtmp)
+    fx = sgn * value_at(events, e, x, dense, p, aux, hybrid, scratch)
     w = x
     v = x
     fw = fx
@@ -257,7 +296,7 @@ def minimum(events, e, a, b, start, sgn, y, h, Q, n, n_poly, p, aux, hybrid, tmp
             step = (lo - x) if x >= mid else (hi - x)
             d = _GOLDEN * step
         u = x + d if abs(d) >= tol1 else x + (tol1 if d > 0.0 else -tol1)
-        fu = sgn * value_at(events, e, u, y, h, Q, n, n_poly, p, aux, hybrid, tmp, slope, gtmp, grtmp)
+        fu = sgn * value_at(events, e, u, dense, p, aux, hybrid, scratch)
         if fu <= fx:
             if u >= x:
                 lo = x
@@ -283,7 +322,7 @@ def minimum(events, e, a, b, start, sgn, y, h, Q, n, n_poly, p, aux, hybrid, tmp
                 v = u
                 fv = fu
     for th in (a, b):
-        f_end = sgn * value_at(events, e, th, y, h, Q, n, n_poly, p, aux, hybrid, tmp, slope, gtmp, grtmp)
+        f_end = sgn * value_at(events, e, th, dense, p, aux, hybrid, scratch)
         if f_end < fx:
             x = th
             fx = f_end
@@ -291,82 +330,105 @@ def minimum(events, e, a, b, start, sgn, y, h, Q, n, n_poly, p, aux, hybrid, tmp
 
 
 @kernel(takes_functions=True)
-def next_event(events, active, direction, track_min, sign, search, th_min, theta0, g0, g1, gr1, y, h, t0, Q, n,
-               n_poly, p, aux, hybrid, tmp, slope, g_lo, g_hi, gtmp, grtmp, mins):
+def next_event(events, table, tracking, theta0, g0, g1, gr1, dense, p, aux, hybrid, scratch):
     """Earliest event of an accepted step in theta in (theta0, 1] (see the module rules).
 
-    g0: event values at theta0; g1, gr1: values and derivatives at the step end (theta = 1).
-    search[e]: the gate asks for the minimum of tracked event e; th_min[e]: where to start
-    looking. ``mins[e]`` is lowered to a minimum found that does not fire. Returns (event index
-    or -1, theta of the event, or 1.0). With no event, the signs are updated to the step end.
+    ``table``: the phase's event table (``active``, ``direction``, ``track_min`` arrays);
+    ``tracking``: a :class:`Tracking` (``search[e]``: the gate asks for the minimum of tracked
+    event e, ``th_min[e]``: where to start looking; ``mins[e]`` is lowered to a minimum found that
+    does not fire); g0: event values at theta0; g1, gr1: values and derivatives at the step end
+    (theta = 1). Returns (event index or -1, theta of the event, or 1.0). With no event, the signs
+    are updated to the step end.
     """
-    best = -1
-    best_theta = 2.0
-    n_ev = g0.shape[0]
-    # tracked minima: the event is decided at the minimum
-    for e in range(n_ev):
-        if not (active[e] and track_min[e] and search[e]):
-            continue
-        sgn = -1.0 if sign[e] < 0 else 1.0
-        th, val = minimum(events, e, theta0, 1.0, max(th_min[e], theta0), sgn, y, h, Q, n, n_poly, p, aux, hybrid,
-                          tmp, slope, gtmp, grtmp)
-        gm = sgn * val
-        if fires(e, sign, gm, active, direction):
-            root = theta0
-            if th > theta0:
-                root = locate(events, e, theta0, g0[e], th, gm, y, h, t0, Q, n, n_poly, p, aux, hybrid, tmp, slope,
-                              gtmp, grtmp)
-            if root < best_theta:
-                best = e
-                best_theta = root
-        elif sign[e] > 0 and gm < mins[e]:
-            mins[e] = gm
+    best, best_theta = _tracked_minima(events, table, tracking, theta0, g0, dense, p, aux, hybrid, scratch)
     # sign changes at the step end
-    for e in range(n_ev):
-        if fires(e, sign, g1[e], active, direction):
-            root = locate(events, e, theta0, g0[e], 1.0, g1[e], y, h, t0, Q, n, n_poly, p, aux, hybrid, tmp, slope,
-                          gtmp, grtmp)
+    for e in range(g0.shape[0]):
+        if fires(e, tracking.sign, g1[e], table.active, table.direction):
+            root = locate(events, e, theta0, g0[e], 1.0, g1[e], dense, p, aux, hybrid, scratch)
             if root < best_theta or (root == best_theta and e < best):
                 best = e
                 best_theta = root
     # events without a derivative (not gated): sign comparisons at samples inside the step
     sampled = False
-    for e in range(n_ev):
-        if active[e] and not np.isfinite(gr1[e]):
+    for e in range(g0.shape[0]):
+        if table.active[e] and not np.isfinite(gr1[e]):
             sampled = True
     if sampled:
-        for e in range(n_ev):
-            g_lo[e] = g0[e]
-        th_lo = theta0
-        for k in range(1, EVENT_SAMPLES):
-            th_hi = k / EVENT_SAMPLES
-            if th_hi <= th_lo:
-                continue
-            if th_hi >= best_theta:
-                break
-            dense_eval(th_hi, y, h, Q, n, n_poly, tmp)
-            dense_slope(th_hi, Q, n, n_poly, slope)
-            events(tmp, slope, p, aux, hybrid, g_hi, grtmp)
-            hit = False
-            for e in range(n_ev):
-                if active[e] and not np.isfinite(gr1[e]) and fires(e, sign, g_hi[e], active, direction):
-                    root = locate(events, e, th_lo, g_lo[e], th_hi, g_hi[e], y, h, t0, Q, n, n_poly, p, aux, hybrid,
-                                  tmp, slope, gtmp, grtmp)
-                    if root < best_theta:
-                        best = e
-                        best_theta = root
-                        hit = True
-            if hit:
-                break
-            for e in range(n_ev):
-                if active[e] and not np.isfinite(gr1[e]):
-                    g_lo[e] = g_hi[e]
-                    if g_hi[e] > 0.0:
-                        sign[e] = 1
-                    elif g_hi[e] < 0.0:
-                        sign[e] = -1
-            th_lo = th_hi
+        e, theta = _sampled(events, table, tracking.sign, theta0, g0, gr1, best_theta, dense, p, aux, hybrid, scratch)
+        if e >= 0:
+            best = e
+            best_theta = theta
     if best < 0:
-        update_signs(g1, sign, -1)
+        update_signs(g1, tracking.sign, -1)
         return -1, 1.0
+    return best, best_theta
+
+
+@kernel(inline=True, takes_functions=True)
+def _tracked_minima(events, table, tracking, theta0, g0, dense, p, aux, hybrid, scratch):
+    """Tracked events the gate asks about: the event is decided at its minimum over (theta0, 1].
+    Returns (the earliest firing event or -1, its theta or 2.0)."""
+    best = -1
+    best_theta = 2.0
+    sign = tracking.sign
+    for e in range(g0.shape[0]):
+        if not (table.active[e] and table.track_min[e] and tracking.search[e]):
+            continue
+        sgn = -1.0 if sign[e] < 0 else 1.0
+        th, val = minimum(events, e, theta0, 1.0, max(tracking.th_min[e], theta0), sgn, dense, p, aux, hybrid,
+                          scratch)
+        gm = sgn * val
+        if fires(e, sign, gm, table.active, table.direction):
+            root = theta0
+            if th > theta0:
+                root = locate(events, e, theta0, g0[e], th, gm, dense, p, aux, hybrid, scratch)
+            if root < best_theta:
+                best = e
+                best_theta = root
+        elif sign[e] > 0 and gm < tracking.mins[e]:
+            tracking.mins[e] = gm
+    return best, best_theta
+
+
+@kernel(inline=True, takes_functions=True)
+def _sampled(events, table, sign, theta0, g0, gr1, limit, dense, p, aux, hybrid, scratch):
+    """Events without a derivative: their signs compared at EVENT_SAMPLES points of the step before
+    theta = limit. Returns the earliest event firing before limit and its theta, or (-1, limit)."""
+    best = -1
+    best_theta = limit
+    g_lo = scratch.g_lo
+    g_hi = scratch.g_hi
+    n_ev = g0.shape[0]
+    n_poly = dense.Q.shape[1]
+    for e in range(n_ev):
+        g_lo[e] = g0[e]
+    th_lo = theta0
+    for k in range(1, EVENT_SAMPLES):
+        th_hi = k / EVENT_SAMPLES
+        if th_hi <= th_lo:
+            continue
+        if th_hi >= best_theta:
+            break
+        dense_eval(th_hi, dense.y, dense.h, dense.Q, dense.n, n_poly, scratch.tmp)
+        dense_slope(th_hi, dense.Q, dense.n, n_poly, scratch.slope)
+        events(scratch.tmp, scratch.slope, p, aux, hybrid, g_hi, scratch.gr)
+        hit = False
+        for e in range(n_ev):
+            if table.active[e] and not np.isfinite(gr1[e]) and fires(e, sign, g_hi[e], table.active,
+                                                                      table.direction):
+                root = locate(events, e, th_lo, g_lo[e], th_hi, g_hi[e], dense, p, aux, hybrid, scratch)
+                if root < best_theta:
+                    best = e
+                    best_theta = root
+                    hit = True
+        if hit:
+            break
+        for e in range(n_ev):
+            if table.active[e] and not np.isfinite(gr1[e]):
+                g_lo[e] = g_hi[e]
+                if g_hi[e] > 0.0:
+                    sign[e] = 1
+                elif g_hi[e] < 0.0:
+                    sign[e] = -1
+        th_lo = th_hi
     return best, best_theta

@@ -125,6 +125,59 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
     solver.engine.backends.BackendUnavailable
         For ``backend="cuda"`` without the extra or a device (one line saying which).
     """
+    x = _checked_states(states, params)
+    limits = _checked_limits(t_max, rtol, atol, max_steps, max_switches)
+    if method not in TABLEAUS:
+        raise ValueError(f"`method` must be one of {sorted(TABLEAUS)}; got {method!r}")
+    workers = _count("workers", (os.cpu_count() or 1) if workers is None else workers)
+    sw = default_tolerances(**(switching or {}))
+    where = backends.resolve(backend)
+
+    shape = x.shape[:-1]
+    flat = np.ascontiguousarray(x.reshape(-1, 4))
+    res_f = np.empty((flat.shape[0], kernels.N_RF))
+    res_i = np.empty((flat.shape[0], kernels.N_RI), dtype=np.int64)
+    scene = scene_of(params)
+    if where.name == "cuda":
+        from rimroll.solver.engine import cuda_backend
+
+        cuda_backend.run(scene, method, flat, params.as_array(), limits, sw, res_f, res_i)
+    else:
+        _run_cpu(scene, TABLEAUS[method].method, flat, params.as_array(), sw, limits, workers, res_f, res_i)
+    return _fields(flat, shape, res_f, res_i, params)
+
+
+def _run_cpu(scene, method, flat, p, sw, limits, workers, res_f, res_i):
+    """The states ``flat`` (m, 4) through the scene's compiled kernel on ``workers`` threads; results
+    into the rows of res_f, res_i. Chunk c takes the states c, c + n_chunks, ...: costly states sit
+    together (a boundary, an island that stays on the rim), and contiguous blocks would hand them
+    all to one thread."""
+    _announce_compile(scene)
+    scene_kernel = kernels.SCENE_KERNELS[scene.kernel]
+    m = flat.shape[0]
+    n_chunks = min(m, workers * _CHUNKS_PER_WORKER) if workers > 1 else min(m, 1)
+    if n_chunks <= 1:
+        if m:
+            scene_kernel(flat, p, sw, method, limits, res_f, res_i)
+        return
+    order = np.argsort(np.arange(m) % n_chunks, kind="stable")
+    dealt = flat[order]
+    dealt_f = np.empty_like(res_f)
+    dealt_i = np.empty_like(res_i)
+
+    def run(lo, hi):
+        scene_kernel(dealt[lo:hi], p, sw, method, limits, dealt_f[lo:hi], dealt_i[lo:hi])
+
+    bounds = np.searchsorted(order % n_chunks, np.arange(n_chunks + 1))
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        for fut in [pool.submit(run, lo, hi) for lo, hi in zip(bounds[:-1], bounds[1:])]:
+            fut.result()
+    res_f[order] = dealt_f
+    res_i[order] = dealt_i
+
+
+def _checked_states(states, params) -> np.ndarray:
+    """``states`` as a float array (..., 4) after the checks of :func:`simulate`."""
     if not isinstance(params, Params):
         raise ValueError(f"`params` must be a solver.Params; got {type(params).__name__}")
     x = np.asarray(states, dtype=float)
@@ -132,6 +185,11 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
         raise ValueError(f"`states` must have last axis 4 (beta, omega1, omega2, omega3); got shape {x.shape}")
     if not np.all(np.isfinite(x)):
         raise ValueError("`states` must be finite; got inf or NaN")
+    return x
+
+
+def _checked_limits(t_max, rtol, atol, max_steps, max_switches) -> kernels.Limits:
+    """The :class:`~rimroll.solver.engine.kernels.Limits` of a run after the checks of :func:`simulate`."""
     t_max = _positive("t_max", t_max)
     rtol = _real("rtol", rtol)
     if not RTOL_RANGE[0] <= rtol <= RTOL_RANGE[1]:
@@ -140,58 +198,8 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
     atol = _positive("atol", atol)
     if atol > ATOL_MAX:
         raise ValueError(f"`atol` must be in (0, {ATOL_MAX:g}]; got {atol!r}")
-    if method not in TABLEAUS:
-        raise ValueError(f"`method` must be one of {sorted(TABLEAUS)}; got {method!r}")
-    max_steps = _count("max_steps", max_steps)
-    max_switches = _count("max_switches", max_switches, minimum=0)
-    if workers is None:
-        workers = os.cpu_count() or 1
-    workers = _count("workers", workers)
-    sw = default_tolerances(**(switching or {}))
-    where = backends.resolve(backend)
-
-    tab = TABLEAUS[method]
-    shape = x.shape[:-1]
-    flat = np.ascontiguousarray(x.reshape(-1, 4))
-    m = flat.shape[0]
-    res_f = np.empty((m, kernels.N_RF))
-    res_i = np.empty((m, kernels.N_RI), dtype=np.int64)
-    p = params.as_array()
-    scene = scene_of(params)
-
-    if where.name == "cuda":
-        from rimroll.solver.engine import cuda_backend
-
-        cuda_backend.run(scene, method, flat, p, t_max, rtol, atol, max_steps, max_switches, sw, res_f, res_i)
-        return _fields(flat, shape, res_f, res_i, params)
-
-    _announce_compile(scene)
-    scene_kernel = kernels.SCENE_KERNELS[scene.kernel]
-
-    n_chunks = min(m, workers * _CHUNKS_PER_WORKER) if workers > 1 else min(m, 1)
-    if n_chunks <= 1:
-        if m:
-            scene_kernel(flat, p, t_max, rtol, atol, tab.A, tab.E, tab.P, tab.n_stages, tab.err_mode,
-                         tab.error_order, max_steps, max_switches, sw, res_f, res_i)
-        return _fields(flat, shape, res_f, res_i, params)
-    # Chunk c takes the states c, c + n_chunks, ...: costly states sit together (a boundary, an
-    # island that stays on the rim), and contiguous blocks would hand them all to one thread.
-    order = np.argsort(np.arange(m) % n_chunks, kind="stable")
-    dealt = flat[order]
-    dealt_f = np.empty_like(res_f)
-    dealt_i = np.empty_like(res_i)
-
-    def run(lo, hi):
-        scene_kernel(dealt[lo:hi], p, t_max, rtol, atol, tab.A, tab.E, tab.P, tab.n_stages, tab.err_mode,
-                     tab.error_order, max_steps, max_switches, sw, dealt_f[lo:hi], dealt_i[lo:hi])
-
-    bounds = np.searchsorted(order % n_chunks, np.arange(n_chunks + 1))
-    with ThreadPoolExecutor(max_workers=workers) as pool:
-        for fut in [pool.submit(run, lo, hi) for lo, hi in zip(bounds[:-1], bounds[1:])]:
-            fut.result()
-    res_f[order] = dealt_f
-    res_i[order] = dealt_i
-    return _fields(flat, shape, res_f, res_i, params)
+    return kernels.Limits(t_max, rtol, atol, _count("max_steps", max_steps),
+                          _count("max_switches", max_switches, minimum=0))
 
 
 def _fields(flat, shape, res_f, res_i, params):

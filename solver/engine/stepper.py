@@ -19,6 +19,8 @@ with ``q`` the order of the error estimator, and no growth right after a rejecte
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from rimroll.solver._compile import kernel
@@ -150,13 +152,18 @@ def initial_step(rhs, y, f, n, n_err, error_order, rtol, atol, span, tmp, F1, p)
 
 
 @kernel(takes_functions=True)
-def dense_prepare(rhs, y, h, n, A, n_stages, n_dense, P, n_poly, K, Q, tmp, p):
+def dense_prepare(rhs, method, y, h, n, K, Q, tmp, p):
     """Dense output of the last step: extra stages (if the method has any), then Q = K^T P.
 
-    ``dense_eval`` and ``dense_slope`` then give the interpolant and its time derivative.
-
-    Afterwards ``dense_eval(theta, y, h, Q, ...)`` gives the interpolant on [t, t + h].
+    ``method`` is the :class:`~rimroll.solver.engine.tableaus.Method` record. Afterwards
+    ``dense_eval(theta, y, h, Q, ...)`` gives the interpolant on [t, t + h] and ``dense_slope`` its
+    time derivative.
     """
+    A = method.A
+    P = method.P
+    n_stages = method.n_stages
+    n_dense = A.shape[0]
+    n_poly = P.shape[1]
     for s in range(n_stages + 1, n_dense):
         for i in range(n):
             acc = 0.0
@@ -195,18 +202,45 @@ def dense_slope(theta, Q, n, n_poly, out):
         out[i] = acc + Q[i, 0]
 
 
+class Control(NamedTuple):
+    """The error control of a phase: live components ``n``, the first ``n_err`` of them in the error
+    norm, rtol [1], atol per component [its units], and the end of the run t_end [s]."""
+
+    n: int
+    n_err: int
+    rtol: float
+    atol: np.ndarray
+    t_end: float
+
+
+class Arrays(NamedTuple):
+    """The arrays of a step attempt: the state y, its slope f, the stages K (n_dense, >= n), the
+    new state y_new and scratch tmp."""
+
+    y: np.ndarray
+    f: np.ndarray
+    K: np.ndarray
+    y_new: np.ndarray
+    tmp: np.ndarray
+
+
 @kernel(inline=True, takes_functions=True)
-def attempt(rhs, t, t_end, y, f, h, after_reject, n, n_err, A, E, n_stages, err_mode, exponent, rtol, atol,
-            budget, K, y_new, tmp, p):
+def attempt(rhs, method, control, p, arrays, t, h, after_reject, budget):
     """Try steps from (t, y), slope f = rhs(y), first trial step h [s], until one is accepted.
 
-    A trial is rejected when its error norm exceeds 1 (the step shrinks by ``step_factor``) or
-    when anything in it is not finite (the step shrinks by MIN_FACTOR, at most
+    ``method``: the :class:`~rimroll.solver.engine.tableaus.Method` record; ``control``: a
+    :class:`Control`; ``arrays``: the :class:`Arrays` of the step. A trial is rejected when its error norm exceeds 1 (the step shrinks by
+    ``step_factor``) or when anything in it is not finite (the step shrinks by MIN_FACTOR, at most
     MAX_NONFINITE_RETRIES times in a row). The step never passes t_end. Returns
     (code, h_taken, h_next, attempts, last): code ACCEPTED (y_new, K hold the step; K[n_stages]
     is f(y_new)), BUDGET_SPENT (``budget`` attempts made), UNDERFLOW (h below ``min_step(t)``)
     or NON_FINITE; ``last`` says the step ends at t_end.
     """
+    n = control.n
+    t_end = control.t_end
+    y, f, K, y_new, tmp = arrays
+    n_stages = method.n_stages
+    exponent = -1.0 / (method.error_order + 1.0)
     attempts = 0
     n_bad = 0
     while True:
@@ -219,8 +253,9 @@ def attempt(rhs, t, t_end, y, f, h, after_reject, n, n_err, A, E, n_stages, err_
         if not (h >= min_step(t)):
             return UNDERFLOW, h, h, attempts, False
         attempts += 1
-        rk_step(rhs, y, f, h, n, A, n_stages, K, y_new, tmp, p)
-        err = error_norm(K, E, err_mode, n_stages, h, y, y_new, n_err, rtol, atol)
+        rk_step(rhs, y, f, h, n, method.A, n_stages, K, y_new, tmp, p)
+        err = error_norm(K, method.E, method.err_mode, n_stages, h, y, y_new, control.n_err, control.rtol,
+                         control.atol)
         finite = np.isfinite(err)
         for i in range(n):
             if not np.isfinite(y_new[i]) or not np.isfinite(K[n_stages, i]):

@@ -40,6 +40,8 @@ inside a step is a fall even if F2 is positive at both step ends).
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from rimroll.solver.physics import kinematics, rolling, slipping
@@ -73,6 +75,31 @@ U_ATOL_FRACTION = 1e-3
 = delta, the slip angle to 1e-2 rad). With the user's atol instead (1e-6 m/s at rtol 1e-4), u is
 known to 10% of delta, its angle is noise, the return rule is not met and the slip goes on at
 the stability limit of the stiff slipping equations: rtol 1e-4 cost 6x rtol 1e-6."""
+
+
+class Phase(NamedTuple):
+    """One phase of a scene as the engine runs it: ``n`` live components (alpha last, outside the
+    error norm), its event table (``direction``, ``track_min``, ``action``; ``active``: which of
+    the events the scene has) and the absolute tolerance of each component (``atol``)."""
+
+    n: int
+    direction: np.ndarray
+    track_min: np.ndarray
+    action: np.ndarray
+    active: np.ndarray
+    atol: np.ndarray
+
+
+@kernel(inline=True)
+def phases(hybrid, conservative, atol, sw, active, atol_roll, atol_slip):
+    """The rolling and slipping :class:`Phase` of the scene (hybrid, conservative): fills the bool
+    array ``active`` (2, N_EVENTS) and the tolerance vectors ``atol_roll``, ``atol_slip``."""
+    rolling_active(hybrid, conservative, active[0])
+    slipping_active(hybrid, conservative, active[1])
+    rolling_atol(atol, sw, atol_roll)
+    slipping_atol(atol, sw, atol_slip)
+    return (Phase(N_ROLLING, ROLLING_DIRECTION, ROLLING_TRACK_MIN, ROLLING_ACTION, active[0], atol_roll),
+            Phase(N_SLIPPING, SLIPPING_DIRECTION, SLIPPING_TRACK_MIN, SLIPPING_ACTION, active[1], atol_slip))
 
 
 @kernel

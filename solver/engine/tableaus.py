@@ -32,6 +32,17 @@ from typing import NamedTuple
 import numpy as np
 
 
+class Method(NamedTuple):
+    """What the compiled stepper reads of a :class:`Tableau`: one record, numbers and arrays only."""
+
+    A: np.ndarray  # (n_dense, n_dense)
+    E: np.ndarray  # (2, n_stages + 1)
+    P: np.ndarray  # (n_dense, n_poly)
+    n_stages: int
+    err_mode: int
+    error_order: int
+
+
 class Tableau(NamedTuple):
     """An embedded explicit Runge-Kutta pair with dense output (see the module docstring)."""
 
@@ -53,6 +64,11 @@ class Tableau(NamedTuple):
     @property
     def n_poly(self) -> int:
         return self.P.shape[1]
+
+    @property
+    def method(self) -> Method:
+        """The record the compiled stepper takes."""
+        return Method(self.A, self.E, self.P, self.n_stages, self.err_mode, self.error_order)
 
 
 # --------------------------------------------------------------------------------------------
