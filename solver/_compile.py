@@ -6,8 +6,8 @@ which the kernels turn into a ``status`` code for that lane, instead of raising
 ``ZeroDivisionError`` out of a whole chunk of trajectories. No ``fastmath``: event location and
 energy checks rely on IEEE arithmetic.
 
-The disk cache lives in ``solver._jit.cache_dir()``: per user, and per digest of all
-``solver/*.py``, so any change of any solver source recompiles every kernel.
+The disk cache lives in ``solver._jit.cache_dir()``: per user, and per digest of every ``.py``
+file of ``solver/`` and its rooms, so any change of any solver source recompiles every kernel.
 """
 
 from __future__ import annotations
