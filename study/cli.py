@@ -16,6 +16,7 @@ from rimroll.study import checks, execute, fanout, io, registry, reuse, runguard
 from rimroll.study.parts import PartStore
 from rimroll.study.plan import make_plan
 from rimroll.study.registry import UserError
+from rimroll.study.setting_table import lookup
 
 EXIT_USAGE = 2
 
@@ -39,7 +40,7 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUES",
                      help="override a setting or a physical parameter (repeatable); a list a,b,c or a "
                           "range start:stop:num of a sweepable setting becomes an axis of the cube")
-    run.add_argument("--backend", default=None, choices=("cpu", "cuda", "auto"),
+    run.add_argument("--backend", default=None, choices=lookup("backend").labels(),
                      help="where solver.simulate runs (same as --set backend=...; studies that simulate only): "
                           "cpu, cuda (one GPU per worker; extra rimroll[gpu]) or auto (the GPU when usable)")
     run.add_argument("--workers", type=int, default=None, help="local threads (default: one per core)")

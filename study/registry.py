@@ -18,11 +18,11 @@ from typing import Any, Callable
 
 import numpy as np
 
-PHYSICAL_KEYS = ("r", "R", "a", "m", "j", "mu", "g", "k_r", "k_d")
-"""Settings that build the :class:`solver.Params` of a run; every study accepts them."""
+from rimroll.solver.physics.params import FIELDS as PHYSICAL_KEYS
+from rimroll.study.setting_table import SWEEP_KEYS
 
-SWEEP_KEYS = ("mu", "v_throw", "j", "rho_over_R", "k_r", "k_d", "omega2", "omega3", "sigma")
-"""Settings a study may declare ``sweepable``: a list or range of values becomes an outer axis."""
+# PHYSICAL_KEYS: the settings that build the solver.Params of a run (every study accepts them);
+# SWEEP_KEYS: the settings a study may declare sweepable (study.setting_table, Setting.sweep)
 
 PLUGIN_ENV = "RIMROLL_STUDY_MODULES"
 """Environment variable: extra study modules (``.py`` paths, ``os.pathsep``-separated) to register,

@@ -26,6 +26,7 @@ from rimroll.study import io
 from rimroll.study import plotting as P
 from rimroll.study.dataset import params_of, provenance, setting_of
 from rimroll.study.registry import PHYSICAL_KEYS, UserError
+from rimroll.study.setting_table import lookup
 
 STATE_NAMES = ("beta", "omega1", "omega2", "omega3")
 SERIES = {  # name: (units, long_name)
@@ -310,10 +311,10 @@ def run(args, command: str) -> int:
         state, params, t_max, extra = parse_state(args.state), _params(**sets), 20.0, {}
     if args.t_max is not None:
         t_max = args.t_max
-    if not (np.isfinite(t_max) and t_max > 0):
-        raise UserError(f"--t-max must be a positive number of seconds; got {t_max}")
-    if not (1e-14 <= args.rtol <= 1e-2) or not args.atol > 0:
-        raise UserError(f"--rtol must lie in [1e-14, 1e-2] and --atol be > 0; got {args.rtol}, {args.atol}")
+    for option, key, value in (("--t-max", "t_max", t_max), ("--rtol", "rtol", args.rtol), ("--atol", "atol", args.atol)):
+        problem = lookup(key).problem(value)  # the setting table's rule of the setting of that name
+        if problem:
+            raise UserError(f"{option} {value!r}: {problem}")
     if args.samples < 2:
         raise UserError(f"--samples must be >= 2; got {args.samples}")
     nc = pathlib.Path(args.out) / f"{args.name}.nc"

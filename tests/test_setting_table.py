@@ -1,0 +1,134 @@
+"""Each concept declared once: the setting table.
+
+Every setting of every registered study has one entry in ``study.setting_table`` (units, doc,
+allowed values), the physical parameters' taken from ``solver.physics.params.QUANTITIES``, which
+``Params`` validates with; the checks before a run and ``study info`` read that table.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import pathlib
+import re
+
+import pytest
+
+from rimroll import solver
+from rimroll.solver.physics import params as physical
+from rimroll.study import checks, registry, setting_table
+from rimroll.study.cli import main
+from rimroll.study.registry import PHYSICAL_KEYS, UserError
+from rimroll.study.setting_table import TABLE, lookup
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+PROBES = (-1e13, -1.0, -1, 0, 0.0, 1e-15, 0.5, 1, 2, 3.5, 1e5, 100001, 1e13, math.inf, -math.inf, math.nan)
+
+
+def _studies():
+    return [registry.get(name) for name in registry.names()]
+
+
+# ================================================================ the setting table
+def test_every_setting_of_every_study_has_one_entry_with_units_doc_and_allowed_values():
+    for study in _studies():
+        names = {*study.settings, *study.quick, *study.sweepable, *PHYSICAL_KEYS}
+        for name in names:
+            assert name in TABLE, f"{study.name}: setting {name!r} has no entry in study/setting_table.py"
+            entry = TABLE[name]
+            assert isinstance(entry.units, str) and entry.doc.strip(), name
+            default = study.settings.get(name, study.quick.get(name))
+            if isinstance(default, (int, float)) and not isinstance(default, bool) or name in PHYSICAL_KEYS:
+                assert entry.range is not None, f"{name}: a number needs its range in the table"
+            elif isinstance(default, str) and entry.choices is None:
+                assert entry.range is None, name  # a free label the study checks itself (subset)
+        for name in study.sweepable:
+            assert TABLE[name].sweep, (study.name, name)
+
+
+def test_a_setting_declared_twice_is_refused():
+    entry = TABLE["rtol"]
+    with pytest.raises(ValueError, match="declared twice"):
+        setting_table._table([entry, dataclasses.replace(entry, doc="another doc")])
+    # the study table restates none of the physical parameters: their entries are the params table's
+    for name, q in physical.QUANTITIES.items():
+        assert TABLE[name].physical and TABLE[name].range is q.range and TABLE[name].units == q.units
+    assert {n for n, s in TABLE.items() if s.physical} == set(physical.QUANTITIES)
+    assert physical.FIELDS == PHYSICAL_KEYS == tuple(physical.QUANTITIES)[:9]
+    assert set(registry.SWEEP_KEYS) == {n for n, s in TABLE.items() if s.sweep}
+
+
+def test_the_checks_and_params_follow_the_table_and_nothing_else():
+    """check_setting refuses exactly what the table's entry refuses (no rule of its own), and
+    Params refuses exactly what the params table refuses, with the same one-line message."""
+    for name, entry in [*TABLE.items(), ("n_x", lookup("n_x")), ("t_max_x", lookup("t_max_x")), ("delay", lookup("delay"))]:
+        values = [*PROBES, *(entry.labels() if entry.choices is not None else ()), "rk4"]
+        for value in values:
+            problem = entry.problem(value)
+            try:
+                checks.check_setting("s", name, value)
+                refused = None
+            except UserError as exc:
+                refused = str(exc)
+            assert (refused is None) == (problem is None), (name, value, refused, problem)
+            if refused:
+                assert "\n" not in refused and f"{name}={value!r}" in refused and "allowed" in refused
+    for name in PHYSICAL_KEYS:
+        for value in PROBES:
+            problem = TABLE[name].problem(value)
+            try:
+                solver.Params(**{name: value}, **({"R": 1e6} if name in ("r", "a") else {}))
+                message = None
+            except ValueError as exc:
+                message = str(exc)
+            if problem is None:
+                assert message is None or "geometry" in message, (name, value, message)
+            else:
+                assert message == f"parameter {name}={float(value)!r} is out of range: {problem}", (name, value)
+
+
+def test_every_studys_defaults_and_quick_values_pass_the_checks():
+    for study in _studies():
+        for values in (study.settings, study.quick):
+            checks.check_settings(study.name, {k: tuple(v) if isinstance(v, list) else v for k, v in values.items()})
+
+
+def test_out_of_range_messages_name_setting_value_and_what_is_allowed(tmp_path, capsys):
+    cases = [(["fig11", "--quick", "--set", "rtol=0"], "setting rtol=0.0 is out of range for study 'fig11': "
+                                                       "allowed 1e-14 <= rtol <= 0.01"),
+             (["fig11", "--quick", "--set", "method=rk4"], "allowed methods are dop853, dp5"),
+             (["fig8", "--set", "j=-1"], "parameter j=-1.0 is out of range: allowed 0 < j < inf"),
+             (["predictability", "--quick", "--set", "n_fine=-1"], "allowed an integer 0 <= n_fine <= 100000"),
+             # a swept value and a new grid value are checked by the same table
+             (["realisable-cube", "--quick", "--set", "v_throw=1,-2"], "v_throw=-2.0 is out of range"),
+             (["fig11", "--quick", "--set", "beta=0:1e300:3"], "grid value beta=5e+299 is out of range"),
+             (["fig9", "--quick", "--set", "j=0,0.5"], "parameter j=0.0 is out of range"),
+             (["make-probability", "--quick", "--set", "confidence=1"], "allowed 0 < confidence < 1")]
+    for argv, expect in cases:
+        assert main(["run", *argv, "--out", str(tmp_path / "o"), "--no-progress"]) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.startswith("study: error:") and "\n" not in err and expect in err, (argv, err)
+    assert not (tmp_path / "o").exists()
+
+
+def test_study_info_and_run_help_show_the_tables_units_doc_and_range(monkeypatch, capsys):
+    assert main(["info", "fig11"]) == 0
+    out = capsys.readouterr().out
+    entry = TABLE["rtol"]
+    assert re.search(rf"rtol\s+1e-08\s+\[1\]\s+{re.escape(entry.doc)} \(1e-14 <= rtol <= 0\.01\)", out)
+    assert re.search(r"method\s+dp5\s+.*\(methods dop853, dp5\)", out)
+    # what the table says is what info says: change an entry, and the line changes
+    monkeypatch.setitem(TABLE, "t_max_dissipative", dataclasses.replace(TABLE["t_max_dissipative"], units="min",
+                                                                        doc="a doc from the table"))
+    assert main(["run", "fig11", "--help"]) == 0
+    assert re.search(r"t_max_dissipative\s+60\s+\[min\]\s+a doc from the table", capsys.readouterr().out)
+
+
+def test_swept_axes_take_units_and_long_name_from_the_table(tmp_path):
+    from rimroll.study.plan import make_plan
+
+    plan = make_plan(registry.get("make-probability"), quick=True, sets=["sigma=0.5,1", "mu=0.5,1"])
+    axes = {a.name: a for a in plan.outer}
+    for name in ("sigma", "mu"):
+        assert (axes[name].units, axes[name].long_name) == (TABLE[name].units, TABLE[name].axis_long_name)
+    assert axes["mu"].long_name == physical.QUANTITIES["mu"].long_name
