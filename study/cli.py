@@ -15,7 +15,7 @@ import sys
 from rimroll.study import checks, execute, fanout, io, registry, reuse, runguard
 from rimroll.study.parts import PartStore
 from rimroll.study.plan import make_plan
-from rimroll.study.registry import UserError
+from rimroll.study.registry import UserError, natural_order
 from rimroll.study.setting_table import lookup
 
 EXIT_USAGE = 2
@@ -109,17 +109,6 @@ class _Version(argparse.Action):
         rev = git_revision()
         print(f"study (rimroll) {rimroll_version()}" + (f", git {rev}" if rev else ""))
         parser.exit(0)
-
-
-def natural_order(names) -> list[str]:
-    """fig3, fig5, ..., fig9, fig11, ... (numbers compared as numbers), then the other studies."""
-    import re
-
-    def key(name):
-        parts = [int(t) if t.isdigit() else t for t in re.split(r"(\d+)", name)]
-        return (0 if re.fullmatch(r"fig\d+", name) else 1, [(isinstance(t, str), t) for t in parts])
-
-    return sorted(names, key=key)
 
 
 def _cmd_list(args) -> int:

@@ -3,8 +3,8 @@
 What it computes (its title and its module's summary), every setting with its default, its
 ``--quick`` value, units, meaning and allowed values (``study.setting_table``), which settings
 ``--set`` can sweep, the grid (dimensions and sizes at the defaults and with ``--quick``) and an
-estimate of the run time from :data:`COST`, seconds per grid point measured on one core of the
-development machine.
+estimate of the run time from the study's ``cost`` (``Study.cost``, seconds per grid point
+measured on one core of the development machine; ``cost_scale``, ``compiles``).
 """
 
 from __future__ import annotations
@@ -16,24 +16,6 @@ import os
 from rimroll.study import registry
 from rimroll.study.registry import PHYSICAL_KEYS, Study
 from rimroll.study.setting_table import NUMBER, lookup
-
-
-COST = {  # seconds per grid point on one core, warm: measured with --quick on 2 shared cores (2026-11)
-    "fig3": 1e-7, "fig5": 1e-7, "fig6": 2e-6, "fig7": 1e-7, "fig8": 2e-6, "fig9": 1.5e-4,
-    "fig11": 3e-4, "fig12": 3e-4, "fig13": 3e-4, "outcome-cube": 2e-4, "realisable-cube": 1e-6,
-    "solution-types": 4e-2, "invariants": 2e-3, "work-precision": 0.2,
-    # from README "Predictability of a shot": make-probability ~50 s CPU for 86,400 states x 64
-    # samples (per point at the --quick 16 samples: 1.5e-4); predictability ~250 s CPU for the
-    # 12 sections x scenes of 86,400 points
-    "make-probability": 1.5e-4, "predictability": 2.5e-4,
-}
-SCALE = {  # the cost per point grows with this setting (measured at its --quick value)
-    "work-precision": "n_states", "solution-types": "t_max", "invariants": "t_max",
-    "make-probability": "n_samples",
-}
-COMPILES = ("fig11", "fig12", "fig13", "outcome-cube", "work-precision", "solution-types", "invariants",
-            "predictability", "make-probability")
-"""Studies whose first run in a fresh environment compiles the simulation kernels (cached afterwards)."""
 
 
 def summary(study: Study) -> str:
@@ -97,16 +79,16 @@ def _grid(study: Study, quick: bool) -> tuple[str, int, int]:
 
 def estimate(study: Study, points: int, workers: int, quick: bool = False) -> str:
     """Rough run time for ``points`` grid points on ``workers`` busy threads (at most one per
-    chunk), from :data:`COST`
-    (plus a few seconds of start-up and writing, not counted)."""
-    if study.name not in COST:
+    chunk), from the study's ``cost`` per point, scaled by its ``cost_scale`` setting (plus a few
+    seconds of start-up and writing, not counted)."""
+    if study.cost is None:
         return "no estimate for this study"
-    seconds = COST[study.name] * points / max(workers, 1)
-    key = SCALE.get(study.name)
+    seconds = study.cost * points / max(workers, 1)
+    key = study.cost_scale
     if key and not quick:
         seconds *= float(study.settings[key]) / float(study.quick.get(key, study.settings[key]))
     text = f"about {seconds:.0f} s" if seconds >= 1 else "under a second"
-    if study.name in COMPILES:
+    if study.compiles:
         text += " (a first run in a fresh environment also compiles the simulation kernels, 1-2 min, cached)"
     return text
 

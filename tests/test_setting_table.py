@@ -1,8 +1,9 @@
-"""Each concept declared once: the setting table.
+"""Each concept declared once: the setting table and the fields of a Study record.
 
-Every setting of every registered study has one entry in ``study.setting_table`` (units, doc,
-allowed values), the physical parameters' taken from ``solver.physics.params.QUANTITIES``, which
-``Params`` validates with; the checks before a run and ``study info`` read that table.
+- every setting of every registered study has one entry in ``study.setting_table`` (units, doc,
+  allowed values), the physical parameters' taken from ``solver.physics.params.QUANTITIES``, which
+  ``Params`` validates with; the checks before a run, ``study info`` and the docs read that table;
+- a study's run-time estimate and its reference slices are fields of its ``Study`` record.
 """
 
 from __future__ import annotations
@@ -12,13 +13,15 @@ import math
 import pathlib
 import re
 
+import numpy as np
 import pytest
+import xarray as xr
 
 from rimroll import solver
 from rimroll.solver.physics import params as physical
-from rimroll.study import checks, registry, setting_table
+from rimroll.study import checks, describe, reference, registry, setting_table
 from rimroll.study.cli import main
-from rimroll.study.registry import PHYSICAL_KEYS, UserError
+from rimroll.study.registry import PHYSICAL_KEYS, Axis, ReferenceSpec, Study, UserError, Var
 from rimroll.study.setting_table import TABLE, lookup
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
@@ -132,3 +135,58 @@ def test_swept_axes_take_units_and_long_name_from_the_table(tmp_path):
     for name in ("sigma", "mu"):
         assert (axes[name].units, axes[name].long_name) == (TABLE[name].units, TABLE[name].axis_long_name)
     assert axes["mu"].long_name == physical.QUANTITIES["mu"].long_name
+
+
+def test_the_docs_list_every_setting_with_the_tables_units_and_range():
+    text = (ROOT / "docs" / "studies.md").read_text()
+    rows = dict(re.findall(r"^\| `(\w+)` \| [^|]* \| .*? \| (.*?) \|$", text.split("\n## Settings\n")[1], re.M))
+    for study in _studies():
+        for name in study.settings:
+            entry = TABLE[name]
+            allowed = entry.allowed() if entry.choices is not None or entry.range is not None else None
+            assert name in rows, f"{name}: run python docs/gen_studies.py"
+            if allowed:
+                assert rows[name] == allowed.replace("|", "\\|"), name
+
+
+# ================================================================ fields of the Study record
+def _toy(**fields) -> Study:
+    def axes(s):
+        return [Axis("x", np.linspace(0.0, 1.0, s["n_x"]), "1", "toy coordinate")]
+
+    return Study(name="toy-record", title="a toy", settings={"n_x": 9, "t_max": 10.0}, quick={"n_x": 5, "t_max": 2.0},
+                 axes=axes, variables=[Var("y", "1", "twice x")], compute=lambda c, p, s: {"y": 2.0 * c[0]},
+                 ignores={k: "a toy" for k in ("k_r", "k_d")}, **fields)
+
+
+def test_the_estimate_of_study_info_comes_from_the_study_record(monkeypatch, capsys):
+    toy = _toy(cost=0.5, cost_scale="t_max", compiles=True)
+    monkeypatch.setitem(registry._REGISTRY, toy.name, toy)
+    assert describe.estimate(toy, 4, 1, quick=True) == \
+        "about 2 s (a first run in a fresh environment also compiles the simulation kernels, 1-2 min, cached)"
+    assert describe.estimate(toy, 4, 1).startswith("about 10 s")  # t_max 10 s at the default, 2 s measured
+    assert describe.estimate(_toy(cost=0.5), 4, 2) == "about 1 s"
+    assert describe.estimate(_toy(), 4, 2) == "no estimate for this study"
+    assert main(["info", toy.name]) == 0
+    assert "grid with --quick: x 5 = 5 points in 1 chunks; run time on" in capsys.readouterr().out
+    with pytest.raises(ValueError, match="cost_scale"):
+        _toy(cost=1.0, cost_scale="no_such_setting")
+    with pytest.raises(ValueError, match="cost"):
+        _toy(cost=-1.0)
+
+
+def test_reference_slices_come_from_the_study_record(monkeypatch, tmp_path, capsys):
+    assert reference.specs() == {s.name: s.reference for s in _studies() if s.reference is not None}
+    assert list(reference.specs()) == registry.natural_order(reference.specs())
+    toy = _toy(reference=ReferenceSpec({"x": 3}, method="twice x"))
+    monkeypatch.setitem(registry._REGISTRY, toy.name, toy)
+    assert reference.sub_grid_sets(toy.name) == ("x=0.0,0.5,1.0",)
+    out = tmp_path / "slices"
+    assert main(["reference", "--build", "--only", toy.name, "--out", str(out), "--no-progress", "--workers", "1"]) == 0
+    capsys.readouterr()
+    with xr.open_dataset(out / f"{toy.name}.nc") as ds, xr.open_dataset(out / "quick" / f"{toy.name}.nc") as quick:
+        np.testing.assert_array_equal(ds["x"].values, [0.0, 0.5, 1.0])
+        assert ds.attrs["reference_method"] == "twice x" and "x: 3 of the default values" in ds.attrs["reference_settings"]
+        assert quick.sizes["x"] == 5
+    assert main(["reference", "--build", "--only", "fig3", "--only", "invariants", "--out", str(out)]) == 2
+    assert "no reference slice for invariants" in capsys.readouterr().err

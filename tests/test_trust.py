@@ -226,8 +226,8 @@ def test_slices_are_package_data_found_with_importlib(monkeypatch):
     monkeypatch.delenv(reference.ENV_DIR, raising=False)
     packaged = pathlib.Path(str(importlib.resources.files("rimroll.study") / "reference_slices"))
     assert reference.reference_dir() == packaged
-    assert {p.stem for p in packaged.glob("*.nc")} == set(reference.SPECS)
-    assert {p.stem for p in (packaged / "quick").glob("*.nc")} == set(reference.SPECS)
+    assert {p.stem for p in packaged.glob("*.nc")} == set(reference.specs())
+    assert {p.stem for p in (packaged / "quick").glob("*.nc")} == set(reference.specs())
     root = pathlib.Path(__file__).resolve().parent.parent
     config = tomllib.loads((root / "pyproject.toml").read_text())
     for pattern in ("reference_slices/*.nc", "reference_slices/quick/*.nc"):
