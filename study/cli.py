@@ -12,7 +12,7 @@ import pathlib
 import shlex
 import sys
 
-from rimroll.study import checks, execute, fanout, io, registry, reuse, runguard
+from rimroll.study import checks, execute, fanout, io, keyvalue, registry, reuse, runguard
 from rimroll.study.parts import PartStore
 from rimroll.study.plan import make_plan
 from rimroll.study.registry import UserError, natural_order
@@ -137,18 +137,18 @@ def _draw(study, nc: pathlib.Path, select: dict | None = None) -> pathlib.Path |
 
 
 def _selection(words: list[str], ds) -> dict:
-    """``--select DIM=VALUE`` words as {dim: float}; a user error names a bad word or dimension."""
+    """``--select DIM=VALUE[,DIM=VALUE...]`` words as {dim: float}; a user error names a bad word or
+    dimension (``study.keyvalue``: several pairs may share one word)."""
     out = {}
     swept = str(ds.attrs.get("swept", "")).split()
-    for word in words:
-        key, sep, value = word.partition("=")
-        if not sep or key not in swept:
-            raise UserError(f"--select {word!r}: expected DIM=VALUE with DIM one of the file's swept axes "
+    for key, value in keyvalue.parse(words, "--select", "DIM=VALUE", "--select j=0.5"):
+        if key not in swept:
+            raise UserError(f"--select {key}={value}: expected DIM=VALUE with DIM one of the file's swept axes "
                             f"({', '.join(swept) or 'none: the file is not a cube'})")
         try:
             out[key] = float(value)
         except ValueError:
-            raise UserError(f"--select {word!r}: VALUE must be a number") from None
+            raise UserError(f"--select {key}={value}: VALUE must be a number") from None
     return out
 
 

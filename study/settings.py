@@ -7,7 +7,8 @@
 allows: ``study.setting_table``, read by ``study.checks``); every problem is a one-line
 :class:`~rimroll.study.registry.UserError`.
 
-``--set`` forms: ``KEY=0.5`` (a scalar, converted to the type of
+``--set`` words are split by ``study.keyvalue`` (``--set mu=0.5,1,2`` is one key with a list,
+``--set mu=1,v_throw=2`` two keys). A value is ``KEY=0.5`` (a scalar, converted to the type of
 the setting's default), ``KEY=0.5,1,2`` (a list, in the order given) or ``KEY=start:stop:num``
 (``num >= 2`` points of an inclusive linspace). A list or range is allowed for the study's ``sweepable`` settings
 (outer axes, in the study's order, then in the order of ``--set``) and for the names of its grid
@@ -24,7 +25,7 @@ import math
 import numpy as np
 
 from rimroll import solver
-from rimroll.study import checks
+from rimroll.study import checks, keyvalue
 from rimroll.study.registry import PHYSICAL_KEYS, Axis, Study, UserError
 from rimroll.study.setting_table import lookup
 
@@ -90,15 +91,6 @@ def grid_axes(study: Study, settings: dict) -> list[Axis]:
 
 
 # ------------------------------------------------------------------ --set items
-
-
-def parse_set(item: str) -> tuple[str, str]:
-    """Split ``KEY=VALUE``; :class:`UserError` when malformed."""
-    key, sep, value = item.partition("=")
-    key, value = key.strip(), value.strip()
-    if not sep or not key or not value:
-        raise UserError(f"malformed --set {item!r}; expected KEY=VALUE, e.g. --set mu=0.5")
-    return key, value
 
 
 def parse_values(key: str, text: str):
@@ -171,8 +163,7 @@ def _apply(study: Study, quick: bool, sets) -> tuple[dict, list[str], dict]:
     order = [k for k in declared if isinstance(settings[k], (tuple, list))]
     grid_names = {a.name for a in grid_axes(study, base_settings(settings))}
     grid = {}
-    for item in sets:
-        key, text = parse_set(item)
+    for key, text in keyvalue.parse(sets, "--set", "KEY=VALUE", "--set mu=0.5"):
         values = parse_values(key, text)
         if values is not None and key in grid_names:
             grid[key] = values

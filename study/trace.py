@@ -22,7 +22,7 @@ from matplotlib.patches import Circle, Patch
 
 from rimroll import solver
 from rimroll.solver.analysis import trace as tr
-from rimroll.study import io
+from rimroll.study import io, keyvalue
 from rimroll.study import plotting as P
 from rimroll.study.dataset import params_of, provenance, setting_of
 from rimroll.study.registry import PHYSICAL_KEYS, UserError
@@ -67,16 +67,15 @@ def parse_state(text: str) -> np.ndarray:
 
 
 def parse_sets(words: list[str]) -> dict:
-    """``--set KEY=VALUE`` words of physical parameters -> {key: float}."""
+    """``--set KEY=VALUE`` words of physical parameters -> {key: float} (``study.keyvalue``)."""
     out = {}
-    for word in words:
-        key, sep, value = word.partition("=")
-        if not sep or key not in PHYSICAL_KEYS:
-            raise UserError(f"--set {word!r}: expected KEY=VALUE with KEY one of {' '.join(PHYSICAL_KEYS)}")
+    for key, value in keyvalue.parse(words, "--set", "KEY=VALUE", "--set mu=inf"):
+        if key not in PHYSICAL_KEYS:
+            raise UserError(f"--set {key}={value}: expected KEY=VALUE with KEY one of {' '.join(PHYSICAL_KEYS)}")
         try:
             out[key] = float(value)
         except ValueError:
-            raise UserError(f"--set {word!r}: VALUE must be a number (inf allowed for mu)") from None
+            raise UserError(f"--set {key}={value}: VALUE must be a number (inf allowed for mu)") from None
     return out
 
 
@@ -88,13 +87,9 @@ def _params(**values) -> solver.Params:
 
 
 def _parse_at(text: str) -> dict:
-    out = {}
-    for word in filter(None, text.split(",")):
-        key, sep, value = word.partition("=")
-        if not sep:
-            raise UserError(f"--at {text!r}: expected DIM=VALUE,DIM=VALUE,... (e.g. omega1=2,beta=1.1,scene=slipping)")
-        out[key.strip()] = value.strip()
-    return out
+    """``--at DIM=VALUE,DIM=VALUE,...`` -> {dim: value text} (``study.keyvalue``)."""
+    pairs = keyvalue.split(text, "--at", "DIM=VALUE,DIM=VALUE,...", "--at omega1=2,beta=1.1,scene=slipping")
+    return dict(pairs)
 
 
 def _index(ds, dim: str, value: str) -> int:

@@ -1,13 +1,15 @@
-"""Each concept declared once: the setting table and the fields of a Study record.
+"""Each concept declared once: the setting table, the fields of a Study record, one KEY=VALUE parser.
 
 - every setting of every registered study has one entry in ``study.setting_table`` (units, doc,
   allowed values), the physical parameters' taken from ``solver.physics.params.QUANTITIES``, which
   ``Params`` validates with; the checks before a run, ``study info`` and the docs read that table;
-- a study's run-time estimate and its reference slices are fields of its ``Study`` record.
+- a study's run-time estimate and its reference slices are fields of its ``Study`` record;
+- ``study.keyvalue`` splits ``--set``, ``--select`` and ``--at`` words with one rule.
 """
 
 from __future__ import annotations
 
+import ast
 import dataclasses
 import math
 import pathlib
@@ -19,8 +21,8 @@ import xarray as xr
 
 from rimroll import solver
 from rimroll.solver.physics import params as physical
-from rimroll.study import checks, describe, reference, registry, setting_table
-from rimroll.study.cli import main
+from rimroll.study import checks, describe, keyvalue, reference, registry, setting_table
+from rimroll.study.cli import _selection, main
 from rimroll.study.registry import PHYSICAL_KEYS, Axis, ReferenceSpec, Study, UserError, Var
 from rimroll.study.setting_table import TABLE, lookup
 
@@ -190,3 +192,41 @@ def test_reference_slices_come_from_the_study_record(monkeypatch, tmp_path, caps
         assert quick.sizes["x"] == 5
     assert main(["reference", "--build", "--only", "fig3", "--only", "invariants", "--out", str(out)]) == 2
     assert "no reference slice for invariants" in capsys.readouterr().err
+
+
+# ================================================================ one KEY=VALUE parser
+def test_one_parser_serves_both_meanings_of_a_comma():
+    assert keyvalue.split("mu=0.5,1,2", "--set") == [("mu", "0.5,1,2")]  # one key, a list
+    assert keyvalue.split("omega1=0.5,beta=1.2", "--at") == [("omega1", "0.5"), ("beta", "1.2")]  # two pairs
+    assert keyvalue.split("mu=0.5,1, v_throw = 2", "--set") == [("mu", "0.5,1"), ("v_throw", "2")]
+    assert keyvalue.split("mu=0.5:2:5", "--set") == [("mu", "0.5:2:5")]
+    assert keyvalue.split("mu=0.5,,2", "--set") == [("mu", "0.5,,2")]  # an empty item: the caller says so
+    assert keyvalue.parse(["j=0.5", "mu=1,k_r=0"], "--select") == [("j", "0.5"), ("mu", "1"), ("k_r", "0")]
+    for word in ("mu", "=1", "mu=", "0.5,mu=1", ""):
+        with pytest.raises(UserError) as exc:
+            keyvalue.split(word, "--set", "KEY=VALUE", "--set mu=0.5")
+        assert str(exc.value) == f"malformed --set {word!r}: expected KEY=VALUE, e.g. --set mu=0.5"
+
+
+def test_every_key_value_option_uses_the_one_parser():
+    ds = xr.Dataset(coords={"j": [0.5, 1.0], "mu": [1.0, 2.0]}, attrs={"swept": "j mu"})
+    assert _selection(["j=0.5,mu=1"], ds) == {"j": 0.5, "mu": 1.0}  # --select j=0.5,mu=1
+    assert _selection(["j=0.5", "mu=2"], ds) == {"j": 0.5, "mu": 2.0}
+    with pytest.raises(UserError, match="malformed --select 'j'"):
+        _selection(["j"], ds)
+    from rimroll.study import trace
+
+    assert trace.parse_sets(["mu=inf,j=0.5", "k_r=0.01"]) == {"mu": math.inf, "j": 0.5, "k_r": 0.01}
+    assert trace._parse_at("omega1=0.5,beta=1.2,scene=slipping") == {"omega1": "0.5", "beta": "1.2", "scene": "slipping"}
+    for path in ("settings.py", "cli.py", "trace.py"):
+        source = (ROOT / "study" / path).read_text()
+        assert ".partition(\"=\")" not in source and "keyvalue." in source, path
+
+
+def test_study_functions_are_short_and_take_few_parameters():
+    for path in sorted((ROOT / "study").glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                a = node.args
+                count = len(a.posonlyargs) + len(a.args) + len(a.kwonlyargs) + bool(a.vararg) + bool(a.kwarg)
+                assert node.end_lineno - node.lineno + 1 <= 120 and count <= 12, (path.name, node.name)
