@@ -306,7 +306,8 @@ def run(args, command: str) -> int:
         state, params, t_max, extra = parse_state(args.state), _params(**sets), 20.0, {}
     if args.t_max is not None:
         t_max = args.t_max
-    for option, key, value in (("--t-max", "t_max", t_max), ("--rtol", "rtol", args.rtol), ("--atol", "atol", args.atol)):
+    given = (("--t-max", "t_max", t_max), ("--rtol", "rtol", args.rtol), ("--atol", "atol", args.atol))
+    for option, key, value in given:
         problem = lookup(key).problem(value)  # the setting table's rule of the setting of that name
         if problem:
             raise UserError(f"{option} {value!r}: {problem}")

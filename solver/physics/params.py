@@ -92,8 +92,10 @@ QUANTITIES = {q.name: q for q in (
     Quantity("mu", "1", "Coulomb friction coefficient", Range(0.0, math.inf),
              "Coulomb friction coefficient (inf: never slips)"),
     Quantity("g", "m s-2", "gravitational acceleration", _POSITIVE, "gravitational acceleration"),
-    Quantity("k_r", "s-1", "rolling-resistance " + _RATE_83.format("r"), _RATE, "rolling-resistance rate, paper (83)"),
-    Quantity("k_d", "s-1", "drilling-resistance " + _RATE_83.format("d"), _RATE, "drilling-resistance rate, paper (83)"),
+    Quantity("k_r", "s-1", "rolling-resistance " + _RATE_83.format("r"), _RATE,
+             "rolling-resistance rate, paper (83)"),
+    Quantity("k_d", "s-1", "drilling-resistance " + _RATE_83.format("d"), _RATE,
+             "drilling-resistance rate, paper (83)"),
     # not a field of Params: Params.from_rho_over_R(rho_over_R, ...) sets r = rho_over_R R - a
     Quantity("rho_over_R", "1", "ratio rho/R of the ball centre's distance from the rim's middle circle to "
                                 "the rim's major radius (R and a fixed, r = rho - a)",
