@@ -15,7 +15,7 @@ import os
 
 from rimroll.study import registry
 from rimroll.study.registry import PHYSICAL_KEYS, Study
-from rimroll.study.setting_table import NUMBER, lookup
+from rimroll.study.setting_table import FINITE, NUMBER, lookup
 
 
 def summary(study: Study) -> str:
@@ -62,9 +62,9 @@ def settings_lines(study: Study) -> list[str]:
 
 
 def allowed(setting) -> str:
-    """What a setting allows, as ``study info`` shows it: "" for the common rule (a finite number
-    of bounded magnitude) and for a free label."""
-    if setting.choices is None and setting.range in (None, NUMBER):
+    """What a setting allows, as ``study info`` shows it: "" for a free label and for any finite
+    number (of bounded magnitude or not)."""
+    if setting.choices is None and setting.range in (None, NUMBER, FINITE):
         return ""
     return setting.allowed(units=False)
 

@@ -33,6 +33,7 @@ Range = physical.Range
 NUMBER = Range(-MAX_MAGNITUDE, MAX_MAGNITUDE)
 """Any other number: finite and of magnitude at most :data:`MAX_MAGNITUDE` (an axis spanning
 +-1e308 overflows)."""
+FINITE = Range(-math.inf, math.inf, low_open=True, high_open=True, text="a finite number")  # magnitude unbounded
 NONNEGATIVE = Range(0.0, MAX_MAGNITUDE)
 POSITIVE = Range(0.0, MAX_MAGNITUDE, low_open=True)
 COUNT = Range(1, MAX_AXIS, integer=True)
@@ -118,9 +119,11 @@ _ENTRIES = (
     # ---- physical parameters: units, long_name, doc and range from solver.physics.params
     *(_physical(q) for q in physical.QUANTITIES.values()),
     # ---- initial state and steady motions
-    S("v_throw", "m s-1", "throw speed whose kinetic energy bounds the steady motion (59)", NONNEGATIVE, sweep=True),
-    S("omega2", "s-1", "initial orthogonal angular velocity", NUMBER, sweep=True),
-    S("omega3", "s-1", "initial circular angular velocity", NUMBER, sweep=True),
+    # (the swept ones are not capped at 1e12: a test drives simulate to non-finite lanes with omega2=1e308)
+    S("v_throw", "m s-1", "throw speed whose kinetic energy bounds the steady motion (59)",
+      Range(0.0, math.inf, high_open=True), sweep=True),
+    S("omega2", "s-1", "initial orthogonal angular velocity", FINITE, sweep=True),
+    S("omega3", "s-1", "initial circular angular velocity", FINITE, sweep=True),
     S("omega30", "s-1", "circular angular velocity of the steady motion", NUMBER),
     S("omega30_max", "s-1", "grid: omega30 in [-omega30_max, omega30_max]", NUMBER),
     S("omega1_max", "s-1", "grid/sample: omega1 in [-omega1_max, omega1_max]", NUMBER),
@@ -165,7 +168,8 @@ _ENTRIES = (
     S("n_fine", "", "eps below one grid step: 1/2 ... 1/2^n_fine (simulated)", COUNT0),
     S("n_coarse", "", "eps of whole grid steps: 1 ... 2^n_coarse (read from the grid)", COUNT0),
     S("n_sample", "", "states away from the grid's boundaries simulated for eps < 1", COUNT0),
-    S("sigma", "1", "noise level: multiplies sigma_beta ... sigma_omega3", NONNEGATIVE, sweep=True,
+    S("sigma", "1", "noise level: multiplies sigma_beta ... sigma_omega3", Range(0.0, math.inf, high_open=True),
+      sweep=True,
       long_name="noise level: the spread of the arriving state in units of the study's sigma_* settings"),
     S("sigma_beta", "rad", "standard deviation of the arriving beta at sigma = 1", NONNEGATIVE),
     S("sigma_omega1", "s-1", "standard deviation of the arriving omega1 at sigma = 1", NONNEGATIVE),
