@@ -275,7 +275,7 @@ def test_verify_after_pip_install(tmp_path):
     assert run.returncode == 0, run.stderr
     verify = subprocess.run([study, "verify", str(tmp_path / "res" / "fig8.nc")], cwd=tmp_path, env=env,
                             capture_output=True, text=True, timeout=600)
-    assert verify.returncode == 0 and "site-packages/study/reference_slices/fig8.nc" in verify.stdout, verify
+    assert verify.returncode == 0 and "site-packages/rimroll/study/reference_slices/fig8.nc" in verify.stdout, verify
     build = subprocess.run([study, "reference", "--build", "--only", "fig9"], cwd=tmp_path, env=env,
                            capture_output=True, text=True, timeout=600)
     assert build.returncode == 2 and "needs --out" in build.stderr
@@ -287,7 +287,7 @@ def test_verify_after_pip_install(tmp_path):
     assert quick.returncode == 0, quick.stderr
     verify = subprocess.run([study, "verify", str(tmp_path / "quick" / "fig8.nc")], cwd=tmp_path, env=env,
                             capture_output=True, text=True, timeout=600)
-    assert verify.returncode == 0 and "site-packages/study/reference_slices/quick/fig8.nc" in verify.stdout, verify
+    assert verify.returncode == 0 and "site-packages/rimroll/study/reference_slices/quick/fig8.nc" in verify.stdout, verify
 
 
 # ================================================================ 6. a cube with every swept setting scalar
