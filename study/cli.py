@@ -12,10 +12,11 @@ import pathlib
 import shlex
 import sys
 
-from rimroll.study import checks, execute, fanout, io, registry, reuse, runguard
+from rimroll.study import checks, execute, fanout, io, keyvalue, registry, reuse, runguard
 from rimroll.study.parts import PartStore
 from rimroll.study.plan import make_plan
-from rimroll.study.registry import UserError
+from rimroll.study.registry import UserError, natural_order
+from rimroll.study.setting_table import lookup
 
 EXIT_USAGE = 2
 
@@ -39,7 +40,7 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUES",
                      help="override a setting or a physical parameter (repeatable); a list a,b,c or a "
                           "range start:stop:num of a sweepable setting becomes an axis of the cube")
-    run.add_argument("--backend", default=None, choices=("cpu", "cuda", "auto"),
+    run.add_argument("--backend", default=None, choices=lookup("backend").labels(),
                      help="where solver.simulate runs (same as --set backend=...; studies that simulate only): "
                           "cpu, cuda (one GPU per worker; extra rimroll[gpu]) or auto (the GPU when usable)")
     run.add_argument("--workers", type=int, default=None, help="local threads (default: one per core)")
@@ -110,17 +111,6 @@ class _Version(argparse.Action):
         parser.exit(0)
 
 
-def natural_order(names) -> list[str]:
-    """fig3, fig5, ..., fig9, fig11, ... (numbers compared as numbers), then the other studies."""
-    import re
-
-    def key(name):
-        parts = [int(t) if t.isdigit() else t for t in re.split(r"(\d+)", name)]
-        return (0 if re.fullmatch(r"fig\d+", name) else 1, [(isinstance(t, str), t) for t in parts])
-
-    return sorted(names, key=key)
-
-
 def _cmd_list(args) -> int:
     names = natural_order(registry.names())
     width = max(map(len, names), default=0)
@@ -147,18 +137,18 @@ def _draw(study, nc: pathlib.Path, select: dict | None = None) -> pathlib.Path |
 
 
 def _selection(words: list[str], ds) -> dict:
-    """``--select DIM=VALUE`` words as {dim: float}; a user error names a bad word or dimension."""
+    """``--select DIM=VALUE[,DIM=VALUE...]`` words as {dim: float}; a user error names a bad word or
+    dimension (``study.keyvalue``: several pairs may share one word)."""
     out = {}
     swept = str(ds.attrs.get("swept", "")).split()
-    for word in words:
-        key, sep, value = word.partition("=")
-        if not sep or key not in swept:
-            raise UserError(f"--select {word!r}: expected DIM=VALUE with DIM one of the file's swept axes "
+    for key, value in keyvalue.parse(words, "--select", "DIM=VALUE", "--select j=0.5"):
+        if key not in swept:
+            raise UserError(f"--select {key}={value}: expected DIM=VALUE with DIM one of the file's swept axes "
                             f"({', '.join(swept) or 'none: the file is not a cube'})")
         try:
             out[key] = float(value)
         except ValueError:
-            raise UserError(f"--select {word!r}: VALUE must be a number") from None
+            raise UserError(f"--select {key}={value}: VALUE must be a number") from None
     return out
 
 

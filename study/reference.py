@@ -12,7 +12,10 @@ The slices ship inside the package (``study/reference_slices/``, package data fo
   ``study run NAME --quick`` can be verified on every one of its points (a quick grid is not a
   sub-grid of the default one: the two share only their corners).
 
-Both at the study's settings, the outcome sections at rtol = 1e-12 with DOP853 (``PRECISE``).
+Both at the study's settings, the outcome sections at rtol = 1e-12 with DOP853. What a study's
+slices are is a field of its record, ``Study.reference`` (a
+:class:`~rimroll.study.registry.ReferenceSpec`: the sub-grid's points per axis, the precision
+settings, the method text); :func:`specs` lists the studies that have one.
 ``study verify FILE`` compares a file with the slice of its study that shares the most points
 with it (:func:`candidates`); the regression tests (``tests/test_reference_slices.py``)
 recompute each slice at the study's default precision (:func:`recompute`) and compare with
@@ -27,7 +30,6 @@ Every file records how it was made in global attributes: ``reference_command``,
 
 from __future__ import annotations
 
-import dataclasses
 import importlib.resources
 import os
 import pathlib
@@ -43,50 +45,45 @@ from rimroll.study.plan import Plan, make_plan
 
 ENV_DIR = "RIMROLL_REFERENCE_DIR"
 PACKAGE_DIR = "reference_slices"  # package data of ``rimroll.study``
-PRECISE = ("rtol=1e-12", "atol=1e-14", "method=dop853")  # outcome studies: the engine's tightest setting
 GRIDS = ("default", "quick")
 """The two slices of a study: a sub-grid of its default grid, and its whole ``--quick`` grid
 (in the subdirectory ``quick/``)."""
 
 
-@dataclasses.dataclass(frozen=True)
-class Spec:
-    """How the reference slices of one study are made: the default grid's sub-grid (``points``)
-    or the ``--quick`` grid, plus the reference's ``precise`` settings."""
-
-    name: str
-    points: dict  # grid axis -> number of values picked from the default axis (ends included)
-    precise: tuple = ()  # precision settings of the reference only
-    method: str = "closed form (no integration)"  # what reference_method records when no ``method`` setting
-
-    @property
-    def sets(self) -> tuple:
-        """``--set AXIS=v1,v2,...`` of the sub-grid (exact values of the default axes)."""
-        full = {a.name: a.values for a in make_plan(registry.get(self.name)).grid}
-        out = []
-        for axis, n in self.points.items():
-            idx = np.unique(np.round(np.linspace(0, full[axis].size - 1, n)).astype(int))
-            out.append(f"{axis}=" + ",".join(repr(float(v)) for v in full[axis][idx]))
-        return tuple(out)
-
-    def plan(self, grid: str = "default", precise: bool = True) -> Plan:
-        """The plan of a slice (``precise``: the reference; else the study's own precision on the
-        same grid)."""
-        _check_grid(grid)
-        extra = self.precise if precise else ()
-        if grid == "quick":
-            return make_plan(registry.get(self.name), quick=True, sets=extra)
-        return make_plan(registry.get(self.name), sets=[*self.sets, *extra])
+def specs() -> dict[str, registry.ReferenceSpec]:
+    """Name -> :class:`~rimroll.study.registry.ReferenceSpec` of every registered study that has
+    reference slices (``Study.reference``), in the natural order of the names."""
+    found = {name: registry.get(name).reference for name in registry.natural_order(registry.names())}
+    return {name: spec for name, spec in found.items() if spec is not None}
 
 
-MAPS = {"beta0": 121, "omega30": 80}
-SECTION = {"beta": 24, "omega1": 36}
-SPECS = {s.name: s for s in (
-    Spec("fig3", MAPS), Spec("fig5", MAPS), Spec("fig6", MAPS), Spec("fig7", MAPS), Spec("fig8", MAPS),
-    Spec("fig9", {"rho_over_R": 40, "j": 30},
-         method="solver.floquet fixed-step RK8 in theta (~1e-13 relative in tr M)"),
-    Spec("fig11", SECTION, PRECISE), Spec("fig12", SECTION, PRECISE), Spec("fig13", SECTION, PRECISE),
-)}
+def spec_of(name: str) -> registry.ReferenceSpec:
+    """The reference spec of study ``name``; a :class:`registry.UserError` if it has none."""
+    spec = registry.get(name).reference
+    if spec is None:
+        raise registry.UserError(f"no reference slice for {name}; known: {', '.join(specs())}")
+    return spec
+
+
+def sub_grid_sets(name: str) -> tuple:
+    """``--set AXIS=v1,v2,...`` of the default slice's sub-grid of study ``name`` (exact values of
+    the default axes: ``points`` values of each, ends included)."""
+    full = {a.name: a.values for a in make_plan(registry.get(name)).grid}
+    out = []
+    for axis, n in spec_of(name).points.items():
+        idx = np.unique(np.round(np.linspace(0, full[axis].size - 1, n)).astype(int))
+        out.append(f"{axis}=" + ",".join(repr(float(v)) for v in full[axis][idx]))
+    return tuple(out)
+
+
+def slice_plan(name: str, grid: str = "default", precise: bool = True) -> Plan:
+    """The plan of the ``grid`` slice of study ``name`` (``precise``: the reference, at the spec's
+    precision settings; else the study's own precision on the same grid)."""
+    _check_grid(grid)
+    extra = spec_of(name).precise if precise else ()
+    if grid == "quick":
+        return make_plan(registry.get(name), quick=True, sets=extra)
+    return make_plan(registry.get(name), sets=[*sub_grid_sets(name), *extra])
 
 
 def packaged_dir() -> pathlib.Path:
@@ -144,11 +141,11 @@ def recompute(name: str, precise: bool = False, workers: int = 2, grid: str = "d
     """The ``grid`` slice of ``name`` computed in memory through the study's plan and fan-out
     (``study.execute.compute``), derived variables included; ``precise``: at the reference's
     precision, else at the study's own."""
-    plan = SPECS[name].plan(grid, precise)
+    plan = slice_plan(name, grid, precise)
     return execute.compute(plan, f"study.reference.recompute({name!r}, precise={precise}, grid={grid!r})", workers)
 
 
-def _provenance(spec: Spec, grid: str, plan: Plan, command: str) -> dict:
+def _provenance(spec: registry.ReferenceSpec, grid: str, plan: Plan, command: str) -> dict:
     s = plan.settings
     sets = shlex.join([*(f"--set={x}" for x in spec.precise)])
     if grid == "quick":
@@ -171,10 +168,11 @@ def build(out=None, names=None, workers: int | None = None, command: str = "stud
     """Compute the slices ``names`` (default: all) on ``grids`` (default: both) into ``out``
     (default: the checkout's ``study/reference_slices``; refused in an installed package)."""
     out = pathlib.Path(out) if out is not None else default_build_dir()
-    names = list(names or SPECS)
-    unknown = [n for n in names if n not in SPECS]
+    known = specs()
+    names = list(names or known)
+    unknown = [n for n in names if n not in known]
     if unknown:
-        raise registry.UserError(f"no reference slice for {', '.join(unknown)}; known: {', '.join(SPECS)}")
+        raise registry.UserError(f"no reference slice for {', '.join(unknown)}; known: {', '.join(known)}")
     for grid in grids:
         _check_grid(grid)
     out.mkdir(parents=True, exist_ok=True)
@@ -182,11 +180,11 @@ def build(out=None, names=None, workers: int | None = None, command: str = "stud
     with fanout.client(workers) as client, tempfile.TemporaryDirectory(dir=out, prefix=".reference-") as tmp:
         for name in names:
             for grid in grids:
-                plan = SPECS[name].plan(grid)
+                plan = slice_plan(name, grid)
                 path = reference_path(name, out, grid)
                 store = PartStore(pathlib.Path(tmp) / grid, name, plan.fingerprint)
                 with store.lock():
                     execute.produce(plan, store, path, command, client=client, progress=progress,
-                                    extra_attrs=_provenance(SPECS[name], grid, plan, command))
+                                    extra_attrs=_provenance(known[name], grid, plan, command))
                 written.append(path)
     return written

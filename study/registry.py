@@ -1,11 +1,13 @@
 """The registry of named studies: what a study declares, and the table of studies by name.
 
-A study (see ``study/CONTRACT.md``) is pure computation on numpy arrays plus metadata. This
-module only holds the declarations; ``study.settings`` resolves their settings, ``study.plan``
-and ``study.execute`` run them. Studies are found through the entry-point group
-``rimroll.studies`` of the installed distributions (rimroll's own: ``workflows``); ``study``
-never imports a studies module by name.
-"""
+A study (see ``study/CONTRACT.md``) is pure computation on numpy arrays plus metadata: a
+:class:`Study` record holds everything the study layer says or does about it (settings, axes,
+variables, its run-time estimate, its reference slices). This module only holds the
+declarations; ``rimroll.study.settings`` resolves their settings (what each setting allows:
+``rimroll.study.setting_table``), ``rimroll.study.plan`` and ``rimroll.study.execute`` run them.
+Studies are found through the entry-point group ``rimroll.studies`` of the installed
+distributions (rimroll's own: the modules of ``rimroll.workflows``); the study layer never
+imports a studies module by name."""
 
 from __future__ import annotations
 
@@ -18,11 +20,11 @@ from typing import Any, Callable
 
 import numpy as np
 
-PHYSICAL_KEYS = ("r", "R", "a", "m", "j", "mu", "g", "k_r", "k_d")
-"""Settings that build the :class:`solver.Params` of a run; every study accepts them."""
+from rimroll.solver.physics.params import FIELDS as PHYSICAL_KEYS
+from rimroll.study.setting_table import SWEEP_KEYS
 
-SWEEP_KEYS = ("mu", "v_throw", "j", "rho_over_R", "k_r", "k_d", "omega2", "omega3", "sigma")
-"""Settings a study may declare ``sweepable``: a list or range of values becomes an outer axis."""
+# PHYSICAL_KEYS: the settings that build the solver.Params of a run (every study accepts them);
+# SWEEP_KEYS: the settings a study may declare sweepable (study.setting_table, Setting.sweep)
 
 PLUGIN_ENV = "RIMROLL_STUDY_MODULES"
 """Environment variable: extra study modules (``.py`` paths, ``os.pathsep``-separated) to register,
@@ -152,6 +154,19 @@ def output_var(name: str, **changes) -> Var:
 
 
 @dataclasses.dataclass(frozen=True)
+class ReferenceSpec:
+    """How the stored reference slices of a study are made (``study.reference``): the sub-grid of
+    the default grid (``points``: grid axis -> number of values picked from the default axis, ends
+    included; the other slice is the whole ``--quick`` grid), the reference's precision settings
+    (``precise``: ``--set`` items, e.g. ``("rtol=1e-12", "method=dop853")``) and what the files record
+    as ``reference_method`` when the study has no ``method`` setting."""
+
+    points: dict
+    precise: tuple = ()
+    method: str = "closed form (no integration)"
+
+
+@dataclasses.dataclass(frozen=True)
 class Study:
     """A named study: settings, axes, variables, a pure ``compute`` and a ``plot``.
 
@@ -163,9 +178,15 @@ class Study:
     A variable with ``outer=True`` has the swept axes only, so the study's grid is one chunk.
     ``derive(dataset) -> {name: (dims, values, attrs)}``: variables computed once from the whole
     assembled grid (neighbours across chunks), added to the file before it is moved into place
-    (``study.derived``).
+    (``study.derived``); ``derived_docs``: their rows in docs/studies.md, ``(name, units, meaning)``
+    (``name`` may be a tuple of names sharing a row).
     ``ignores``: physical parameters (of :data:`PHYSICAL_KEYS`) that do not change the result, each
     with the reason; ``--set`` of one is refused rather than recorded as if it mattered.
+
+    What ``study info`` estimates: ``cost``, seconds per grid point on one core, warm (measured with
+    ``--quick``), growing in proportion to the setting ``cost_scale`` (if any; measured at its
+    ``--quick`` value); ``compiles``: a first run in a fresh environment compiles the simulation
+    kernels. ``reference``: how its stored reference slices are made (None: the study has none).
     """
 
     name: str
@@ -180,6 +201,11 @@ class Study:
     sweepable: tuple = ()
     derive: Callable | None = None
     ignores: dict = dataclasses.field(default_factory=dict)  # physical key -> why the study does not use it
+    cost: float | None = None  # seconds per grid point on one core (None: no estimate)
+    cost_scale: str | None = None  # the setting the cost per point is proportional to
+    compiles: bool = False  # a first run compiles the simulation kernels (1-2 min, cached)
+    reference: ReferenceSpec | None = None  # its stored reference slices
+    derived_docs: tuple = ()  # (name or names, units, meaning) of what ``derive`` adds, for the docs
 
     def __post_init__(self):
         if not _STUDY_NAME.match(self.name):
@@ -198,6 +224,15 @@ class Study:
         names = [v.name for v in self.variables]
         if not names or len(set(names)) != len(names):
             raise ValueError(f"study {self.name!r}: variable names must be non-empty and unique; got {names}")
+        self._check_estimate()
+
+    def _check_estimate(self) -> None:
+        if self.cost is not None and not self.cost > 0:
+            raise ValueError(f"study {self.name!r}: cost must be > 0 seconds per point; got {self.cost!r}")
+        if self.cost_scale is not None and (self.cost is None or self.cost_scale not in self.settings):
+            raise ValueError(f"study {self.name!r}: cost_scale {self.cost_scale!r} needs a cost and must be a setting")
+        if self.reference is not None and not isinstance(self.reference, ReferenceSpec):
+            raise ValueError(f"study {self.name!r}: reference must be a ReferenceSpec")
 
 
 _REGISTRY: dict[str, Study] = {}
@@ -270,6 +305,16 @@ def names() -> list[str]:
     """Names of all registered studies, sorted."""
     _load_studies()
     return sorted(_REGISTRY)
+
+
+def natural_order(names) -> list[str]:
+    """fig3, fig5, ..., fig9, fig11, ... (numbers compared as numbers), then the other studies."""
+
+    def key(name):
+        parts = [int(t) if t.isdigit() else t for t in re.split(r"(\d+)", name)]
+        return (0 if re.fullmatch(r"fig\d+", name) else 1, [(isinstance(t, str), t) for t in parts])
+
+    return sorted(names, key=key)
 
 
 def get(name: str) -> Study:

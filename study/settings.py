@@ -3,15 +3,18 @@
 :func:`resolve` turns a study, ``--quick`` and the ``--set`` items into validated
 :class:`Resolved` settings: the scalar settings, the swept ones (outer axes of the cube), the
 ``solver.Params`` of the physical settings and the study's grid axes (with any new values a
-``--set`` gave them). Everything is checked here, before any work starts; every problem is a
-one-line :class:`~study.registry.UserError`.
+``--set`` gave them). Everything is checked here, before any work starts (what each setting
+allows: ``study.setting_table``, read by ``study.checks``); every problem is a one-line
+:class:`~rimroll.study.registry.UserError`.
 
-``--set`` forms: ``KEY=0.5`` (a scalar, converted to the type of the setting's default),
-``KEY=0.5,1,2`` (a list, in the order given) and ``KEY=start:stop:num`` (``num >= 2`` points of
-an inclusive linspace). A list or range is allowed for the study's ``sweepable`` settings
+``--set`` words are split by ``study.keyvalue`` (``--set mu=0.5,1,2`` is one key with a list,
+``--set mu=1,v_throw=2`` two keys). A value is ``KEY=0.5`` (a scalar, converted to the type of
+the setting's default), ``KEY=0.5,1,2`` (a list, in the order given) or ``KEY=start:stop:num``
+(``num >= 2`` points of an inclusive linspace). A list or range is allowed for the study's ``sweepable`` settings
 (outer axes, in the study's order, then in the order of ``--set``) and for the names of its grid
 axes (new grid values). The physical keys (r R a m j mu g k_r k_d, SI units) and ``rho_over_R``
-build a :class:`solver.Params`; a bad value gives Params' ValueError message as the error.
+build a :class:`solver.Params`; a set of them Params refuses (rho >= R, ...) gives Params'
+ValueError message as the error.
 """
 
 from __future__ import annotations
@@ -22,22 +25,9 @@ import math
 import numpy as np
 
 from rimroll import solver
-from rimroll.study import checks
-from rimroll.study.registry import PHYSICAL_KEYS, SWEEP_KEYS, Axis, Study, UserError
-
-META = {  # units and long_name of an outer axis
-    "mu": ("1", "Coulomb friction coefficient"),
-    "v_throw": ("m s-1", "throw speed whose kinetic energy bounds the steady motion (59)"),
-    "j": ("1", "dimensionless moment of inertia of the ball, J = j m r^2"),
-    "rho_over_R": ("1", "ratio rho/R of the ball centre's distance from the rim's middle circle to "
-                        "the rim's major radius (R and a fixed, r = rho - a)"),
-    "k_r": ("s-1", "rolling-resistance rate C_r/(j m R^2) of (83)"),
-    "k_d": ("s-1", "drilling-resistance rate C_d/(j m R^2) of (83)"),
-    "omega2": ("s-1", "initial orthogonal angular velocity"),
-    "omega3": ("s-1", "initial circular angular velocity"),
-    "sigma": ("1", "noise level: the spread of the arriving state in units of the study's sigma_* settings"),
-}
-assert set(META) == set(SWEEP_KEYS)
+from rimroll.study import checks, keyvalue
+from rimroll.study.registry import PHYSICAL_KEYS, Axis, Study, UserError
+from rimroll.study.setting_table import lookup
 
 
 @dataclasses.dataclass(frozen=True)
@@ -54,13 +44,10 @@ def resolve(study: Study, quick: bool = False, sets=()) -> Resolved:
     """Resolve and check the settings of ``study``: defaults < ``quick`` < ``--set`` items."""
     settings, order, grid_values = _apply(study, quick, sets)
     base = base_settings(settings)
-    for key in SWEEP_KEYS:
-        if key not in order and isinstance(base.get(key), float):
-            check_value(key, base[key])
-    checks.check_settings(study.name, base, physical=(*PHYSICAL_KEYS, *SWEEP_KEYS))
+    checks.check_settings(study.name, settings)
     outer = _outer_axes(settings, order)
     params = params_from(base)
-    grid = _regrid(grid_axes(study, base), grid_values)
+    grid = _regrid(study, grid_axes(study, base), grid_values)
     names = [a.name for a in outer] + [a.name for a in grid]
     if len(set(names)) != len(names):
         raise UserError(f"study {study.name!r}: a swept setting has the name of a grid axis: {names}")
@@ -103,32 +90,13 @@ def grid_axes(study: Study, settings: dict) -> list[Axis]:
     return axes
 
 
-def check_value(key: str, value) -> None:
-    """Ranges of the non-physical sweep keys (the physical ones are checked by Params)."""
-    if key == "v_throw" and not (math.isfinite(value) and value >= 0):
-        raise UserError(f"parameter v_throw={value!r} is out of range: allowed 0 <= v_throw < inf [m/s]")
-    if key == "sigma" and not (math.isfinite(value) and value >= 0):
-        raise UserError(f"parameter sigma={value!r} is out of range: allowed 0 <= sigma < inf (a noise level)")
-    if key in ("omega2", "omega3") and not math.isfinite(value):
-        raise UserError(f"parameter {key}={value!r} is out of range: allowed a finite rate [1/s]")
-
-
 # ------------------------------------------------------------------ --set items
-
-
-def parse_set(item: str) -> tuple[str, str]:
-    """Split ``KEY=VALUE``; :class:`UserError` when malformed."""
-    key, sep, value = item.partition("=")
-    key, value = key.strip(), value.strip()
-    if not sep or not key or not value:
-        raise UserError(f"malformed --set {item!r}; expected KEY=VALUE, e.g. --set mu=0.5")
-    return key, value
 
 
 def parse_values(key: str, text: str):
     """A tuple of floats for a list or range, else ``None`` (the text is a scalar).
 
-    At most :data:`study.checks.MAX_AXIS` values."""
+    At most :data:`rimroll.study.checks.MAX_AXIS` values."""
     if ":" in text:
         parts = text.split(":")
         if len(parts) != 3:
@@ -195,8 +163,7 @@ def _apply(study: Study, quick: bool, sets) -> tuple[dict, list[str], dict]:
     order = [k for k in declared if isinstance(settings[k], (tuple, list))]
     grid_names = {a.name for a in grid_axes(study, base_settings(settings))}
     grid = {}
-    for item in sets:
-        key, text = parse_set(item)
+    for key, text in keyvalue.parse(sets, "--set", "KEY=VALUE", "--set mu=0.5"):
         values = parse_values(key, text)
         if values is not None and key in grid_names:
             grid[key] = values
@@ -209,7 +176,7 @@ def _apply(study: Study, quick: bool, sets) -> tuple[dict, list[str], dict]:
                             f"known: {', '.join(sorted(k for k in settings if k not in study.ignores))}")
         if values is None:
             default = settings[key]
-            default = 1.0 if key in SWEEP_KEYS or isinstance(default, (tuple, list)) else default
+            default = 1.0 if lookup(key).sweep or isinstance(default, (tuple, list)) else default
             settings[key] = _convert(key, text, default)
             if key in order:
                 order.remove(key)
@@ -226,16 +193,17 @@ def _apply(study: Study, quick: bool, sets) -> tuple[dict, list[str], dict]:
 
 
 def _outer_axes(settings: dict, order: list[str]) -> list[Axis]:
-    """The outer axes of the swept keys, each value validated with the other settings at base."""
+    """The outer axes of the swept keys (units and long_name from the setting table), each
+    physical value validated in the Params of the other settings at base."""
     base = base_settings(settings)
     axes = []
     for key in order:
         values = settings[key]
-        for v in values:
-            check_value(key, v)
-            if key in PHYSICAL_KEYS or key == "rho_over_R":
-                params_from({**base, key: v})
-        units, long_name = META[key]
+        if key in PHYSICAL_KEYS or key == "rho_over_R":
+            for v in values:
+                params_from({**base, key: v})  # Params' checks of the whole set (rho < R, r > 0)
+        setting = lookup(key)
+        units, long_name = setting.units, setting.axis_long_name
         try:
             axes.append(Axis(key, np.array(values), units, long_name))
         except ValueError as exc:
@@ -243,11 +211,13 @@ def _outer_axes(settings: dict, order: list[str]) -> list[Axis]:
     return axes
 
 
-def _regrid(axes: list[Axis], grid: dict) -> list[Axis]:
-    """Grid axes with the values given by ``--set AXIS=list|range``."""
+def _regrid(study: Study, axes: list[Axis], grid: dict) -> list[Axis]:
+    """Grid axes with the values given by ``--set AXIS=list|range`` (checked like a setting of
+    that name: the setting table's range, else finite and of bounded magnitude)."""
     out = []
     for a in axes:
         if a.name in grid:
+            checks.check_values(study.name, a.name, grid[a.name], "grid value")
             if a.aux:
                 raise UserError(f"--set {a.name}: axis {a.name!r} carries auxiliary coordinates and "
                                 "cannot be given new values")

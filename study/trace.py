@@ -22,10 +22,11 @@ from matplotlib.patches import Circle, Patch
 
 from rimroll import solver
 from rimroll.solver.analysis import trace as tr
-from rimroll.study import io
+from rimroll.study import io, keyvalue
 from rimroll.study import plotting as P
 from rimroll.study.dataset import params_of, provenance, setting_of
 from rimroll.study.registry import PHYSICAL_KEYS, UserError
+from rimroll.study.setting_table import lookup
 
 STATE_NAMES = ("beta", "omega1", "omega2", "omega3")
 SERIES = {  # name: (units, long_name)
@@ -66,16 +67,15 @@ def parse_state(text: str) -> np.ndarray:
 
 
 def parse_sets(words: list[str]) -> dict:
-    """``--set KEY=VALUE`` words of physical parameters -> {key: float}."""
+    """``--set KEY=VALUE`` words of physical parameters -> {key: float} (``study.keyvalue``)."""
     out = {}
-    for word in words:
-        key, sep, value = word.partition("=")
-        if not sep or key not in PHYSICAL_KEYS:
-            raise UserError(f"--set {word!r}: expected KEY=VALUE with KEY one of {' '.join(PHYSICAL_KEYS)}")
+    for key, value in keyvalue.parse(words, "--set", "KEY=VALUE", "--set mu=inf"):
+        if key not in PHYSICAL_KEYS:
+            raise UserError(f"--set {key}={value}: expected KEY=VALUE with KEY one of {' '.join(PHYSICAL_KEYS)}")
         try:
             out[key] = float(value)
         except ValueError:
-            raise UserError(f"--set {word!r}: VALUE must be a number (inf allowed for mu)") from None
+            raise UserError(f"--set {key}={value}: VALUE must be a number (inf allowed for mu)") from None
     return out
 
 
@@ -87,13 +87,9 @@ def _params(**values) -> solver.Params:
 
 
 def _parse_at(text: str) -> dict:
-    out = {}
-    for word in filter(None, text.split(",")):
-        key, sep, value = word.partition("=")
-        if not sep:
-            raise UserError(f"--at {text!r}: expected DIM=VALUE,DIM=VALUE,... (e.g. omega1=2,beta=1.1,scene=slipping)")
-        out[key.strip()] = value.strip()
-    return out
+    """``--at DIM=VALUE,DIM=VALUE,...`` -> {dim: value text} (``study.keyvalue``)."""
+    pairs = keyvalue.split(text, "--at", "DIM=VALUE,DIM=VALUE,...", "--at omega1=2,beta=1.1,scene=slipping")
+    return dict(pairs)
 
 
 def _index(ds, dim: str, value: str) -> int:
@@ -310,10 +306,11 @@ def run(args, command: str) -> int:
         state, params, t_max, extra = parse_state(args.state), _params(**sets), 20.0, {}
     if args.t_max is not None:
         t_max = args.t_max
-    if not (np.isfinite(t_max) and t_max > 0):
-        raise UserError(f"--t-max must be a positive number of seconds; got {t_max}")
-    if not (1e-14 <= args.rtol <= 1e-2) or not args.atol > 0:
-        raise UserError(f"--rtol must lie in [1e-14, 1e-2] and --atol be > 0; got {args.rtol}, {args.atol}")
+    given = (("--t-max", "t_max", t_max), ("--rtol", "rtol", args.rtol), ("--atol", "atol", args.atol))
+    for option, key, value in given:
+        problem = lookup(key).problem(value)  # the setting table's rule of the setting of that name
+        if problem:
+            raise UserError(f"{option} {value!r}: {problem}")
     if args.samples < 2:
         raise UserError(f"--samples must be >= 2; got {args.samples}")
     nc = pathlib.Path(args.out) / f"{args.name}.nc"

@@ -49,7 +49,7 @@ MAP_TOLERANCES = {"omega20": (1e-12, 1e-12), "h": (1e-12, 1e-12), "required_fric
 MIN_AWAY = 0.7  # at least 70 % of a slice lies away from boundaries, or the comparison says little
 
 
-SLICES = [(name, grid) for name in reference.SPECS for grid in reference.GRIDS]
+SLICES = [(name, grid) for name in reference.specs() for grid in reference.GRIDS]
 
 
 @pytest.fixture(scope="module")
@@ -59,7 +59,7 @@ def recomputed():
 
 def test_every_map_and_outcome_study_has_a_small_slice_with_provenance():
     total = 0
-    for (name, grid), spec in ((s, reference.SPECS[s[0]]) for s in SLICES):
+    for (name, grid), spec in ((s, reference.specs()[s[0]]) for s in SLICES):
         path = reference.reference_path(name, grid=grid)
         assert path.is_file(), f"missing {path}: run `study reference --build`"
         size = path.stat().st_size
@@ -85,7 +85,7 @@ def test_the_quick_slice_is_the_whole_quick_grid():
     from rimroll.study import registry
     from rimroll.study.plan import make_plan
 
-    for name in reference.SPECS:
+    for name in reference.specs():
         with xr.open_dataset(reference.reference_path(name, grid="quick")) as ref:
             for axis in make_plan(registry.get(name), quick=True).axes:
                 np.testing.assert_array_equal(ref[axis.name].values, axis.values, err_msg=f"{name} {axis.name}")
@@ -95,7 +95,7 @@ def test_the_quick_slice_is_the_whole_quick_grid():
 def test_default_settings_reproduce_the_reference(recomputed, name, grid):
     ds = recomputed[name, grid]
     ref = open_result(reference.reference_path(name, grid=grid))
-    tolerances = OUTCOME_TOLERANCES if reference.SPECS[name].precise else MAP_TOLERANCES
+    tolerances = OUTCOME_TOLERANCES if reference.specs()[name].precise else MAP_TOLERANCES
     report = compare.compare(ds, ref, tolerances)
     text = "\n".join(compare.format_report(report, f"recomputed {name}", "reference"))
     assert report.n_common == np.prod(list(ref.sizes.values())), text

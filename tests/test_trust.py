@@ -226,8 +226,8 @@ def test_slices_are_package_data_found_with_importlib(monkeypatch):
     monkeypatch.delenv(reference.ENV_DIR, raising=False)
     packaged = pathlib.Path(str(importlib.resources.files("rimroll.study") / "reference_slices"))
     assert reference.reference_dir() == packaged
-    assert {p.stem for p in packaged.glob("*.nc")} == set(reference.SPECS)
-    assert {p.stem for p in (packaged / "quick").glob("*.nc")} == set(reference.SPECS)
+    assert {p.stem for p in packaged.glob("*.nc")} == set(reference.specs())
+    assert {p.stem for p in (packaged / "quick").glob("*.nc")} == set(reference.specs())
     root = pathlib.Path(__file__).resolve().parent.parent
     config = tomllib.loads((root / "pyproject.toml").read_text())
     for pattern in ("reference_slices/*.nc", "reference_slices/quick/*.nc"):
@@ -275,7 +275,7 @@ def test_verify_after_pip_install(tmp_path):
     assert run.returncode == 0, run.stderr
     verify = subprocess.run([study, "verify", str(tmp_path / "res" / "fig8.nc")], cwd=tmp_path, env=env,
                             capture_output=True, text=True, timeout=600)
-    assert verify.returncode == 0 and "site-packages/study/reference_slices/fig8.nc" in verify.stdout, verify
+    assert verify.returncode == 0 and "site-packages/rimroll/study/reference_slices/fig8.nc" in verify.stdout, verify
     build = subprocess.run([study, "reference", "--build", "--only", "fig9"], cwd=tmp_path, env=env,
                            capture_output=True, text=True, timeout=600)
     assert build.returncode == 2 and "needs --out" in build.stderr
@@ -287,7 +287,7 @@ def test_verify_after_pip_install(tmp_path):
     assert quick.returncode == 0, quick.stderr
     verify = subprocess.run([study, "verify", str(tmp_path / "quick" / "fig8.nc")], cwd=tmp_path, env=env,
                             capture_output=True, text=True, timeout=600)
-    assert verify.returncode == 0 and "site-packages/study/reference_slices/quick/fig8.nc" in verify.stdout, verify
+    assert verify.returncode == 0 and "site-packages/rimroll/study/reference_slices/quick/fig8.nc" in verify.stdout, verify
 
 
 # ================================================================ 6. a cube with every swept setting scalar

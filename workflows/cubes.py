@@ -120,6 +120,7 @@ register(Study(
     quick={"mu": (0.5, 1.0), "v_throw": (3.0, 7.0, 10.0), "j": (0.5, 2.0 / 3.0),
            "rho_over_R": (0.45, STANDARD_RHO_OVER_R), "n_beta0": 121, "n_omega30": 80},
     sweepable=("mu", "v_throw", "j", "rho_over_R"),
+    cost=1e-6,  # seconds per grid point on one core, warm (--quick on 2 shared cores, 2026-11)
     axes=_realisable_axes,
     variables=[Var("region", "1", "region of the realisable steady motion (Fig. 8): stable (54), rolling "
                    "(56), within the throw energy (59)", dtype="int8",
@@ -192,6 +193,7 @@ register(Study(
     quick={"mu": (0.5, 1.0), "k_r": (0.0, 0.02), "k_d": (0.0, 0.02), "omega2": (65.0, 105.0),
            "n_beta": 12, "n_omega1": 18},
     sweepable=("mu", "k_r", "k_d", "omega2", "omega3", "j", "rho_over_R"),
+    cost=2e-4, compiles=True,  # seconds per grid point on one core, warm (--quick on 2 shared cores, 2026-11)
     axes=_outcome_axes,
     variables=[output_var(name) for name in ("outcome", "t_end", "revolutions", "status")],
     compute=_outcome_compute,

@@ -19,7 +19,7 @@ from rimroll import solver
 from rimroll.solver.analysis import floquet, reduced, solution_types as st, steady, trajectory
 from rimroll.study import plotting as P
 from rimroll.study.dataset import setting_of
-from rimroll.study.registry import Axis, Study, Var, register
+from rimroll.study.registry import Axis, ReferenceSpec, Study, Var, register
 
 
 def _flag(name, long_name, meanings, values=None):
@@ -129,6 +129,9 @@ register(Study(
     ignores={"mu": "the Floquet problem (62) is about rolling, without friction limits",
              "k_r": "the Floquet problem (62) is conservative", "k_d": "the Floquet problem (62) is conservative",
              "j": "j is an axis of the map (give a list or range to change its values)"},
+    cost=1.5e-4,  # seconds per grid point on one core, warm (--quick on 2 shared cores, 2026-11)
+    reference=ReferenceSpec({"rho_over_R": 40, "j": 30},
+                            method="solver.floquet fixed-step RK8 in theta (~1e-13 relative in tr M)"),
 ))
 
 
@@ -261,6 +264,7 @@ register(Study(
     settings={"n_samples": 400, "seed": 0, "subset": "box", "omega1_max": 20.0, "omega2_max": 70.0,
               "omega3_max": 70.0, "t_max": 20.0, "rtol": 1e-10, "atol": 1e-12},
     quick={"n_samples": 40, "t_max": 10.0},
+    cost=4e-2, cost_scale="t_max", compiles=True,  # s per state at t_max 10 s (--quick), on one core
     axes=_types_axes,
     variables=[
         Var("type", "1", "type of the solution through the state: the item of Theorem 1, 0 if undetermined "
@@ -382,6 +386,7 @@ register(Study(
     settings={"n_trajectories": 6, "seed": 1, "beta0_min": 0.3, "beta0_max": 1.2, "omega30": 10.0,
               "d_omega1": 0.5, "t_max": 20.0, "n_time": 401, "rtol": 1e-10, "atol": 1e-12},
     quick={"n_trajectories": 3, "t_max": 5.0, "n_time": 101},
+    cost=2e-3, cost_scale="t_max", compiles=True,  # s per point at t_max 5 s (--quick), on one core
     axes=_inv_axes,
     variables=[
         Var("rel_change_E", "1", "relative change of the energy (60), (E(t) - E(0))/|E(0)|"),

@@ -35,7 +35,7 @@ from rimroll.solver.engine import scenes
 from rimroll.solver.engine import outcomes
 from rimroll.study import plotting as P
 from rimroll.study.dataset import params_of, setting_of
-from rimroll.study.registry import Axis, Study, Var, output_var, register
+from rimroll.study.registry import Axis, ReferenceSpec, Study, Var, output_var, register
 
 SCENES = tuple(s.name for s in scenes.NAMED)
 """Labels of the ``scene`` coordinate, in file order (the named scenes of ``solver.engine.scenes``)."""
@@ -433,6 +433,18 @@ def _plot(ds):
     return fig
 
 
+DERIVED_DOCS = (
+    ("boundary_type", "1", "kind of boundary of periodic rolling at this cell, each boundary pair refined by "
+     "simulation ([outcome-studies.md](outcome-studies.md#outputs))"),
+    ("former_periodic", "1", "the periodic islands of the conservative scenes (rolling only, slipping); "
+     "attributes: what each dissipative scene does with each island's states, counts and fractions "
+     "([outcome-studies.md](outcome-studies.md#outputs))"),
+)
+"""The variables ``_derive`` adds, as docs/studies.md lists them."""
+REFERENCE = ReferenceSpec({"beta": 24, "omega1": 36}, precise=("rtol=1e-12", "atol=1e-14", "method=dop853"))
+"""The reference slices: a 24 x 36 sub-grid of each section in all four scenes, at the engine's
+tightest setting (DOP853, rtol 1e-12)."""
+
 for _name, _omega2, _fig in (("fig11", 35.0, 11), ("fig12", 65.0, 12), ("fig13", 105.0, 13)):
     register(Study(
         name=_name,
@@ -445,6 +457,9 @@ for _name, _omega2, _fig in (("fig11", 35.0, 11), ("fig12", 65.0, 12), ("fig13",
         plot=_plot,
         chunks={"scene": 1, "beta": 24},
         derive=_derive,
+        derived_docs=DERIVED_DOCS,
         ignores={k: "each of the four scenes sets its own mu, k_r and k_d; change mu_slip or k_dissipation"
                  for k in ("mu", "k_r", "k_d")},
+        cost=3e-4, compiles=True,  # seconds per grid point on one core, warm (--quick on 2 shared cores, 2026-11)
+        reference=REFERENCE,
     ))

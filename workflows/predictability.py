@@ -238,6 +238,17 @@ register(Study(
     plot=_pred_plot,
     chunks={"scene": 1, "beta": 1 << 30, "omega1": 1 << 30},  # a chunk is one scene's whole section
     derive=_pred_derive,
+    derived_docs=(
+        ("eps", "1", "coordinate: perturbation size in grid steps of beta and omega1"),
+        (("S_b", "S_bb"), "1", "basin entropy over all boxes / over boxes with more than one outcome [nats]; "
+                               "S_bb above ln 2 = 0.693: a fractal boundary"),
+        ("n_boundary_boxes", "1", "boxes holding more than one outcome"),
+        (("f", "f_err"), "1", "uncertain fraction f(eps) and its standard error (over `eps`)"),
+        (("alpha", "alpha_err", "D"), "1", "uncertainty exponent (slope of log f against log eps), its standard "
+                                           "error, and the boundary dimension D = 2 - alpha"),
+    ),
+    # README "Predictability of a shot": ~250 s CPU for the 12 sections x scenes of 86,400 points
+    cost=2.5e-4, compiles=True,
     ignores={k: "each of the four scenes sets its own mu, k_r and k_d; change mu_slip or k_dissipation"
              for k in ("mu", "k_r", "k_d")},
 ))
@@ -355,6 +366,9 @@ register(Study(
     settings=PROB_SETTINGS,
     quick=PROB_QUICK,
     sweepable=("sigma", "mu", "k_r", "k_d", "omega2", "omega3"),
+    # README "Predictability of a shot": ~50 s CPU for 86,400 states x 64 samples; per point at the
+    # --quick 16 samples: 1.5e-4 s
+    cost=1.5e-4, cost_scale="n_samples", compiles=True,
     axes=_prob_axes,
     variables=_prob_variables(),
     compute=_prob_compute,

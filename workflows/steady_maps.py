@@ -15,11 +15,12 @@ from matplotlib.patches import Patch
 from rimroll.solver.analysis import steady
 from rimroll.study import plotting as P
 from rimroll.study.dataset import params_of, setting_of
-from rimroll.study.registry import Axis, Study, Var, register
+from rimroll.study.registry import Axis, ReferenceSpec, Study, Var, register
 
 GRID = {"n_beta0": 721, "n_omega30": 560, "omega30_max": 70.0}
 QUICK = {"n_beta0": 121, "n_omega30": 80}
 CHUNKS = {"beta0": 61}
+REFERENCE = ReferenceSpec({"beta0": 121, "omega30": 80})  # slices: a 121 x 80 sub-grid of the default grid
 MU_LEVELS = (0.25, 0.5, 1.0, 2.0)
 MU_COLOURS = ("tab:purple", "tab:blue", "tab:green", "tab:orange")
 V_LEVELS = (1.0, 3.0, 5.0, 7.0, 10.0)
@@ -40,7 +41,9 @@ def _axes(s: dict) -> list[Axis]:
     ]
 
 
-def _study(name, title, variables, compute, plot, **settings) -> Study:
+def _study(name, title, variables, compute, plot, cost, **settings) -> Study:
+    """Register one map; ``cost``: seconds per grid point on one core, warm (measured with --quick
+    on 2 shared cores, 2026-11)."""
     # steady motions of the conservative rolling equations: no dissipation; friction only where declared
     ignores = {k: "steady motions of the conservative rolling equations do not depend on dissipation"
                for k in ("k_r", "k_d")}
@@ -48,7 +51,7 @@ def _study(name, title, variables, compute, plot, **settings) -> Study:
         ignores["mu"] = "this map of the steady rolling motions does not depend on friction"
     return register(Study(name=name, title=title, settings={**GRID, **settings}, quick=QUICK,
                           axes=_axes, variables=variables, compute=compute, plot=plot, chunks=CHUNKS,
-                          ignores=ignores))
+                          ignores=ignores, cost=cost, reference=REFERENCE))
 
 
 def _flag(name, long_name, meanings):
@@ -88,7 +91,7 @@ def _fig3_plot(ds):
 
 
 _study("fig3", "Steady motions: omega20 of (48) over (beta0, omega30) (paper Fig. 3)",
-       [OMEGA20], _fig3_compute, _fig3_plot)
+       [OMEGA20], _fig3_compute, _fig3_plot, 1e-7)
 
 
 # ---------------------------------------------------------------- Fig. 5: stability h (54)
@@ -134,7 +137,7 @@ def _fig5_plot(ds):
 _study("fig5", "Stability of the steady motions: h of (54) (paper Fig. 5)",
        [Var("h", "s-2", "squared non-zero eigenvalue of the linearised rolling equations (54)"),
         _flag("stable", "neutrally stable steady motion (h < 0)", "unstable neutrally_stable")],
-       _fig5_compute, _fig5_plot)
+       _fig5_compute, _fig5_plot, 1e-7)
 
 
 # ---------------------------------------------------------------- Fig. 6: slipping and falling
@@ -173,7 +176,7 @@ _study("fig6", "Slipping and falling limits of the steady motions (paper Fig. 6)
             "(56); inf where the ball falls (57)"),
         Var("F2", "N", "normal contact force of the steady motion (31)"),
         _flag("rolls", "steady motion rolls without slipping at friction mu (56)", "slips_or_falls rolls")],
-       _fig6_compute, _fig6_plot, mu=1.0)
+       _fig6_compute, _fig6_plot, 2e-6, mu=1.0)
 
 
 # ---------------------------------------------------------------- Fig. 7: kinetic energy (59)
@@ -207,7 +210,7 @@ _study("fig7", "Kinetic-energy limit of the steady motions: throw speed (59) (pa
        [Var("throw_speed", "m s-1", "throw speed with the kinetic energy of the steady motion (59)"),
         _flag("within", "steady motion needs no more energy than a throw at v_throw (59)",
               "too_energetic within_reach")],
-       _fig7_compute, _fig7_plot, v_throw=10.0)
+       _fig7_compute, _fig7_plot, 1e-7, v_throw=10.0)
 
 
 # ---------------------------------------------------------------- Fig. 8: realisable motions
@@ -262,4 +265,4 @@ _study("fig8", "Physically realisable steady motions (paper Fig. 8)",
             "within the throw energy (59)", dtype="int8", flag_values=steady.REGION_FLAG_VALUES,
             flag_meanings=steady.REGION_FLAG_MEANINGS),
         OMEGA20],
-       _fig8_compute, _fig8_plot, v_throw=10.0, mu=1.0)
+       _fig8_compute, _fig8_plot, 2e-6, v_throw=10.0, mu=1.0)

@@ -280,4 +280,8 @@ register(Study(
     plot=_plot,
     chunks={"scene": 4, "integrator": len(INTEGRATORS)},
     derive=_derive,
+    derived_docs=(("speed_ratio_rk45_dp5", "1", "per scene: scipy RK45 seconds per trajectory over rimroll DP5's "
+                   "on the same states, median over rtol (spread in its attributes; "
+                   "[work-precision.md](work-precision.md))"),),
+    cost=0.2, cost_scale="n_states", compiles=True,  # s per point at n_states 40 (--quick), on one core
 ))

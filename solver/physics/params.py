@@ -25,34 +25,102 @@ P_K_D = 8  # k_d [1/s]
 P_RHO = 9  # rho = r + a [m]
 N_PARAMS = 10
 
-UNITS = {
-    "r": "m",
-    "R": "m",
-    "a": "m",
-    "m": "kg",
-    "j": "1",
-    "mu": "1",
-    "g": "m s-2",
-    "k_r": "s-1",
-    "k_d": "s-1",
-}
 
-LONG_NAMES = {
-    "r": "radius of the ball",
-    "R": "major radius of the rim",
-    "a": "minor radius of the rim",
-    "m": "mass of the ball",
-    "j": "dimensionless moment of inertia of the ball",
-    "mu": "Coulomb friction coefficient",
-    "g": "gravitational acceleration",
-    "k_r": "rolling-resistance rate C_r/(j m R^2)",
-    "k_d": "drilling-resistance rate C_d/(j m R^2)",
-}
+@dataclasses.dataclass(frozen=True)
+class Range:
+    """The allowed values of a real number: ``low`` and ``high``, each included unless ``*_open``
+    (``high=inf`` included allows inf), optionally integers only. ``text`` states the range in a
+    message (``{name}`` stands for the value's name); without it the bounds are written out."""
+
+    low: float = -math.inf
+    high: float = math.inf
+    low_open: bool = False
+    high_open: bool = False
+    integer: bool = False
+    text: str = ""
+
+    def contains(self, value) -> bool:
+        if self.integer and (isinstance(value, bool) or not isinstance(value, (int, np.integer))):
+            return False
+        v = float(value)
+        if math.isnan(v):
+            return False
+        above = v > self.low if self.low_open else v >= self.low
+        below = v < self.high if self.high_open else v <= self.high
+        return above and below
+
+    def describe(self, name: str) -> str:
+        """E.g. ``0 < j < inf``, ``an integer 1 <= n_beta <= 100000``."""
+        if self.text:
+            return self.text.format(name=name)
+        low, high = "<" if self.low_open else "<=", "<" if self.high_open else "<="
+        text = f"{_number(self.low)} {low} {name} {high} {_number(self.high)}"
+        return ("an integer " if self.integer else "") + text
+
+
+def _number(x: float) -> str:
+    if math.isinf(x):
+        return "inf" if x > 0 else "-inf"
+    if x == int(x) and abs(x) < 1e6:
+        return str(int(x))
+    return f"{x:g}".replace("e+", "e")
+
+
+@dataclasses.dataclass(frozen=True)
+class Quantity:
+    """One physical parameter, declared once: CF units, long_name (of a coordinate, when a study
+    sweeps it), a one-line doc (``study info``) and its allowed :class:`Range`."""
+
+    name: str
+    units: str
+    long_name: str
+    range: Range
+    doc: str
+
+
+_POSITIVE = Range(0.0, math.inf, low_open=True, high_open=True, text="a positive finite number")
+_RATE = Range(0.0, math.inf, high_open=True, text="a finite rate >= 0 [1/s]")
+_RATE_83 = "rate C_{}/(j m R^2) of (83)"
+
+QUANTITIES = {q.name: q for q in (
+    Quantity("r", "m", "radius of the ball", _POSITIVE, "radius of the ball"),
+    Quantity("R", "m", "major radius of the rim", _POSITIVE, "major radius of the rim (torus)"),
+    Quantity("a", "m", "minor radius of the rim", _POSITIVE, "minor radius of the rim (tube)"),
+    Quantity("m", "kg", "mass of the ball", _POSITIVE, "mass of the ball"),
+    Quantity("j", "1", "dimensionless moment of inertia of the ball, J = j m r^2",
+             Range(0.0, math.inf, low_open=True, high_open=True), "moment of inertia J = j m r^2"),
+    Quantity("mu", "1", "Coulomb friction coefficient", Range(0.0, math.inf),
+             "Coulomb friction coefficient (inf: never slips)"),
+    Quantity("g", "m s-2", "gravitational acceleration", _POSITIVE, "gravitational acceleration"),
+    Quantity("k_r", "s-1", "rolling-resistance " + _RATE_83.format("r"), _RATE,
+             "rolling-resistance rate, paper (83)"),
+    Quantity("k_d", "s-1", "drilling-resistance " + _RATE_83.format("d"), _RATE,
+             "drilling-resistance rate, paper (83)"),
+    # not a field of Params: Params.from_rho_over_R(rho_over_R, ...) sets r = rho_over_R R - a
+    Quantity("rho_over_R", "1", "ratio rho/R of the ball centre's distance from the rim's middle circle to "
+                                "the rim's major radius (R and a fixed, r = rho - a)",
+             Range(0.0, 1.0, low_open=True, high_open=True), "rho/R with R and a fixed (r = rho - a)"),
+)}
+"""The physical parameters: the nine fields of :class:`Params`, then ``rho_over_R``. ``Params``
+validates with these ranges; the study layer's setting table takes their units, names and ranges
+from here."""
+
+UNITS = {name: q.units for name, q in QUANTITIES.items()}
+LONG_NAMES = {name: q.long_name for name, q in QUANTITIES.items()}
+
+
+def check(name: str, value) -> None:
+    """ValueError naming the parameter, the value and the allowed range when ``value`` is outside
+    the range of :data:`QUANTITIES`."""
+    rule = QUANTITIES[name].range
+    if not rule.contains(value):
+        raise ValueError(f"parameter {name}={value!r} is out of range: allowed {rule.describe(name)}")
 
 
 @dataclasses.dataclass(frozen=True)
 class Params:
-    """Parameters of the ball and the rim, SI units (defaults: paper Table 1).
+    """Parameters of the ball and the rim, SI units (defaults: paper Table 1); the units, names and
+    allowed ranges of the fields are declared in :data:`QUANTITIES`.
 
     Attributes
     ----------
@@ -86,19 +154,13 @@ class Params:
     k_d: float = 0.0
 
     def __post_init__(self):
-        for name in ("r", "R", "a", "m", "j", "mu", "g", "k_r", "k_d"):
+        for name in FIELDS:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
                 raise ValueError(f"parameter {name}={value!r} must be a real number")
             object.__setattr__(self, name, float(value))
-        for name in ("r", "R", "a", "m", "g"):
-            _require(name, getattr(self, name), math.isfinite(getattr(self, name)) and getattr(self, name) > 0,
-                     "a positive finite number")
-        _require("j", self.j, math.isfinite(self.j) and self.j > 0, "0 < j < inf")
-        _require("mu", self.mu, not math.isnan(self.mu) and self.mu >= 0, "0 <= mu <= inf")
-        for name in ("k_r", "k_d"):
-            _require(name, getattr(self, name), math.isfinite(getattr(self, name)) and getattr(self, name) >= 0,
-                     "a finite rate >= 0 [1/s]")
+        for name in FIELDS:
+            check(name, getattr(self, name))
         if not self.rho < self.R:
             raise ValueError(
                 f"geometry rho = r + a = {self.rho!r} m must be < R = {self.R!r} m "
@@ -151,9 +213,8 @@ class Params:
         """
         R = others.pop("R", cls.R)
         a = others.pop("a", cls.a)
+        check("rho_over_R", rho_over_R)
         rho = float(rho_over_R) * R
-        if not (0 < rho_over_R < 1):
-            raise ValueError(f"parameter rho_over_R={rho_over_R!r} must satisfy 0 < rho_over_R < 1")
         r = rho - a
         if not r > 0:
             raise ValueError(
@@ -163,9 +224,10 @@ class Params:
         return cls(r=r, R=R, a=a, **others)
 
 
-def _require(name: str, value: float, ok: bool, allowed: str) -> None:
-    if not ok:
-        raise ValueError(f"parameter {name}={value!r} is out of range: allowed {allowed}")
+FIELDS = tuple(f.name for f in dataclasses.fields(Params))
+"""The nine defining values of :class:`Params`, in order."""
+if FIELDS != tuple(QUANTITIES)[: len(FIELDS)]:
+    raise ImportError(f"QUANTITIES must declare every field of Params, in order: {FIELDS}")
 
 
 def moment_normalised(p: Params) -> Params:

@@ -1,0 +1,213 @@
+"""The setting table: every setting of rimroll's studies, declared once (units, doc, allowed values).
+
+Each setting name has one :class:`Setting`: its CF units (``""`` for counts, labels and
+switches), a one-line doc, and what it allows: a :class:`~rimroll.solver.physics.params.Range` of
+numbers or a set of labels (``choices``). ``sweep`` marks the settings a study may declare
+``sweepable`` (a list or range of values becomes an outer axis of the cube, with the units and
+``long_name`` given here). The physical parameters (``r R a m j mu g k_r k_d`` and
+``rho_over_R``) are not restated here: their entries are made from the table of
+``rimroll.solver.physics.params``, which ``Params`` validates with.
+
+Read by ``study info NAME`` and ``study run NAME --help`` (:mod:`rimroll.study.describe`), by the
+checks made before a run (:func:`rimroll.study.checks.check_settings`: ``--set`` values, swept
+values and new grid values alike), by ``--set`` sweeps (the axis' units and long_name) and by
+``docs/gen_studies.py``. A setting name no study of rimroll uses (a study of another package) is
+checked by :data:`WILDCARDS` (``t_max*``, ``n_*``) or, for any other number, by :data:`NUMBER`.
+A new setting name gets one entry in :data:`TABLE`; ``tests/test_setting_table.py`` fails while a
+registered study has a setting without one.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Callable
+
+from rimroll.solver.engine.simulate import ATOL_MAX, RTOL_RANGE
+from rimroll.solver.physics import params as physical
+
+MAX_AXIS = 100_000  # values of one swept list/range, and of an n_* grid size
+MAX_MAGNITUDE = 1e12  # |value| of a numeric setting (coordinates, bounds): far beyond any physical use
+
+Range = physical.Range
+NUMBER = Range(-MAX_MAGNITUDE, MAX_MAGNITUDE)
+"""Any other number: finite and of magnitude at most :data:`MAX_MAGNITUDE` (an axis spanning
++-1e308 overflows)."""
+FINITE = Range(-math.inf, math.inf, low_open=True, high_open=True, text="a finite number")  # magnitude unbounded
+NONNEGATIVE = Range(0.0, MAX_MAGNITUDE)
+POSITIVE = Range(0.0, MAX_MAGNITUDE, low_open=True)
+COUNT = Range(1, MAX_AXIS, integer=True)
+COUNT0 = Range(0, MAX_AXIS, integer=True)  # a count that may be 0 (no such eps, no sample)
+TOLERANCE = Range(*RTOL_RANGE)  # what solver.simulate accepts as rtol
+ABSOLUTE_TOLERANCE = Range(0.0, ATOL_MAX, low_open=True)  # and as atol
+FRACTION = Range(0.0, 1.0, low_open=True, high_open=True)
+FRICTION = Range(0.0, math.inf)  # a Coulomb coefficient; inf: never slips
+
+
+def _methods() -> tuple:
+    from rimroll.solver.engine.simulate import TABLEAUS
+
+    return tuple(sorted(TABLEAUS))
+
+
+def _backends() -> tuple:
+    from rimroll.solver.engine.backends import BACKENDS
+
+    return tuple(BACKENDS)
+
+
+@dataclasses.dataclass(frozen=True)
+class Setting:
+    """One setting: units, doc and what it allows.
+
+    ``range``: the allowed numbers (None: a label or switch, or a number checked only by
+    :data:`NUMBER`); ``choices``: the allowed labels, a tuple or a function returning one (looked
+    up when a value is checked); ``what``: the plural noun of a choice in a message ("methods").
+    ``long_name``: the coordinate's long_name when the setting is swept (default: ``doc``);
+    ``physical``: the value goes into ``solver.Params`` (its message then is Params' own).
+    """
+
+    name: str
+    units: str
+    doc: str
+    range: Range | None = None
+    choices: tuple | Callable[[], tuple] | None = None
+    what: str = "values"
+    sweep: bool = False
+    long_name: str = ""
+    physical: bool = False
+
+    @property
+    def axis_long_name(self) -> str:
+        return self.long_name or self.doc
+
+    def allowed(self, units: bool = True) -> str:
+        """What the setting allows, as the messages and the docs state it (``units``: followed by
+        the units of a dimensional number)."""
+        if self.choices is not None:
+            return f"{self.what} {', '.join(self.labels())}"
+        rule = self.range or NUMBER
+        dimensional = units and self.units not in ("", "1") and not rule.text
+        return rule.describe(self.name) + (f" [{self.units}]" if dimensional else "")
+
+    def labels(self) -> tuple:
+        return tuple(self.choices() if callable(self.choices) else self.choices)
+
+    def problem(self, value) -> str | None:
+        """None if ``value`` is allowed, else the end of a one-line message saying what is."""
+        if self.choices is not None:
+            labels = self.labels()
+            return None if value in labels else f"allowed {self.what} are {', '.join(labels)}"
+        if not _number(value):
+            return None  # a label or a switch: the study checks it
+        rule = self.range or NUMBER
+        return None if rule.contains(value) else f"allowed {self.allowed()}"
+
+
+def _number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _physical(q: physical.Quantity) -> Setting:
+    return Setting(q.name, q.units, q.doc, q.range, sweep=q.name in _SWEPT_PHYSICAL, long_name=q.long_name,
+                   physical=True)
+
+
+_SWEPT_PHYSICAL = ("mu", "j", "rho_over_R", "k_r", "k_d")
+S = Setting
+_ENTRIES = (
+    # ---- physical parameters: units, long_name, doc and range from solver.physics.params
+    *(_physical(q) for q in physical.QUANTITIES.values()),
+    # ---- initial state and steady motions
+    # (the swept ones are not capped at 1e12: a test drives simulate to non-finite lanes with omega2=1e308)
+    S("v_throw", "m s-1", "throw speed whose kinetic energy bounds the steady motion (59)",
+      Range(0.0, math.inf, high_open=True), sweep=True),
+    S("omega2", "s-1", "initial orthogonal angular velocity", FINITE, sweep=True),
+    S("omega3", "s-1", "initial circular angular velocity", FINITE, sweep=True),
+    S("omega30", "s-1", "circular angular velocity of the steady motion", NUMBER),
+    S("omega30_max", "s-1", "grid: omega30 in [-omega30_max, omega30_max]", NUMBER),
+    S("omega1_max", "s-1", "grid/sample: omega1 in [-omega1_max, omega1_max]", NUMBER),
+    S("omega2_max", "s-1", "sample: |omega2| <= omega2_max", NUMBER),
+    S("omega3_max", "s-1", "sample: |omega3| <= omega3_max", NUMBER),
+    S("beta_min", "rad", "grid: smallest initial beta", NUMBER),
+    S("beta_max", "rad", "grid: largest initial beta", NUMBER),
+    S("beta0_min", "rad", "smallest steady beta0", NUMBER),
+    S("beta0_max", "rad", "largest steady beta0", NUMBER),
+    S("d_omega1", "s-1", "perturbation of omega1 off the steady motion", NUMBER),
+    # ---- scenes
+    S("mu_slip", "1", "friction coefficient of the slipping scenes", FRICTION),
+    S("k_dissipation", "s-1", "rate k_d / k_r of the drilling / rolling-resistance scene", NONNEGATIVE),
+    # ---- the integration
+    S("t_max", "s", "end of a run still on the rim (conservative scenes)", POSITIVE),
+    S("t_max_dissipative", "s", "end of a run still on the rim (dissipative scenes)", POSITIVE),
+    S("rtol", "1", "relative tolerance of the integrator", TOLERANCE),
+    S("atol", "1", "absolute tolerance of the integrator", ABSOLUTE_TOLERANCE),
+    S("method", "", "integrator of solver.simulate (dp5: Dormand-Prince 5(4))", choices=_methods, what="methods"),
+    S("backend", "", "where solver.simulate runs (cuda: a GPU, extra rimroll[gpu]; auto: the GPU when usable)",
+      choices=_backends, what="backends"),
+    S("rtol_max", "1", "loosest rtol of the sweep", TOLERANCE),
+    S("rtol_min", "1", "tightest rtol of the sweep", TOLERANCE),
+    S("n_rtol", "", "number of tolerances", COUNT),
+    # ---- samples and grids
+    S("seed", "", "random seed of the sample", Range(0, MAX_MAGNITUDE, integer=True)),
+    S("subset", "", "which region of state space is sampled"),
+    S("n_scipy", "", "states scipy runs, rolling only", COUNT),
+    S("n_scipy_hybrid", "", "states scipy runs, slipping scenes", COUNT),
+    S("n_states", "", "states in the sample", COUNT),
+    S("n_samples", "", "states in the sample", COUNT),
+    S("n_trajectories", "", "trajectories", COUNT),
+    S("n_time", "", "output times per trajectory", COUNT),
+    S("n_beta0", "", "grid points of beta0", COUNT),
+    S("n_omega30", "", "grid points of omega30", COUNT),
+    S("n_beta", "", "grid points of beta", COUNT),
+    S("n_omega1", "", "grid points of omega1", COUNT),
+    S("n_j", "", "grid points of j", COUNT),
+    S("n_rho_over_R", "", "grid points of rho/R", COUNT),
+    # ---- predictability and make-probability
+    S("box", "", "grid points per side of a basin-entropy box", COUNT),
+    S("n_fine", "", "eps below one grid step: 1/2 ... 1/2^n_fine (simulated)", COUNT0),
+    S("n_coarse", "", "eps of whole grid steps: 1 ... 2^n_coarse (read from the grid)", COUNT0),
+    S("n_sample", "", "states away from the grid's boundaries simulated for eps < 1", COUNT0),
+    S("sigma", "1", "noise level: multiplies sigma_beta ... sigma_omega3", Range(0.0, math.inf, high_open=True),
+      sweep=True,
+      long_name="noise level: the spread of the arriving state in units of the study's sigma_* settings"),
+    S("sigma_beta", "rad", "standard deviation of the arriving beta at sigma = 1", NONNEGATIVE),
+    S("sigma_omega1", "s-1", "standard deviation of the arriving omega1 at sigma = 1", NONNEGATIVE),
+    S("sigma_omega2", "s-1", "standard deviation of the arriving omega2 at sigma = 1", NONNEGATIVE),
+    S("sigma_omega3", "s-1", "standard deviation of the arriving omega3 at sigma = 1", NONNEGATIVE),
+    S("confidence", "1", "confidence level of the Wilson intervals", FRACTION),
+)
+del S
+
+
+def _table(entries) -> dict[str, Setting]:
+    """Name -> Setting; a name declared twice is an error (a setting is declared once)."""
+    table: dict[str, Setting] = {}
+    for entry in entries:
+        if entry.name in table:
+            raise ValueError(f"setting {entry.name!r} is declared twice in the setting table")
+        if entry.range is not None and entry.choices is not None:
+            raise ValueError(f"setting {entry.name!r}: give a range of numbers or choices of labels, not both")
+        table[entry.name] = entry
+    return table
+
+
+TABLE: dict[str, Setting] = _table(_ENTRIES)
+"""Every setting of rimroll's studies, by name."""
+
+WILDCARDS = (("t_max", Setting("t_max*", "s", "", POSITIVE)), ("n_", Setting("n_*", "", "", COUNT)))
+"""Rules by name prefix for setting names that :data:`TABLE` does not declare (another package's studies)."""
+
+SWEEP_KEYS = tuple(name for name, s in TABLE.items() if s.sweep)
+"""Settings a study may declare ``sweepable``: a list or range of values becomes an outer axis."""
+
+
+def lookup(name: str) -> Setting:
+    """The table's entry of ``name``; for an undeclared name the wildcard it matches, else a
+    :data:`NUMBER` rule without units or doc."""
+    if name in TABLE:
+        return TABLE[name]
+    for prefix, rule in WILDCARDS:
+        if name.startswith(prefix):
+            return dataclasses.replace(rule, name=name)
+    return Setting(name, "", "")
