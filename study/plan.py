@@ -29,7 +29,6 @@ from rimroll.study.dataset import rimroll_version
 from rimroll.study.registry import PHYSICAL_KEYS, Axis, Study, UserError
 from rimroll.study.settings import base_settings, params_from, resolve
 
-SOLVER_DIR = pathlib.Path(solver.__file__).resolve().parent
 DEFAULT_CHUNK = 64  # points per chunk along the first grid axis when the study does not say
 
 
@@ -138,16 +137,18 @@ class Plan:
 
 
 def code_digest(study: Study) -> str:
-    """Hash of the solver's sources and of the module defining the study's ``compute``."""
-    files = sorted(SOLVER_DIR.glob("*.py"))
+    """Hash of the solver's sources (every ``.py`` of ``rimroll.solver`` and its rooms: the digest
+    that also keys the kernel cache, ``solver._jit.SOURCES_DIGEST``) and of the module defining the
+    study's ``compute``."""
+    from rimroll.solver import _jit
+
+    h = hashlib.sha256(_jit.SOURCES_DIGEST.encode())
     try:
-        files.append(pathlib.Path(inspect.getsourcefile(study.compute)))
+        f = pathlib.Path(inspect.getsourcefile(study.compute))
     except TypeError:
-        pass
-    h = hashlib.sha256()
-    for f in files:
-        h.update(f.name.encode())
-        h.update(f.read_bytes())
+        return h.hexdigest()
+    h.update(f.name.encode())
+    h.update(f.read_bytes())
     return h.hexdigest()
 
 

@@ -48,6 +48,22 @@ def test_digest_changes_when_any_solver_source_changes(tmp_path, monkeypatch):
     assert _jit.sources_digest() == before
     (tmp_path / "events.py").write_text("x = 2\n")  # a callee edited: every kernel's cache moves
     assert _jit.sources_digest() != before
+    (tmp_path / "physics").mkdir()  # and a module of a room
+    (tmp_path / "physics" / "rolling.py").write_text("z = 1\n")
+    before = _jit.sources_digest()
+    (tmp_path / "physics" / "rolling.py").write_text("z = 2\n")
+    assert _jit.sources_digest() != before
+
+
+def test_result_fingerprints_cover_every_room_of_the_solver(monkeypatch):
+    """A run's code digest (its parts and results are never reused across it) changes with any
+    source of the solver's rooms, not only with solver/*.py."""
+    from rimroll.study import plan, registry
+
+    study = registry.get("fig8")
+    before = plan.code_digest(study)
+    monkeypatch.setattr(_jit, "SOURCES_DIGEST", _jit.SOURCES_DIGEST[::-1])  # as if physics/rolling.py changed
+    assert plan.code_digest(study) != before
 
 
 def test_a_first_compile_is_announced_on_stderr_once(monkeypatch, capsys):
