@@ -23,7 +23,6 @@ import xarray as xr
 from rimroll import solver
 from rimroll.study.registry import PHYSICAL_KEYS, Axis, Study
 
-
 HERE = pathlib.Path(__file__).resolve().parent
 BUILD_INFO = HERE / "_build_info.json"  # written by setup.py's build_py into an installed build
 

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Callable
+from collections.abc import Callable
 
 from rimroll.solver.engine.simulate import ATOL_MAX, RTOL_RANGE
 from rimroll.solver.physics import params as physical

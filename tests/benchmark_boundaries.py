@@ -23,11 +23,8 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import xarray as xr
 
-from rimroll.solver import Params
-
+from rimroll.solver import Params, simulate
 from rimroll.solver.analysis import boundaries
-
-from rimroll.solver import simulate
 from rimroll.study.dataset import coords_of, global_attrs, params_of
 from rimroll.study.derived import derived_variables
 from rimroll.study.plan import compute_chunk, make_plan

@@ -18,6 +18,7 @@ import time
 import numpy as np
 
 from rimroll import solver
+
 CASES = (("rolling_only_rtol_1e-6", float("inf"), 1e-6), ("rolling_only_rtol_1e-8", float("inf"), 1e-8),
          ("slipping_mu_1_rtol_1e-8", 1.0, 1e-8))
 

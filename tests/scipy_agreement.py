@@ -2,8 +2,8 @@
 
 import numpy as np
 
-from rimroll.solver.engine.outcomes import PERIODIC_ROLLING
 from rimroll.solver.analysis.reference import reference
+from rimroll.solver.engine.outcomes import PERIODIC_ROLLING
 from rimroll.solver.engine.simulate import simulate
 
 

@@ -6,13 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rimroll.solver import Params
-
-from rimroll.solver import simulate
-from rimroll.solver.engine import outcomes, rules
-
+from rimroll.solver import Params, simulate
 from rimroll.solver.analysis import solution_types, steady
 from rimroll.solver.analysis.reference import reference_one
+from rimroll.solver.engine import outcomes, rules
 
 INF = float("inf")
 ROLL = Params(mu=INF)

@@ -6,8 +6,8 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
 from rimroll import solver
-from rimroll.solver.physics import kinematics, rolling, slipping
 from rimroll.solver.analysis import steady
+from rimroll.solver.physics import kinematics, rolling, slipping
 
 RNG = np.random.default_rng(20261122)
 

@@ -8,7 +8,8 @@ import pytest
 import xarray as xr
 
 from rimroll import solver
-from rimroll.solver.analysis import floquet, solution_types as st, steady, trajectory
+from rimroll.solver.analysis import floquet, steady, trajectory
+from rimroll.solver.analysis import solution_types as st
 from rimroll.study.cli import main
 
 P_ROLL = solver.Params(mu=float("inf"))

@@ -6,8 +6,9 @@ import math
 
 import numpy as np
 import pytest
+from oscillator import exact, pad, values
+from oscillator import one_step as _one_step
 
-from oscillator import exact, one_step as _one_step, pad, values
 from rimroll.solver.engine import events, stepper
 from rimroll.solver.engine.tableaus import TABLEAUS
 

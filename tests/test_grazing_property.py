@@ -13,11 +13,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rimroll.solver import Params
-
-from rimroll.solver import simulate
-from rimroll.solver.engine import outcomes
+from rimroll.solver import Params, simulate
 from rimroll.solver.analysis.reference import reference
+from rimroll.solver.engine import outcomes
 
 T_MAX = 5.0
 FALLS = (outcomes.FALL_IN, outcomes.FALL_OUT)

@@ -4,12 +4,11 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from rimroll.solver.physics import rolling, slipping, switching
-
 from rimroll.solver.analysis import steady
 from rimroll.solver.engine.outcomes import PERIODIC_ROLLING
-from rimroll.solver.physics.params import Params
 from rimroll.solver.engine.simulate import simulate
+from rimroll.solver.physics import rolling, slipping, switching
+from rimroll.solver.physics.params import Params
 
 INF = float("inf")
 

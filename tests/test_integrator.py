@@ -10,9 +10,10 @@ from typing import NamedTuple
 
 import numpy as np
 import pytest
-
-from oscillator import AUX, N, N_EVENTS, P, events as osc_events, exact, pad, rhs, values
+from oscillator import AUX, N_EVENTS, N, P, exact, pad, rhs, values
+from oscillator import events as osc_events
 from oscillator import one_step as _one_step
+
 from rimroll.solver.engine import events, stepper
 from rimroll.solver.engine.tableaus import TABLEAUS
 

@@ -9,12 +9,12 @@ import re
 
 import numpy as np
 import pytest
+from dissipation_readings import DISSIPATIONS, FIGURES, ISLANDS, READINGS, all_counts, dissipative_params, table
 from scipy.optimize import brentq
 
 from rimroll import solver
-from dissipation_readings import DISSIPATIONS, FIGURES, ISLANDS, READINGS, all_counts, dissipative_params, table
-from rimroll.solver.physics import rolling
 from rimroll.solver.analysis import steady, trajectory
+from rimroll.solver.physics import rolling
 from rimroll.solver.physics.params import moment_normalised
 
 README = (pathlib.Path(__file__).resolve().parent.parent / "README.md").read_text()

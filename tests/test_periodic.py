@@ -5,12 +5,11 @@ import math
 import numpy as np
 import pytest
 
-from rimroll.solver.physics import rolling
-
 from rimroll.solver.analysis import steady
 from rimroll.solver.engine.outcomes import FALL_OUT, PERIODIC_ROLLING
-from rimroll.solver.physics.params import Params
 from rimroll.solver.engine.simulate import simulate
+from rimroll.solver.physics import rolling
+from rimroll.solver.physics.params import Params
 
 INF = float("inf")
 ROLL = Params(mu=INF)

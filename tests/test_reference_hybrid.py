@@ -22,14 +22,13 @@ Criteria (issue 3), as in ``tests/test_simulate.py`` for the rolling-only scenes
 
 import numpy as np
 import pytest
-
-from rimroll.solver.physics import rolling
-from rimroll.solver.engine.outcomes import ON_RIM_AT_T_MAX, PERIODIC_ROLLING
-from rimroll.solver.physics.params import Params
-from rimroll.solver.analysis.reference import reference, reference_hybrid, reference_one
-from rimroll.solver.engine.simulate import simulate
-
 from scipy_agreement import compare_with_scipy
+
+from rimroll.solver.analysis.reference import reference, reference_hybrid, reference_one
+from rimroll.solver.engine.outcomes import ON_RIM_AT_T_MAX, PERIODIC_ROLLING
+from rimroll.solver.engine.simulate import simulate
+from rimroll.solver.physics import rolling
+from rimroll.solver.physics.params import Params
 
 SCENES = {
     "slipping": dict(mu=1.0),

@@ -4,16 +4,15 @@ import math
 
 import numpy as np
 import pytest
+from scipy_agreement import compare_with_scipy
 
 from rimroll import solver
-from rimroll.solver.physics import flight, rolling
+from rimroll.solver.analysis.reference import reference
 from rimroll.solver.engine import rules
 from rimroll.solver.engine.outcomes import FALL_IN, FALL_OUT, ON_RIM_AT_T_MAX
-from rimroll.solver.physics.params import Params
-from rimroll.solver.analysis.reference import reference
 from rimroll.solver.engine.simulate import simulate
-
-from scipy_agreement import compare_with_scipy
+from rimroll.solver.physics import flight, rolling
+from rimroll.solver.physics.params import Params
 
 INF = float("inf")
 FIELDS = {

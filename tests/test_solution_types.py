@@ -10,7 +10,8 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq, newton
 
 from rimroll import solver
-from rimroll.solver.analysis import floquet, reduced, solution_types as st, steady, trajectory
+from rimroll.solver.analysis import floquet, reduced, steady, trajectory
+from rimroll.solver.analysis import solution_types as st
 from rimroll.solver.physics import rolling
 from rimroll.solver.physics.kinematics import alpha_rate
 

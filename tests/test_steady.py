@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from rimroll import solver
-from rimroll.solver.physics import rolling
-from rimroll.solver.analysis import steady
 from rimroll.solver._jit import vectorised
+from rimroll.solver.analysis import steady
+from rimroll.solver.physics import rolling
 
 P = solver.Params()
 rhs = vectorised(rolling.rolling_rhs)

@@ -12,6 +12,7 @@ import xarray as xr
 
 from rimroll.study import registry
 from rimroll.study.cli import main
+
 STEADY_STUDIES = ("fig3", "fig5", "fig6", "fig7", "fig8")  # as in conftest.py
 PROVENANCE = ("Conventions", "study", "created", "history", "rimroll_version", "param_rho")
 

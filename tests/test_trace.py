@@ -11,8 +11,8 @@ import pytest
 import xarray as xr
 
 from rimroll import solver
-from rimroll.solver.engine import outcomes
 from rimroll.solver.analysis.trace import SLIPPING, trace
+from rimroll.solver.engine import outcomes
 from rimroll.study.cli import main
 
 SCENES = {

@@ -219,6 +219,7 @@ def test_verify_states_coverage_and_fails_below_minimum(fig8_full, quick_results
 # ================================================================ 5. slices are package data
 def test_slices_are_package_data_found_with_importlib(monkeypatch):
     import importlib.resources
+
     import tomllib
 
     from rimroll.study import reference

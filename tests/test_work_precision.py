@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from rimroll.workflows.outcome_grids import SCENES
+from rimroll.workflows.sections import SCENES
 from rimroll.workflows.work_precision import INTEGRATORS, speed_ratio
 
 

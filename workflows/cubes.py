@@ -17,7 +17,6 @@ import numpy as np
 from matplotlib.lines import Line2D
 
 from rimroll import solver
-from rimroll.solver.engine import outcomes
 from rimroll.solver.analysis import steady
 from rimroll.study import plotting as P
 from rimroll.study.dataset import setting_of

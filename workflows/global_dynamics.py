@@ -16,7 +16,8 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
 from rimroll import solver
-from rimroll.solver.analysis import floquet, reduced, solution_types as st, steady, trajectory
+from rimroll.solver.analysis import floquet, reduced, steady, trajectory
+from rimroll.solver.analysis import solution_types as st
 from rimroll.study import plotting as P
 from rimroll.study.dataset import setting_of
 from rimroll.study.registry import Axis, ReferenceSpec, Study, Var, register

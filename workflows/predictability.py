@@ -24,12 +24,12 @@ import numpy as np
 from matplotlib.ticker import FixedLocator, FuncFormatter, NullLocator
 
 from rimroll import solver
-from rimroll.solver.engine import outcomes
 from rimroll.solver.analysis import predictability as pred
+from rimroll.solver.engine import outcomes
 from rimroll.study import plotting as P
 from rimroll.study.dataset import setting_of
 from rimroll.study.registry import Axis, Study, Var, output_var, register
-from rimroll.workflows import outcome_grids
+from rimroll.workflows import sections
 
 # ================================================================ outcome names and colours
 OUTCOME_NAMES = {code: meaning.split(":")[0] for code, meaning in solver.OUTCOME_MEANINGS.items()}
@@ -53,7 +53,7 @@ def _section_states(beta, omega1, s):
 
 # ================================================================ predictability
 PRED_SETTINGS = {
-    **{k: v for k, v in outcome_grids.SETTINGS.items()},
+    **{k: v for k, v in sections.SETTINGS.items()},
     "omega2": (35.0, 65.0, 105.0),  # [1/s] the sections of Figs. 11, 12, 13
     "box": 5,  # points per side of an entropy box
     "n_fine": 3,  # eps = 1/2, 1/4, 1/8 grid steps: simulated
@@ -61,7 +61,7 @@ PRED_SETTINGS = {
     "n_sample": 2000,  # points drawn from the grid's certain part for the eps < 1 test
     "seed": 0,
 }
-PRED_QUICK = {**outcome_grids.QUICK, "n_sample": 200, "n_coarse": 1}
+PRED_QUICK = {**sections.QUICK, "n_sample": 200, "n_coarse": 1}
 
 
 def eps_values(n_fine: int, n_coarse: int) -> np.ndarray:
@@ -79,14 +79,12 @@ def _pred_axes(s):
         raise ValueError(f"n_sample must be >= 0; got {s['n_sample']}")
     if s["n_fine"] + s["n_coarse"] + 1 > 31:
         raise ValueError("at most 31 eps (the uncertain flags are bits of an int32)")
-    return outcome_grids._axes(s)
+    return sections.section_axes(s)
 
 
 def _scene(coords, p, s):
     """Params and t_max of the chunk's scene (chunks hold one scene; ``scene`` holds labels)."""
-    k = outcome_grids.scene_index(coords[0].flat[0])
-    table = outcome_grids.scene_table(s)
-    return p.replace(mu=table["mu"][k], k_r=table["k_r"][k], k_d=table["k_d"][k]), float(table["t_max"][k])
+    return sections.scene_params(p, s, coords[0].flat[0])
 
 
 def _pred_compute(coords, p, s):

@@ -26,7 +26,7 @@ from rimroll import solver
 from rimroll.solver.analysis import reference
 from rimroll.study import plotting as P
 from rimroll.study.registry import Axis, Study, Var, register
-from rimroll.workflows.outcome_grids import scene_axis, scene_index, scene_table
+from rimroll.workflows.sections import scene_axis, scene_index, scene_table
 
 INTEGRATORS = ("rimroll_dp5", "rimroll_dop853", "scipy_rk45", "scipy_dop853", "scipy_lsoda")
 """Labels of the ``integrator`` coordinate: rimroll's compiled methods, then scipy's solve_ivp."""

@@ -37,7 +37,8 @@ closed no orbit (``on_rim_at_t_max``: in a conservative scene, a period beyond t
 separatrix, or slip/roll chatter); its t_end = t_max then counts as lingering. Every other
 cell is ``not_boundary``. A cell touching several
 boundary pairs takes the first type in the order separatrix_and_deadlock, deadlock,
-slipping_induced, separatrix, undetermined. Pure numpy; the last two axes of the arrays are the grid's (beta, omega1) axes,
+slipping_induced, separatrix, undetermined. Pure numpy; the last two axes of the arrays are the grid's
+(beta, omega1) axes,
 leading axes (scenes, sweeps) are classified independently.
 """
 
@@ -58,7 +59,8 @@ BOUNDARY_MEANINGS = {
     NOT_BOUNDARY: "not_boundary: not next to a periodic/fall boundary",
     DEADLOCK: "deadlock: F2_min of the periodic orbits decreases continuously to 0 at the boundary",
     SEPARATRIX: "separatrix: the half period grows toward the boundary (orbits near a saddle's separatrix)",
-    SLIPPING_INDUCED: "slipping_induced: the falling side would roll periodically without slipping (friction cone (39))",
+    SLIPPING_INDUCED: "slipping_induced: the falling side would roll periodically without slipping "
+                      "(friction cone (39))",
     UNDETERMINED: "undetermined: a periodic/fall boundary whose type the grid does not resolve",
     SEPARATRIX_AND_DEADLOCK: "separatrix_and_deadlock: the band between the cell and its neighbour, thinner than a "
                              "grid step, holds a separatrix (half period -> inf) and beyond it the deadlock "
@@ -291,7 +293,8 @@ def refine_pairs(inside, outside, params, t_max: float = 20.0, *, f2_rel: float 
     n_bisect, n_band, n_zoom = int(opts["n_bisect"]), int(opts["n_band"]), int(opts["n_zoom"])
     growth = float(opts["hp_log_growth"])
     ends = seg.run(np.stack([np.zeros(seg.n), np.ones(seg.n)], axis=1))
-    refined = (ends["outcome"][:, 0] == outcomes.PERIODIC_ROLLING) & (ends["outcome"][:, 1] != outcomes.PERIODIC_ROLLING)
+    periodic = ends["outcome"] == outcomes.PERIODIC_ROLLING
+    refined = periodic[:, 0] & ~periodic[:, 1]
     b = _bisect(seg, ends, n_bisect)
     at_boundary, S, H = _band(seg, ends, b, n_bisect, n_band, growth)
     best, s_best, best_half = _golden_peak(seg, S, H, n_zoom)
@@ -325,7 +328,8 @@ class _Segments:
         self.params, self.t_max, self.sim_kw = params, t_max, dict(sim_kw)
         self.hybrid = not params.rolling_only
         if self.hybrid:
-            self.sim_kw["max_switches"] = 0  # a slip ends the run: periodic rolling without slipping is what is bisected
+            # a slip ends the run: periodic rolling without slipping is what is bisected
+            self.sim_kw["max_switches"] = 0
         self.runs = 0
 
     def at(self, s):

@@ -49,6 +49,7 @@ x <= 0.99 (see tests/test_floquet.py).
 from __future__ import annotations
 
 import numpy as np
+
 from rimroll.solver.engine.tableaus import _A853, _DOP853_C
 
 _SYSTEMS = ("motion", "coefficients")

@@ -27,10 +27,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from rimroll.solver.analysis import floquet
-
-from rimroll.solver.physics import rolling
 from rimroll.solver._jit import vectorised
+from rimroll.solver.analysis import floquet
+from rimroll.solver.physics import rolling
 from rimroll.solver.physics.params import Params
 
 _energy = vectorised(rolling.energy)

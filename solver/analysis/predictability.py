@@ -22,7 +22,8 @@ integers (``solver.OUTCOME_MEANINGS`` may grow): nothing here assumes four of th
 
 from __future__ import annotations
 
-from typing import Callable, NamedTuple
+from collections.abc import Callable
+from typing import NamedTuple
 
 import numpy as np
 from scipy.special import ndtri

@@ -25,11 +25,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from rimroll.solver.analysis import floquet, steady
-
-from rimroll.solver.physics import rolling
 from rimroll.solver._jit import vectorised
+from rimroll.solver.analysis import floquet, steady
 from rimroll.solver.analysis.invariants import momenta
+from rimroll.solver.physics import rolling
 from rimroll.solver.physics.params import Params
 
 _rhs = vectorised(rolling.rolling_rhs)

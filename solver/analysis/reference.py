@@ -8,7 +8,8 @@ bisection) and the bookkeeping of phases written out here.
 
 One loop of phases serves every scene (:func:`integrate`) and also ``solver.analysis.trace``, which
 samples the dense output of the phases it records. In rolling-only scenes there is one rolling
-phase (the hybrid scenes' rolling phase below, without the slip onset): F2 < 0 at t = 0 falls at once; a fall is classified by the free flight of
+phase (the hybrid scenes' rolling phase below, without the slip onset): F2 < 0 at t = 0 falls at once; a fall is
+classified by the free flight of
 ``solver.physics.flight``; two transversal omega1 zeros give ``periodic_rolling`` with half_period =
 t2 - t1; otherwise the ball is on the rim at t_max.
 
@@ -58,11 +59,10 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
-from rimroll.solver.physics import kinematics, rolling, slipping, switching
-
 from rimroll.solver.engine import rules
-from rimroll.solver.engine.scenes import scene_of
 from rimroll.solver.engine.outcomes import ON_RIM_AT_T_MAX, PERIODIC_ROLLING, STEADY_MOTION
+from rimroll.solver.engine.scenes import scene_of
+from rimroll.solver.physics import kinematics, rolling, slipping, switching
 from rimroll.solver.physics.params import P_G, P_M, P_RHO, Params
 
 ROLLING, SLIPPING = 0, 1

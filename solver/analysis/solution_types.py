@@ -69,12 +69,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from rimroll.solver.physics import kinematics, rolling
-
-from rimroll.solver.analysis import reduced, trajectory
-
-from rimroll.solver.engine import rules
 from rimroll.solver._jit import vectorised
+from rimroll.solver.analysis import reduced, trajectory
+from rimroll.solver.engine import rules
+from rimroll.solver.physics import kinematics, rolling
 from rimroll.solver.physics.params import Params
 
 UNDETERMINED = 0
@@ -89,12 +87,14 @@ QUASI_PERIODIC = 7
 TYPE_MEANINGS = {
     UNDETERMINED: "undetermined: none of the types below resolved within t_max (slow orbit, failed integration)",
     TRIVIAL_EQUILIBRIUM: "trivial_equilibrium: cos(beta) = 0, omega1 = omega3 = 0 (46), ball on top or hanging",
-    NONTRIVIAL_EQUILIBRIUM: "nontrivial_equilibrium: steady motion (47), omega1 = 0, omega2 = omega20(beta, omega3) (48)",
+    NONTRIVIAL_EQUILIBRIUM: "nontrivial_equilibrium: steady motion (47), omega1 = 0, "
+                            "omega2 = omega20(beta, omega3) (48)",
     TRIVIAL_CONNECTION: "trivial_connection: tends to the unstable ball-on-top equilibrium x0+ (46) at its rate "
                         "sqrt(g/(rho (1+j))); homoclinic or heteroclinic",
     NONTRIVIAL_CONNECTION: "nontrivial_connection: tends to a saddle steady motion (47) at the rate sqrt(h) of (54); "
                            "homoclinic or heteroclinic",
-    NON_PERIODIC_PENDULUM: "non_periodic_pendulum: omega2 = omega3 = 0 and E > m g rho, omega1 keeps its sign (Prop. 6)",
+    NON_PERIODIC_PENDULUM: "non_periodic_pendulum: omega2 = omega3 = 0 and E > m g rho, omega1 keeps its sign "
+                           "(Prop. 6)",
     PERIODIC: "periodic: two transversal zeros of omega1, period 2 (t2 - t1) (Prop. 4), or a rotation of beta "
               "with a rational rotation number",
     QUASI_PERIODIC: "quasi_periodic: omega1 keeps its sign, (omega2, omega3) turn by an irrational fraction of a "

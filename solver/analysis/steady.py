@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from rimroll.solver.physics import rolling
 from rimroll.solver._jit import vectorised
+from rimroll.solver.physics import rolling
 from rimroll.solver.physics.params import Params
 from rimroll.solver.physics.steady_motion import omega20, stability, steady_state, trivial_state
 

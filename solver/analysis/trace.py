@@ -15,10 +15,9 @@ from __future__ import annotations
 import numpy as np
 
 from rimroll.solver.analysis import reference
-
+from rimroll.solver.analysis.reference import EVENT_KINDS, PHASE_MEANINGS, ROLLING, SLIPPING, Phase
 from rimroll.solver.physics import rolling, slipping
 from rimroll.solver.physics.params import P_MU, P_R_BALL, P_R_RIM, P_RHO, Params
-from rimroll.solver.analysis.reference import EVENT_KINDS, PHASE_MEANINGS, ROLLING, SLIPPING, Phase
 
 __all__ = ["EVENT_KINDS", "PHASE_MEANINGS", "ROLLING", "SLIPPING", "Phase", "sample", "trace", "trace_phases"]
 

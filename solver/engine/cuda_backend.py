@@ -5,7 +5,8 @@ Imported only when ``backend="cuda"`` is resolved (``solver.engine.backends``); 
 
 **One source.** The kernel of a (scene, method) is a small launcher (:func:`launcher`) that gives
 each thread its work arrays and calls ``kernels.trajectory`` with the scene's flags as literals,
-the very function (and flags) the CPU engine's scene kernels run. numba-cuda compiles every compiled function it reaches (the
+the very function (and flags) the CPU engine's scene kernels run. numba-cuda compiles every compiled function it
+reaches (the
 rules, the phase systems, the stepper, the locator, the physics of ``rolling``/``slipping``/
 ``switching``/``kinematics``) from its Python source for the device, as it does for any
 ``numba.njit`` function called from a CUDA kernel; there is no second copy of any equation.
@@ -46,12 +47,11 @@ import threading
 import numpy as np
 from numba import cuda, types
 
-from rimroll.solver.engine import kernels
+from rimroll.solver.engine import kernels, tableaus
 from rimroll.solver.engine.backends import simulated
-from rimroll.solver.engine.scenes import Scene
 from rimroll.solver.engine.kernels import N_G, N_RF, N_RI, N_W
+from rimroll.solver.engine.scenes import Scene
 from rimroll.solver.engine.system import N_EVENTS, N_MAX
-from rimroll.solver.engine import tableaus
 from rimroll.solver.engine.tableaus import TABLEAUS
 
 SIMULATED = simulated()
@@ -202,7 +202,8 @@ def _announce(scene: Scene, method: str) -> None:
     """One line on stderr before a kernel's first compile in this process: a long silence otherwise."""
     import sys
 
-    sys.stderr.write(f"rimroll: compiling the CUDA kernel of the {scene.kernel.removeprefix('scene_')} scene ({method}) for the device, once per "
+    name = scene.kernel.removeprefix("scene_")
+    sys.stderr.write(f"rimroll: compiling the CUDA kernel of the {name} scene ({method}) for the device, once per "
                      "process: about a minute\n")
     sys.stderr.flush()
 

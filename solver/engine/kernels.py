@@ -36,7 +36,8 @@ loop the step's arrays (``stepper.Arrays``) and error control (``stepper.Control
 locator's records (``events.Dense``, ``events.Scratch``, ``events.Tracking``).
 
 Every failure is recorded in ``status``; nothing raises. A step budget spent mostly in slip
-phases is ``stiff_slip`` rather than ``max_steps`` (``RI_N_SLIP_STEPS`` counts those steps). Results go to one row of ``res_f``
+phases is ``stiff_slip`` rather than ``max_steps`` (``RI_N_SLIP_STEPS`` counts those steps). Results go to one row of
+``res_f``
 (float64, ``RF_*`` columns) and ``res_i`` (int64, ``RI_*``).
 """
 

@@ -18,7 +18,8 @@ Scales (what "small" means for a state x = (beta, omega1, omega2, omega3)):
 Rules:
 
 * **Steady motion** (:func:`on_steady_motion`): a state whose rates all vanish, relative to
-  those scales, to within STEADY_TOL (whatever rtol). Such a state is an equilibrium of (33)-(36) (a steady motion (47)-(48), or the
+  those scales, to within STEADY_TOL (whatever rtol). Such a state is an equilibrium of (33)-(36) (a steady motion
+  (47)-(48), or the
   trivial one (46) on top of the rim): in exact arithmetic it never moves, and an integration
   at tolerance rtol cannot tell it from a periodic orbit of relative amplitude ~rtol around it,
   nor follow a departure from an unstable one that starts at round-off. The engine reports it
@@ -43,9 +44,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from rimroll.solver.physics import rolling
 from rimroll.solver._compile import kernel
 from rimroll.solver.engine.outcomes import FALL_IN, FALL_OUT
+from rimroll.solver.physics import rolling
 from rimroll.solver.physics.flight import lands_inside
 from rimroll.solver.physics.params import P_G, P_J, P_K_R, P_R_BALL, P_R_RIM, P_RHO
 
@@ -64,7 +65,8 @@ STEADY = 3
 @kernel
 def omega_scale(omega1, omega2, omega3, p):
     """max(|omega1|, |omega2|, |omega3|, sqrt(g/rho)) [1/s]: the size of the angular velocities."""
-    return np.maximum(np.maximum(np.abs(omega1), np.abs(omega2)), np.maximum(np.abs(omega3), np.sqrt(p[P_G] / p[P_RHO])))
+    return np.maximum(np.maximum(np.abs(omega1), np.abs(omega2)),
+                      np.maximum(np.abs(omega3), np.sqrt(p[P_G] / p[P_RHO])))
 
 
 @kernel

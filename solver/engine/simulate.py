@@ -18,16 +18,14 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from rimroll.solver import _jit
-
 from rimroll.solver.engine import backends, kernels
 from rimroll.solver.engine.outcomes import STEADY_MOTION, on_rim_reason
 from rimroll.solver.engine.outputs import OUTPUTS, column
 from rimroll.solver.engine.scenes import Scene, scene_of
+from rimroll.solver.engine.tableaus import TABLEAUS
 from rimroll.solver.physics.params import Params
 from rimroll.solver.physics.steady_motion import stability
 from rimroll.solver.physics.switching import default_tolerances
-from rimroll.solver.engine.tableaus import TABLEAUS
-
 
 RTOL_RANGE = (1e-14, 1e-2)
 """Relative tolerances for which the error control means something: below 1e-14 the steps
@@ -109,12 +107,14 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
     ``OUTCOME_MEANINGS``), ``t_end`` [s] (0 for ``steady_motion``), ``f2_min`` [N], ``half_period`` [s] (NaN unless
     periodic), ``revolutions`` (signed alpha travelled / 2 pi), ``slip_phases``, ``slip_time``
     [s], ``energy_drift`` (|E(t_end) - E(0)| / max(|E(0)|, m g rho): the integration drift in
-    conservative rolling, the energy lost otherwise), ``n_steps`` (attempted steps), ``n_searched`` (accepted steps whose dense output was searched
+    conservative rolling, the energy lost otherwise), ``n_steps`` (attempted steps), ``n_searched`` (accepted steps
+    whose dense output was searched
     for events: the cost of the grazing check, docs/outcome-engine.md), ``n_slip_steps`` (the attempted
     steps of slip phases), ``beta_end``, ``omega1_end``, ``omega2_end``, ``omega3_end`` (the state at t_end, before
     any free flight), ``steady_h`` [1/s^2] (h of (54) for ``steady_motion`` lanes: < 0 stable,
     > 0 unstable; NaN elsewhere), ``status`` (int8, see ``STATUS_MEANINGS``; ``stiff_slip`` when the step
-    budget ran out mostly in slip phases) and ``on_rim_reason`` (int8, ``solver.engine.outcomes.ON_RIM_REASON_MEANINGS``:
+    budget ran out mostly in slip phases) and ``on_rim_reason`` (int8,
+    ``solver.engine.outcomes.ON_RIM_REASON_MEANINGS``:
     why a run ended on the rim, from outcome, status and slip_phases). A failing lane is recorded in
     ``status`` and never raises.
 

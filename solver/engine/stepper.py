@@ -229,7 +229,8 @@ def attempt(rhs, method, control, p, arrays, t, h, after_reject, budget):
     """Try steps from (t, y), slope f = rhs(y), first trial step h [s], until one is accepted.
 
     ``method``: the :class:`~rimroll.solver.engine.tableaus.Method` record; ``control``: a
-    :class:`Control`; ``arrays``: the :class:`Arrays` of the step. A trial is rejected when its error norm exceeds 1 (the step shrinks by
+    :class:`Control`; ``arrays``: the :class:`Arrays` of the step. A trial is rejected when its error norm exceeds 1
+    (the step shrinks by
     ``step_factor``) or when anything in it is not finite (the step shrinks by MIN_FACTOR, at most
     MAX_NONFINITE_RETRIES times in a row). The step never passes t_end. Returns
     (code, h_taken, h_next, attempts, last): code ACCEPTED (y_new, K hold the step; K[n_stages]

@@ -44,8 +44,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from rimroll.solver.physics import kinematics, rolling, slipping
 from rimroll.solver._compile import kernel
+from rimroll.solver.physics import kinematics, rolling, slipping
 from rimroll.solver.physics.switching import SW_DELTA, SW_U_STOP
 
 N_ROLLING = 5  # beta, omega1, omega2, omega3, alpha

@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from rimroll.solver.physics import kinematics
 from rimroll.solver._compile import kernel
+from rimroll.solver.physics import kinematics
 from rimroll.solver.physics.params import P_G, P_R_RIM
 
 

@@ -17,8 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from rimroll.solver.physics import kinematics
 from rimroll.solver._jit import kernel
+from rimroll.solver.physics import kinematics
 from rimroll.solver.physics.params import P_G, P_J, P_K_D, P_K_R, P_M, P_MU, P_R_BALL, P_R_RIM, P_RHO
 
 
@@ -54,7 +54,8 @@ def normal_force(beta, omega1, omega3, p):
     rho = p[P_RHO]
     c = np.cos(beta)
     m = p[P_M]
-    return m * r * r * omega3 * omega3 * c / (p[P_R_RIM] - rho * c) - m * r * r * omega1 * omega1 / rho + m * p[P_G] * np.sin(beta)
+    return (m * r * r * omega3 * omega3 * c / (p[P_R_RIM] - rho * c) - m * r * r * omega1 * omega1 / rho
+            + m * p[P_G] * np.sin(beta))
 
 
 @kernel

@@ -19,8 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from rimroll.solver.physics import kinematics
 from rimroll.solver._jit import kernel
+from rimroll.solver.physics import kinematics
 from rimroll.solver.physics.params import P_G, P_J, P_K_D, P_K_R, P_M, P_MU, P_R_BALL, P_R_RIM, P_RHO
 
 

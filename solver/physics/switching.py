@@ -18,7 +18,8 @@ advanced by one Euler step of the slipping equations over that time, u is set to
 rolling state is not strictly inside the friction cone (39): rolling would at once slip again
 along the same direction, so the return is refused and slipping goes on (no chattering on the
 cone's boundary). Returning along phi2 while phi1 repels is a slip reversal: rolling resumes
-and slips at once along phi1, as the algorithm of Sect. 5.2.2 prescribes. The check runs where |u| crosses u_stop downward (an event located on
+and slips at once along phi1, as the algorithm of Sect. 5.2.2 prescribes. The check runs where |u| crosses u_stop
+downward (an event located on
 the dense output) and at the end of every slipping step with |u| < u_stop.
 
 The tolerances travel to the kernels as a float64 vector indexed by the ``SW_*`` constants, so a
@@ -29,8 +30,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from rimroll.solver.physics import kinematics, rolling, slipping
 from rimroll.solver._compile import kernel
+from rimroll.solver.physics import kinematics, rolling, slipping
 from rimroll.solver.physics.params import P_J, P_M, P_R_BALL
 
 DELTA = 1e-5

@@ -1,0 +1,75 @@
+"""The outcome sections of Figs. 11-13, shared by the studies that run them (fig11-13,
+predictability, work-precision): their default settings, the (beta, omega1) grid, and the four
+named scenes of ``solver.engine.scenes`` with the parameters and t_max each runs at.
+
+Not a study family: it registers nothing, and the families import it rather than each other.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rimroll import solver
+from rimroll.solver.engine import scenes
+from rimroll.study.registry import Axis
+
+SCENES = tuple(s.name for s in scenes.NAMED)
+"""Labels of the ``scene`` coordinate, in file order (the named scenes of ``solver.engine.scenes``)."""
+
+SETTINGS = {
+    "omega3": 10.0,  # [1/s]
+    "beta_min": 0.8, "beta_max": 1.8, "n_beta": 240,  # [rad]
+    "omega1_max": 20.0, "n_omega1": 360,  # [1/s], symmetric range
+    "mu_slip": 1.0,  # friction of the slipping scenes
+    "k_dissipation": 0.02,  # [1/s] rate of the drilling / rolling resistance scenes
+    "t_max": 20.0,  # [s] conservative scenes
+    "t_max_dissipative": 60.0,  # [s]
+    "rtol": 1e-8, "atol": 1e-10, "method": "dp5",
+    "backend": "cpu",  # solver.simulate's backend: cpu, cuda or auto (docs/outcome-engine.md, Backends)
+}
+QUICK = {"n_beta": 24, "n_omega1": 36}
+
+
+def scene_table(s: dict) -> dict[str, np.ndarray]:
+    """mu, k_r, k_d [1/s] and t_max [s] of the four named scenes, from the settings: mu_slip for the
+    scenes that slip, k_dissipation for the parameter of each scene's term (``Scene.parameters``)."""
+    rows = [scene.parameters(s["mu_slip"], s["k_dissipation"]) for scene in scenes.NAMED]
+    table = {key: np.array([row[key] for row in rows]) for key in ("mu", "k_r", "k_d")}
+    table["t_max"] = np.array([s["t_max"] if scene.conservative else s["t_max_dissipative"] for scene in scenes.NAMED])
+    return table
+
+
+def scene_axis(s: dict) -> Axis:
+    """The ``scene`` axis: string labels :data:`SCENES`, with each scene's mu, k_r, k_d [1/s]
+    and t_max [s] as non-index coordinates along it."""
+    table = scene_table(s)
+    return Axis("scene", np.array(SCENES), "", "physical scene (docs/outcome-studies.md#scenes): " + "; ".join(
+        f"{scene.name} = {scene.text}" for scene in scenes.NAMED), aux={
+        "mu": (table["mu"], "1", "Coulomb friction coefficient of the scene (inf: rolling only)"),
+        "k_r": (table["k_r"], "s-1", "rolling-resistance rate k_r of the scene, paper (83)"),
+        "k_d": (table["k_d"], "s-1", "drilling-resistance rate k_d of the scene, paper (83)"),
+        "t_max": (table["t_max"], "s", "end of the run for states still on the rim"),
+    })
+
+
+def scene_index(label) -> int:
+    """Position of a scene label in :data:`SCENES` (the row of :func:`scene_table`)."""
+    return SCENES.index(str(label))
+
+
+def section_axes(s: dict) -> list[Axis]:
+    """The axes of an outcome section: the four named scenes, beta [rad] and omega1 [1/s]."""
+    scene = scene_axis(s)
+    beta = Axis("beta", np.linspace(s["beta_min"], s["beta_max"], int(s["n_beta"])), "rad",
+                "initial height angle of the contact point on the rim's cross-section")
+    w = float(s["omega1_max"])
+    omega1 = Axis("omega1", np.linspace(-w, w, int(s["n_omega1"])), "s-1", "initial transversal angular velocity")
+    return [scene, beta, omega1]
+
+
+def scene_params(p: solver.Params, s: dict, label) -> tuple[solver.Params, float]:
+    """The parameters of the named scene ``label`` (the run's physical ones with the scene's mu,
+    k_r, k_d) and its t_max [s], from the settings ``s``."""
+    k = scene_index(label)
+    table = scene_table(s)
+    return p.replace(mu=table["mu"][k], k_r=table["k_r"][k], k_d=table["k_d"][k]), float(table["t_max"][k])
