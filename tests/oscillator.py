@@ -26,7 +26,7 @@ def rhs(y, p, K, s):
 
 
 @numba.njit(cache=False)
-def events(y, f, p, aux, hybrid, g, gr):
+def events(y, f, p, aux, g, gr):
     g[0] = y[0]
     gr[0] = f[0]
     g[1] = y[1]
@@ -67,5 +67,5 @@ def values(y, f=None):
         f = K[0]
     g = np.zeros(N_EVENTS)
     gr = np.zeros(N_EVENTS)
-    events(y, f, P, AUX, False, g, gr)
+    events(y, f, P, AUX, g, gr)
     return g, gr

@@ -102,7 +102,7 @@ def search_step(tab, y, h, t, sign, direction, active, track_min, search):
     g1, gr1 = values(y_new, K[tab.n_stages])
     tracking = events.Tracking(sign, search, np.full(N_EVENTS, 0.5), np.full(N_EVENTS, np.inf))
     ev, theta = events.next_event(osc_events, EventTable(active, direction, track_min), tracking, 0.0, g0, g1, gr1,
-                                  events.Dense(y, h, t, Q, N), P, AUX, False, scratch())
+                                  events.Dense(y, h, t, Q, N), P, AUX, scratch())
     return y_new, Q, ev, theta, tracking.mins
 
 
@@ -167,7 +167,7 @@ def test_grazing_dip_inside_one_step_is_decided_at_its_minimum(h, depth, tol):
     assert width < 0.1 * h
     tracking = events.Tracking(sign, search, np.full(3, 0.5), np.full(N_EVENTS, np.inf))
     ev, theta = events.next_event(shifted_events, EventTable(active, direction, track), tracking, 0.0, g0, g1, gr1,
-                                  events.Dense(y, h, t_start, Q, N), np.array([c]), AUX, False, scratch())
+                                  events.Dense(y, h, t_start, Q, N), np.array([c]), AUX, scratch())
     assert ev == 0
     if tol is not None:  # where the dense output is accurate: the exact first zero
         assert abs(t_start + theta * h - math.acos(-c)) < tol
@@ -177,7 +177,7 @@ from numba import njit  # noqa: E402
 
 
 @njit(cache=False)
-def shifted_events(y, f, p, aux, hybrid, g, gr):
+def shifted_events(y, f, p, aux, g, gr):
     """The oscillator's events with event 0 shifted up by p[0]: x + p[0]."""
     g[0] = y[0] + p[0]
     gr[0] = f[0]

@@ -129,7 +129,7 @@ def launcher(scene: Scene, method: str):
     do for one row.
     """
     trajectory = kernels.trajectory  # the CPU engine's trajectory body
-    hybrid, conservative = scene.flags  # compile-time constants, as in the scene kernels
+    slips, conservative = scene.flags  # compile-time constants, as in the scene kernels
     tab = TABLEAUS[method]
     A, E, P = tab.A, tab.E, tab.P  # constants of the kernel
     n_stages, err_mode, error_order = tab.n_stages, tab.err_mode, tab.error_order
@@ -163,9 +163,14 @@ def launcher(scene: Scene, method: str):
             for r in range(N_G):
                 G[r, e] = 0.0
         work = Work(W, K, Q, G, sign, search, active)
-        trajectory(hybrid, conservative, native(states[k]), native(p), native(sw),
-                   Method(A, E, P, n_stages, err_mode, error_order),
-                   Limits(t_max, rtol, atol, max_steps, max_switches), work, native(res_f[k]), native(res_i[k]))
+        method = Method(A, E, P, n_stages, err_mode, error_order)
+        limits = Limits(t_max, rtol, atol, max_steps, max_switches)
+        if slips:  # a constant of the kernel: numba compiles one of the two calls
+            trajectory(native(sw), conservative, native(states[k]), native(p), method, limits, work,
+                       native(res_f[k]), native(res_i[k]))
+        else:  # rolling only: no switching tolerances, no slipping code
+            trajectory(None, conservative, native(states[k]), native(p), method, limits, work, native(res_f[k]),
+                       native(res_i[k]))
 
     launch.__qualname__ = launch.__name__ = f"launch_{scene.kernel}_{method}"
     return launch

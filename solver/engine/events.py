@@ -1,7 +1,7 @@
 """Event location on the dense output of an accepted step: the one place where events are found.
 
 The locator knows no physics: it is handed the event function of a phase as a compiled function
-``events(y, f, p, aux, hybrid, g, gr)`` (values of every event at state y into g, their time
+``events(y, f, p, aux, g, gr)`` (values of every event at state y into g, their time
 derivatives along the rates f into gr, NaN where not available) and the phase's event table
 (``direction``, ``track_min``, ``active`` arrays; see ``solver.engine.system``).
 
@@ -203,18 +203,18 @@ def hermite_at(g0, r0, g1, r1, h, theta):
 
 
 @kernel(takes_functions=True)
-def value_at(events, e, theta, dense, p, aux, hybrid, scratch):
+def value_at(events, e, theta, dense, p, aux, scratch):
     """Value of event e on the dense output at theta (the state into scratch.tmp, its slope into
     scratch.slope, every event's value and rate into scratch.g, scratch.gr)."""
     n_poly = dense.Q.shape[1]
     dense_eval(theta, dense.y, dense.h, dense.Q, dense.n, n_poly, scratch.tmp)
     dense_slope(theta, dense.Q, dense.n, n_poly, scratch.slope)
-    events(scratch.tmp, scratch.slope, p, aux, hybrid, scratch.g, scratch.gr)
+    events(scratch.tmp, scratch.slope, p, aux, scratch.g, scratch.gr)
     return scratch.g[e]
 
 
 @kernel(takes_functions=True)
-def locate(events, e, a, ga, b, gb, dense, p, aux, hybrid, scratch):
+def locate(events, e, a, ga, b, gb, dense, p, aux, scratch):
     """Root of event e on the dense output in theta in [a, b], ga pre-crossing (or 0), gb post.
 
     Illinois method; returns the post-crossing bracket end (or an exact zero) once the bracket
@@ -234,7 +234,7 @@ def locate(events, e, a, ga, b, gb, dense, p, aux, hybrid, scratch):
             c = 0.5 * (a + b)
             if not (c > a and c < b):
                 break
-        gc = value_at(events, e, c, dense, p, aux, hybrid, scratch)
+        gc = value_at(events, e, c, dense, p, aux, scratch)
         if gc == 0.0:
             return c
         if (gc > 0.0) == (gb > 0.0):
@@ -253,7 +253,7 @@ def locate(events, e, a, ga, b, gb, dense, p, aux, hybrid, scratch):
 
 
 @kernel(takes_functions=True)
-def minimum(events, e, a, b, start, sgn, dense, p, aux, hybrid, scratch):
+def minimum(events, e, a, b, start, sgn, dense, p, aux, scratch):
     """Local minimum of sgn * (event e) on the dense output over theta in [a, b], from ``start``.
 
     Brent's method (golden section with parabolic steps; Brent, Algorithms for Minimization
@@ -261,7 +261,7 @@ def minimum(events, e, a, b, start, sgn, dense, p, aux, hybrid, scratch):
     the end values are compared too, so a minimum at an end of [a, b] is found as well.
     """
     x = min(max(start, a), b)
-    fx = sgn * value_at(events, e, x, dense, p, aux, hybrid, scratch)
+    fx = sgn * value_at(events, e, x, dense, p, aux, scratch)
     w = x
     v = x
     fw = fx
@@ -296,7 +296,7 @@ def minimum(events, e, a, b, start, sgn, dense, p, aux, hybrid, scratch):
             step = (lo - x) if x >= mid else (hi - x)
             d = _GOLDEN * step
         u = x + d if abs(d) >= tol1 else x + (tol1 if d > 0.0 else -tol1)
-        fu = sgn * value_at(events, e, u, dense, p, aux, hybrid, scratch)
+        fu = sgn * value_at(events, e, u, dense, p, aux, scratch)
         if fu <= fx:
             if u >= x:
                 lo = x
@@ -322,7 +322,7 @@ def minimum(events, e, a, b, start, sgn, dense, p, aux, hybrid, scratch):
                 v = u
                 fv = fu
     for th in (a, b):
-        f_end = sgn * value_at(events, e, th, dense, p, aux, hybrid, scratch)
+        f_end = sgn * value_at(events, e, th, dense, p, aux, scratch)
         if f_end < fx:
             x = th
             fx = f_end
@@ -330,7 +330,7 @@ def minimum(events, e, a, b, start, sgn, dense, p, aux, hybrid, scratch):
 
 
 @kernel(takes_functions=True)
-def next_event(events, table, tracking, theta0, g0, g1, gr1, dense, p, aux, hybrid, scratch):
+def next_event(events, table, tracking, theta0, g0, g1, gr1, dense, p, aux, scratch):
     """Earliest event of an accepted step in theta in (theta0, 1] (see the module rules).
 
     ``table``: the phase's event table (``active``, ``direction``, ``track_min`` arrays);
@@ -340,11 +340,11 @@ def next_event(events, table, tracking, theta0, g0, g1, gr1, dense, p, aux, hybr
     (theta = 1). Returns (event index or -1, theta of the event, or 1.0). With no event, the signs
     are updated to the step end.
     """
-    best, best_theta = _tracked_minima(events, table, tracking, theta0, g0, dense, p, aux, hybrid, scratch)
+    best, best_theta = _tracked_minima(events, table, tracking, theta0, g0, dense, p, aux, scratch)
     # sign changes at the step end
     for e in range(g0.shape[0]):
         if fires(e, tracking.sign, g1[e], table.active, table.direction):
-            root = locate(events, e, theta0, g0[e], 1.0, g1[e], dense, p, aux, hybrid, scratch)
+            root = locate(events, e, theta0, g0[e], 1.0, g1[e], dense, p, aux, scratch)
             if root < best_theta or (root == best_theta and e < best):
                 best = e
                 best_theta = root
@@ -354,7 +354,7 @@ def next_event(events, table, tracking, theta0, g0, g1, gr1, dense, p, aux, hybr
         if table.active[e] and not np.isfinite(gr1[e]):
             sampled = True
     if sampled:
-        e, theta = _sampled(events, table, tracking.sign, theta0, g0, gr1, best_theta, dense, p, aux, hybrid, scratch)
+        e, theta = _sampled(events, table, tracking.sign, theta0, g0, gr1, best_theta, dense, p, aux, scratch)
         if e >= 0:
             best = e
             best_theta = theta
@@ -365,7 +365,7 @@ def next_event(events, table, tracking, theta0, g0, g1, gr1, dense, p, aux, hybr
 
 
 @kernel(inline=True, takes_functions=True)
-def _tracked_minima(events, table, tracking, theta0, g0, dense, p, aux, hybrid, scratch):
+def _tracked_minima(events, table, tracking, theta0, g0, dense, p, aux, scratch):
     """Tracked events the gate asks about: the event is decided at its minimum over (theta0, 1].
     Returns (the earliest firing event or -1, its theta or 2.0)."""
     best = -1
@@ -375,13 +375,13 @@ def _tracked_minima(events, table, tracking, theta0, g0, dense, p, aux, hybrid, 
         if not (table.active[e] and table.track_min[e] and tracking.search[e]):
             continue
         sgn = -1.0 if sign[e] < 0 else 1.0
-        th, val = minimum(events, e, theta0, 1.0, max(tracking.th_min[e], theta0), sgn, dense, p, aux, hybrid,
+        th, val = minimum(events, e, theta0, 1.0, max(tracking.th_min[e], theta0), sgn, dense, p, aux,
                           scratch)
         gm = sgn * val
         if fires(e, sign, gm, table.active, table.direction):
             root = theta0
             if th > theta0:
-                root = locate(events, e, theta0, g0[e], th, gm, dense, p, aux, hybrid, scratch)
+                root = locate(events, e, theta0, g0[e], th, gm, dense, p, aux, scratch)
             if root < best_theta:
                 best = e
                 best_theta = root
@@ -391,7 +391,7 @@ def _tracked_minima(events, table, tracking, theta0, g0, dense, p, aux, hybrid, 
 
 
 @kernel(inline=True, takes_functions=True)
-def _sampled(events, table, sign, theta0, g0, gr1, limit, dense, p, aux, hybrid, scratch):
+def _sampled(events, table, sign, theta0, g0, gr1, limit, dense, p, aux, scratch):
     """Events without a derivative: their signs compared at EVENT_SAMPLES points of the step before
     theta = limit. Returns the earliest event firing before limit and its theta, or (-1, limit)."""
     best = -1
@@ -411,12 +411,12 @@ def _sampled(events, table, sign, theta0, g0, gr1, limit, dense, p, aux, hybrid,
             break
         dense_eval(th_hi, dense.y, dense.h, dense.Q, dense.n, n_poly, scratch.tmp)
         dense_slope(th_hi, dense.Q, dense.n, n_poly, scratch.slope)
-        events(scratch.tmp, scratch.slope, p, aux, hybrid, g_hi, scratch.gr)
+        events(scratch.tmp, scratch.slope, p, aux, g_hi, scratch.gr)
         hit = False
         for e in range(n_ev):
             if table.active[e] and not np.isfinite(gr1[e]) and fires(e, sign, g_hi[e], table.active,
                                                                       table.direction):
-                root = locate(events, e, th_lo, g_lo[e], th_hi, g_hi[e], dense, p, aux, hybrid, scratch)
+                root = locate(events, e, th_lo, g_lo[e], th_hi, g_hi[e], dense, p, aux, scratch)
                 if root < best_theta:
                     best = e
                     best_theta = root

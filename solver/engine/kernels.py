@@ -161,7 +161,7 @@ def scratch_of(work):
 
 
 @kernel(inline=True, takes_functions=True)
-def begin_phase(rhs, events, hybrid, phase, p, sw, work, t, rtol):
+def begin_phase(rhs, events, aux, phase, p, work, t, rtol):
     """Slopes, event values and signs at the start of a phase from W[W_Y] at time t [s]; the omega1
     crossing count starts at 1 if the phase starts on a transversal zero of omega1 (conservative
     rolling). False if the slopes are not finite."""
@@ -175,7 +175,7 @@ def begin_phase(rhs, events, hybrid, phase, p, sw, work, t, rtol):
         f[i] = K[0, i]
         if not np.isfinite(f[i]):
             return False
-    events(y, f, p, sw, hybrid, G[G_G], G[G_GR])
+    events(y, f, p, aux, G[G_G], G[G_GR])
     initial_signs(G[G_G], phase.direction, work.sign)
     for e in range(N_EVENTS):
         G[G_THIRD, e] = np.nan
@@ -188,7 +188,7 @@ def begin_phase(rhs, events, hybrid, phase, p, sw, work, t, rtol):
 
 
 @kernel(inline=True, takes_functions=True)
-def gate(rhs, events, hybrid, phase, p, sw, method, rtol, h, h_prev, work):
+def gate(rhs, events, aux, phase, p, method, rtol, h, h_prev, work):
     """Does the accepted step of length h [s] need its dense output searched for events? (the
     grazing gate of ``solver.engine.events``). Returns (searched, dense output prepared); sets
     ``work.search``, the running minima and the gate's memory of the step (G_TH, G_THIRD)."""
@@ -214,7 +214,7 @@ def gate(rhs, events, hybrid, phase, p, sw, method, rtol, h, h_prev, work):
                     dense_prepare(rhs, method, W[W_Y], h, phase.n, work.K, work.Q, W[W_TMP], p)
                     prepared = True
                 dense = Dense(W[W_Y], h, 0.0, work.Q, phase.n)
-                g_mid = value_at(events, e, 0.5, dense, p, sw, hybrid, scratch_of(work))
+                g_mid = value_at(events, e, 0.5, dense, p, aux, scratch_of(work))
                 mid_err = abs(g_mid - hermite_at(g[e], gr[e], g1[e], gr1[e], h, 0.5))
             want, lo, th_lo, third = trough_possible(g[e], gr[e], g1[e], gr1[e], h, h_prev, G[G_THIRD, e], mid_err,
                                                      rtol)
@@ -230,7 +230,7 @@ def gate(rhs, events, hybrid, phase, p, sw, method, rtol, h, h_prev, work):
 
 
 @kernel(takes_functions=True)
-def act_on_events(events, rolling_phase, hybrid, phase, p, sw, limits, work, t, h, res_f, res_i):
+def act_on_events(events, aux, ret, phase, p, limits, work, t, h, res_f, res_i):
     """The events of an accepted step from t [s] of length h [s], in time order, each with its
     action (the phase's event table): fall, periodic orbit, slip, return to rolling or an omega1
     crossing counted. Returns (END_* of the phase, or END_NONE if the step is taken in full; the
@@ -249,8 +249,7 @@ def act_on_events(events, rolling_phase, hybrid, phase, p, sw, limits, work, t, 
     for e in range(N_EVENTS):
         g_ev[e] = G[G_G, e]
     while True:
-        ev, theta = next_event(events, phase, tracking, theta0, g_ev, G[G_G1], G[G_GR1], dense, p, sw, hybrid,
-                               scratch)
+        ev, theta = next_event(events, phase, tracking, theta0, g_ev, G[G_G1], G[G_GR1], dense, p, aux, scratch)
         if ev < 0:
             return END_NONE, t, dt_return
         if theta >= 1.0:
@@ -258,13 +257,13 @@ def act_on_events(events, rolling_phase, hybrid, phase, p, sw, limits, work, t, 
                 y_ev[i] = W[W_Y_NEW, i]
         else:
             dense_eval(theta, y, h, work.Q, n, work.Q.shape[1], y_ev)
-        events(y_ev, W[W_SLOPE], p, sw, hybrid, g_ev, G[G_RTMP])
+        events(y_ev, W[W_SLOPE], p, aux, g_ev, G[G_RTMP])
         t_ev = t + theta * h
         act = phase.action[ev]
-        if rolling_phase:  # (a literal: numba compiles only this phase's actions)
+        if ret is None:  # a rolling phase (numba compiles only this phase's actions)
             end = rolling_action(act, y_ev, p, limits.rtol, t_ev, work, res_f, res_i)
         else:
-            end, dt_return = slipping_action(act, y_ev, p, sw, limits.t_max - t_ev, work, res_i)
+            end, dt_return = slipping_action(act, y_ev, p, ret, limits.t_max - t_ev, work, res_i)
         if end != END_NONE:
             for i in range(n):
                 y[i] = y_ev[i]
@@ -319,11 +318,13 @@ def slipping_action(act, y_ev, p, sw, t_left, work, res_i):
 
 
 @kernel(takes_functions=True)
-def run_phase(rhs, events, rolling_phase, hybrid, phase, p, sw, method, limits, work, res_f, res_i):
+def run_phase(rhs, events, aux, ret, phase, p, method, limits, work, res_f, res_i):
     """Run one phase from the state W[W_Y] at time res_f[RF_T_END] to its terminal event.
 
-    rhs, events: the phase's right-hand side and event function (``solver.engine.system``);
-    phase: its ``system.Phase`` (event table, tolerances). Returns (how the phase ends: END_*,
+    rhs, events: the phase's right-hand side and event function (``solver.engine.system``); aux:
+    what ``events`` takes besides the state (the switching tolerances in scenes that slip, else
+    None); ret: the switching tolerances of the return rule in a slipping phase, None in a rolling
+    one; phase: its ``system.Phase`` (event table, tolerances). Returns (how the phase ends: END_*,
     the time of a return to rolling [s] or -1). On END_SWITCH of a slipping phase W[W_Y_RET]
     holds the rolling state of the return; on END_FALL res_i[RI_OUTCOME] is set; on END_PERIODIC
     res_f[RF_HALF_PERIOD]; on END_FAILED res_i[RI_STATUS].
@@ -341,7 +342,7 @@ def run_phase(rhs, events, rolling_phase, hybrid, phase, p, sw, method, limits, 
     rtol = limits.rtol
     n_steps = res_i[RI_N_STEPS]
     n_searched = res_i[RI_N_SEARCHED]
-    if not begin_phase(rhs, events, hybrid, phase, p, sw, work, t, rtol):
+    if not begin_phase(rhs, events, aux, phase, p, work, t, rtol):
         res_i[RI_STATUS] = NON_FINITE
         return END_FAILED, -1.0
     control = Control(n, n - 1, rtol, phase.atol, t_max)
@@ -362,15 +363,14 @@ def run_phase(rhs, events, rolling_phase, hybrid, phase, p, sw, method, limits, 
             break
         for i in range(n):  # the FSAL slope of y_new (the slope of y is in K[0])
             f_new[i] = K[method.n_stages, i]
-        events(y_new, f_new, p, sw, hybrid, G[G_G1], G[G_GR1])
-        searched, prepared = gate(rhs, events, hybrid, phase, p, sw, method, rtol, h, h_prev, work)
+        events(y_new, f_new, p, aux, G[G_G1], G[G_GR1])
+        searched, prepared = gate(rhs, events, aux, phase, p, method, rtol, h, h_prev, work)
         h_prev = h
         if searched:
             n_searched += 1
             if not prepared:
                 dense_prepare(rhs, method, y, h, n, K, work.Q, W[W_TMP], p)
-            end, t, dt_return = act_on_events(events, rolling_phase, hybrid, phase, p, sw, limits, work, t, h,
-                                              res_f, res_i)
+            end, t, dt_return = act_on_events(events, aux, ret, phase, p, limits, work, t, h, res_f, res_i)
             if end != END_NONE:
                 break
             end = END_T_MAX
@@ -388,12 +388,11 @@ def run_phase(rhs, events, rolling_phase, hybrid, phase, p, sw, method, limits, 
             G[G_MIN, EV_FALL] = G[G_G1, EV_FALL]
         h = h_next
         after_reject = False
-        if rolling_phase:  # (a literal: numba compiles only this phase's branch)
-            continue
-        dt_return = try_return(y, p, sw, t_max - t, W[W_Y_RET])  # the return rule, at every slipping step end too
-        if dt_return >= 0.0:
-            end = END_SWITCH
-            break
+        if ret is not None:  # a slipping phase: the return rule at every step end too
+            dt_return = try_return(y, p, ret, t_max - t, W[W_Y_RET])
+            if dt_return >= 0.0:
+                end = END_SWITCH
+                break
     res_f[RF_T_END] = t
     res_i[RI_N_STEPS] = n_steps
     res_i[RI_N_SEARCHED] = n_searched
@@ -421,7 +420,7 @@ def begin_trajectory(x0, p, work, res_f, res_i):
 
 
 @kernel(inline=True)
-def start_action(hybrid, rolling_phase, first, y, p, mins):
+def start_action(sw, rolling_phase, first, y, p, mins):
     """The rules' action at the start of a phase (``rules.phase_start_action``), or -1 when the
     state or its normal force is not finite; lowers the running minimum of F2."""
     n = N_ROLLING if rolling_phase else N_SLIPPING
@@ -431,7 +430,7 @@ def start_action(hybrid, rolling_phase, first, y, p, mins):
             finite = False
     if rolling_phase:
         f2 = rolling.normal_force(y[0], y[1], y[3], p)
-        margin = rolling.friction_margin(y[0], y[1], y[2], y[3], p) if hybrid else 1.0
+        margin = rolling.friction_margin(y[0], y[1], y[2], y[3], p) if sw is not None else 1.0
         steady = first and rules.on_steady_motion(y[0], y[1], y[2], y[3], p)
     else:
         f2 = slipping.slipping_normal_force(y[0], y[1], y[3], y[I_U1], y[I_U3], p)
@@ -441,7 +440,7 @@ def start_action(hybrid, rolling_phase, first, y, p, mins):
         return -1
     if f2 < mins[EV_FALL]:
         mins[EV_FALL] = f2
-    return rules.phase_start_action(rolling_phase, hybrid, first, f2, margin, steady)
+    return rules.phase_start_action(rolling_phase, sw is not None, first, f2, margin, steady)
 
 
 @kernel(inline=True)
@@ -471,11 +470,13 @@ def record(rolling_phase, y, p, E0, slip_time, t_slip0, slip_phases, work, res_f
 
 
 @kernel(inline=True)
-def trajectory(hybrid, conservative, x0, p, sw, method, limits, work, res_f, res_i):
-    """One trajectory from the rolling initial state x0 in the scene (hybrid, conservative)."""
+def trajectory(sw, conservative, x0, p, method, limits, work, res_f, res_i):
+    """One trajectory from the rolling initial state x0 in the scene: sw, the switching tolerances
+    of a scene that slips (None: rolling only; numba then compiles no slipping code), conservative:
+    periodic rolling is detected."""
     W = work.W
     y = W[W_Y]
-    roll, slip = system.phases(hybrid, conservative, limits.atol, sw, work.active, W[W_ATOL_ROLL], W[W_ATOL_SLIP])
+    roll, slip = system.phases(sw, conservative, limits.atol, work.active, W[W_ATOL_ROLL], W[W_ATOL_SLIP])
     E0 = begin_trajectory(x0, p, work, res_f, res_i)
     rolling_phase = True
     first = True
@@ -485,7 +486,7 @@ def trajectory(hybrid, conservative, x0, p, sw, method, limits, work, res_f, res
     t_slip0 = 0.0
     dt_return = -1.0
     while True:
-        start = start_action(hybrid, rolling_phase, first, y, p, work.G[G_MIN])
+        start = start_action(sw, rolling_phase, first, y, p, work.G[G_MIN])
         first = False
         if start < 0:
             res_i[RI_STATUS] = NON_FINITE
@@ -504,12 +505,12 @@ def trajectory(hybrid, conservative, x0, p, sw, method, limits, work, res_f, res
                 break
             # ---------------- one phase to its terminal event ----------------
             if rolling_phase:
-                end, dt_return = run_phase(system.rolling_rhs, system.rolling_events, True, hybrid, roll, p, sw,
-                                           method, limits, work, res_f, res_i)
-            elif hybrid:  # only hybrid scenes slip: numba drops this branch from the rolling-only kernels
+                end, dt_return = run_phase(system.rolling_rhs, system.rolling_events, sw, None, roll, p, method,
+                                           limits, work, res_f, res_i)
+            elif sw is not None:  # only scenes that slip have a slipping phase
                 steps_before = res_i[RI_N_STEPS]
-                end, dt_return = run_phase(system.slipping_rhs, system.slipping_events, False, True, slip, p, sw,
-                                           method, limits, work, res_f, res_i)
+                end, dt_return = run_phase(system.slipping_rhs, system.slipping_events, sw, sw, slip, p, method,
+                                           limits, work, res_f, res_i)
                 res_i[RI_N_SLIP_STEPS] += res_i[RI_N_STEPS] - steps_before
             else:
                 break  # unreachable: a rolling-only trajectory never leaves rolling
@@ -519,6 +520,8 @@ def trajectory(hybrid, conservative, x0, p, sw, method, limits, work, res_f, res
             if end != END_SWITCH:
                 break
         # ---------------- the switch: start == SLIP, or a phase ended at END_SWITCH ----------------
+        if sw is None:
+            break  # unreachable: a rolling-only trajectory never switches
         switches += 1
         if switches > limits.max_switches:
             res_i[RI_STATUS] = TOO_MANY_SWITCHES
@@ -546,36 +549,37 @@ def new_work(method):
 
 
 @kernel(inline=True)
-def run_scene(hybrid, conservative, states, p, sw, method, limits, res_f, res_i):
-    """Simulate every row of ``states`` (m, 4) in the scene (hybrid, conservative); results into
-    the rows of res_f, res_i. Inlined into the four scene kernels with literal flags."""
+def run_scene(sw, conservative, states, p, method, limits, res_f, res_i):
+    """Simulate every row of ``states`` (m, 4) in the scene (sw: None for rolling only,
+    conservative: a literal); results into the rows of res_f, res_i. Inlined into the four scene
+    kernels."""
     work = new_work(method)
     for k in range(states.shape[0]):
-        trajectory(hybrid, conservative, states[k], p, sw, method, limits, work, res_f[k], res_i[k])
+        trajectory(sw, conservative, states[k], p, method, limits, work, res_f[k], res_i[k])
 
 
 @kernel
 def scene_rolling_conservative(states, p, sw, method, limits, res_f, res_i):
-    """Scene mu = inf, k_r = k_d = 0: every row of ``states`` (see :func:`run_scene`)."""
-    run_scene(False, True, states, p, sw, method, limits, res_f, res_i)
+    """Scene mu = inf, k_r = k_d = 0 (sw is None): every row of ``states`` (see :func:`run_scene`)."""
+    run_scene(sw, True, states, p, method, limits, res_f, res_i)
 
 
 @kernel
 def scene_rolling_dissipative(states, p, sw, method, limits, res_f, res_i):
-    """Scene mu = inf, k_r or k_d > 0: every row of ``states`` (see :func:`run_scene`)."""
-    run_scene(False, False, states, p, sw, method, limits, res_f, res_i)
+    """Scene mu = inf, k_r or k_d > 0 (sw is None): every row of ``states`` (see :func:`run_scene`)."""
+    run_scene(sw, False, states, p, method, limits, res_f, res_i)
 
 
 @kernel
 def scene_hybrid_conservative(states, p, sw, method, limits, res_f, res_i):
     """Scene finite mu, k_r = k_d = 0: every row of ``states`` (see :func:`run_scene`)."""
-    run_scene(True, True, states, p, sw, method, limits, res_f, res_i)
+    run_scene(sw, True, states, p, method, limits, res_f, res_i)
 
 
 @kernel
 def scene_hybrid_dissipative(states, p, sw, method, limits, res_f, res_i):
     """Scene finite mu, k_r or k_d > 0: every row of ``states`` (see :func:`run_scene`)."""
-    run_scene(True, False, states, p, sw, method, limits, res_f, res_i)
+    run_scene(sw, False, states, p, method, limits, res_f, res_i)
 
 
 SCENE_KERNELS = {kernel.py_func.__name__: kernel for kernel in (

@@ -143,7 +143,8 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
 
         cuda_backend.run(scene, method, flat, params.as_array(), limits, sw, res_f, res_i)
     else:
-        _run_cpu(scene, TABLEAUS[method].method, flat, params.as_array(), sw, limits, workers, res_f, res_i)
+        _run_cpu(scene, TABLEAUS[method].method, flat, params.as_array(), sw if scene.slips else None, limits, workers,
+                 res_f, res_i)
     return _fields(flat, shape, res_f, res_i, params)
 
 

@@ -11,9 +11,11 @@ feeds back and is left out of the error norm. Its rate, like every rate of the c
 comes from ``solver.kinematics`` (19)-(20).
 
 Per phase, ``*_rhs(y, p, K, s)`` writes the rates of y into row s of the 2-D array K (the one
-right-hand side of the phase), and ``*_events(y, f, p, aux, hybrid, g, gr)`` writes the event
-values into g and their time derivatives (along the rates f) into gr; a derivative that is not
-available cheaply is NaN. ``aux`` is the switching-tolerance vector of ``solver.physics.switching``.
+right-hand side of the phase), and ``*_events(y, f, p, aux, g, gr)`` writes the event values
+into g and their time derivatives (along the rates f) into gr; a derivative that is not available
+cheaply is NaN. ``aux`` is the switching-tolerance vector of ``solver.physics.switching`` in
+scenes that slip and None in rolling-only ones: numba prunes a branch on ``aux is None`` before it
+compiles, so a rolling-only kernel holds no friction cone and no slipping code at all.
 
 The event tables (declared data, read by the engine and the locator):
 
@@ -91,19 +93,21 @@ class Phase(NamedTuple):
 
 
 @kernel(inline=True)
-def phases(hybrid, conservative, atol, sw, active, atol_roll, atol_slip):
-    """The rolling and slipping :class:`Phase` of the scene (hybrid, conservative): fills the bool
-    array ``active`` (2, N_EVENTS) and the tolerance vectors ``atol_roll``, ``atol_slip``."""
-    rolling_active(hybrid, conservative, active[0])
-    slipping_active(hybrid, conservative, active[1])
-    rolling_atol(atol, sw, atol_roll)
-    slipping_atol(atol, sw, atol_slip)
+def phases(sw, conservative, atol, active, atol_roll, atol_slip):
+    """The rolling and slipping :class:`Phase` of the scene (sw: the switching tolerances of a scene
+    that slips, None if it only rolls): fills the bool array ``active`` (2, N_EVENTS) and the
+    tolerance vectors ``atol_roll``, ``atol_slip``."""
+    rolling_active(sw is not None, conservative, active[0])
+    slipping_active(sw is not None, conservative, active[1])
+    rolling_atol(atol, atol_roll)
+    if sw is not None:
+        slipping_atol(atol, sw, atol_slip)
     return (Phase(N_ROLLING, ROLLING_DIRECTION, ROLLING_TRACK_MIN, ROLLING_ACTION, active[0], atol_roll),
             Phase(N_SLIPPING, SLIPPING_DIRECTION, SLIPPING_TRACK_MIN, SLIPPING_ACTION, active[1], atol_slip))
 
 
 @kernel
-def rolling_atol(atol, sw, out):
+def rolling_atol(atol, out):
     """Absolute tolerances of the rolling components into ``out``: atol for each [their units]."""
     for i in range(N_ROLLING):
         out[i] = atol
@@ -171,14 +175,15 @@ def slipping_rhs(y, p, K, s):
 
 
 @kernel(inline=True)
-def rolling_events(y, f, p, aux, hybrid, g, gr):
-    """Rolling event values into g, their time derivatives along the rates f into gr (see the table)."""
+def rolling_events(y, f, p, aux, g, gr):
+    """Rolling event values into g, their time derivatives along the rates f into gr (see the table);
+    the friction margin only where the ball can slip (aux not None)."""
     beta = y[0]
     w1 = y[1]
     w3 = y[3]
     g[EV_FALL] = rolling.normal_force(beta, w1, w3, p)
     gr[EV_FALL] = rolling.normal_force_rate(beta, w1, w3, f[0], f[1], f[3], p)
-    if hybrid:
+    if aux is not None:
         g[EV_SWITCH] = rolling.friction_margin(beta, w1, y[2], w3, p)
         gr[EV_SWITCH] = np.nan
     else:
@@ -189,7 +194,7 @@ def rolling_events(y, f, p, aux, hybrid, g, gr):
 
 
 @kernel(inline=True)
-def slipping_events(y, f, p, aux, hybrid, g, gr):
+def slipping_events(y, f, p, aux, g, gr):
     """Slipping event values into g, their time derivatives along the rates f into gr (see the table)."""
     u1 = y[I_U1]
     u3 = y[I_U3]
