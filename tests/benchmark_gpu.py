@@ -137,7 +137,7 @@ def main(argv=None) -> int:
               "run": RUN, "numba_cuda": _version("numba-cuda"), "numba": _version("numba"), "configs": []}
     print(f"device: {device}; section: {len(states)} states, {RUN}")
 
-    for i, cap in enumerate(caps):
+    for cap in caps:
         for tpb in blocks:
             cb.MAX_REGISTERS = cap or None
             cb.THREADS_PER_BLOCK = tpb
@@ -147,8 +147,9 @@ def main(argv=None) -> int:
             cfg["compile_rolling_s"] = time.perf_counter() - t0
             k = cb.kernel(s_roll, RUN["method"])
             sig = types.void(*cb.SIGNATURE)
-            cfg["registers"] = _safe(lambda: k.get_regs_per_thread(sig))
-            cfg["local_bytes_per_thread"] = _safe(lambda: k.get_local_mem_per_thread(sig))
+            # _safe calls the lambda at once, in this iteration
+            cfg["registers"] = _safe(lambda: k.get_regs_per_thread(sig))  # noqa: B023
+            cfg["local_bytes_per_thread"] = _safe(lambda: k.get_local_mem_per_thread(sig))  # noqa: B023
             cfg["rolling_end_to_end"] = timed(lambda: solver.simulate(states, rolling, **RUN, backend="cuda"),
                                               args.repeat)
             cfg["rolling_device_pipeline"] = timed(lambda: device_run(cb, s_roll, states, rolling), args.repeat)
