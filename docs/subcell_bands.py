@@ -111,7 +111,7 @@ def main(argv=None):
                         fontsize=10)
         ax_hp.set_ylabel("half period [s] (periodic states)")
         ax_f2.set_ylabel(r"$F_{2,min}$ / (m g)")
-        ax_f2.set_xlabel(r"initial height angle $\beta$ [rad] (grid step %.5f rad)" % step)
+        ax_f2.set_xlabel(rf"initial height angle $\beta$ [rad] (grid step {step:.5f} rad)")
         ax_f2.set_ylim(-0.05, 1.5)
         print(f"{r['name']} omega1 = {OMEGA1:.4f}: deadlock boundary at beta = {r['b_bound']:.6f}; "
               f"largest half period {top:.3f} s at beta = {r['beta'][per][np.nanargmax(r['fine']['half_period'][per])]:.6f}; "

@@ -117,7 +117,7 @@ def test_contour_labels_clear_of_the_star_and_of_each_other(fig12):
     fig = _rendered(get("fig12").plot(fig12))
     renderer = fig.canvas.get_renderer()
     checked = 0
-    for ax in [a for main in fig.axes for a in (main, *main.child_axes)]:  # zoom insets too
+    for ax in [a for panel in fig.axes for a in (panel, *panel.child_axes)]:  # zoom insets too
         stars = [line for line in ax.get_lines() if line.get_marker() == "*"]
         labels = [t for t in ax.texts if t.get_text().endswith(" s")]
         if not stars or not labels:
