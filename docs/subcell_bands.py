@@ -51,7 +51,8 @@ def case(name, omega2, row):
     """Fine samples across the cells around grid row ``row`` and the types of its boundary pair."""
     rows = np.arange(row - 3, row + 4)  # the grid-only test reads two periodic rows inside the pair
     grid = solver.simulate(states(GRID[rows], omega2), PARAMS, **GRID_RUN)
-    column = lambda key: np.repeat(grid[key][:, None], 3, axis=1)  # a 3-column strip: the grid's 2-D form
+    def column(key):  # a 3-column strip: the grid's 2-D form
+        return np.repeat(grid[key][:, None], 3, axis=1)
     grid_label = boundaries.classify(column("outcome"), column("f2_min"), column("half_period"), column("t_end"),
                                      PARAMS.m * PARAMS.g)[3, 1]
     pair = boundaries.refine_pairs(states([GRID[row]], omega2), states([GRID[row - 1]], omega2), PARAMS,

@@ -140,7 +140,8 @@ def test_phi1_switches_from_attracting_to_repelling_on_the_slip_boundary(k_r, k_
     w2, w3 = 35.0, 10.0
     beta = 1.3
     # walk omega1 outward from a rolling state until the friction cone (39) is left
-    margin = lambda w1: rolling.friction_margin(beta, w1, w2, w3, pa)
+    def margin(w1):
+        return rolling.friction_margin(beta, w1, w2, w3, pa)
     assert margin(0.0) > 0 and margin(12.0) < 0
     w1_star = brentq(margin, 0.0, 12.0, xtol=1e-13)
     for w1, expect_repelling in ((w1_star - 1e-4, False), (w1_star + 1e-4, True)):

@@ -141,7 +141,8 @@ def test_former_periodic_marks_both_islands_and_counts_their_fates(sections):
             assert counts.tolist() == expected + [mask.sum() - sum(expected)]
             assert var.attrs[f"island_cells_{island}"] == mask.sum()
             np.testing.assert_allclose(var.attrs[f"fate_fractions_{scene}_{island}"], counts / mask.sum())
-    fr = lambda scene, island: var.attrs[f"fate_fractions_{scene}_{island}"]
+    def fr(scene, island):
+        return var.attrs[f"fate_fractions_{scene}_{island}"]
     assert fr("rolling_resistance", "slipping")[0] >= 0.9 and fr("drilling", "slipping")[1] >= 0.9
     assert 0.1 <= fr("rolling_resistance", "rolling_only")[1] <= 0.5  # part of the larger island falls out
     assert not any(k.startswith("fate_counts_slipping") or k.startswith("fate_counts_rolling_only_")

@@ -135,7 +135,8 @@ def _pred_derive(ds):
     shape = codes.shape[:-2]
     eps = eps_values(setting_of(ds, "n_fine"), setting_of(ds, "n_coarse"))
     box = int(setting_of(ds, "box"))
-    flat = lambda a: a.reshape((-1,) + a.shape[-2:])
+    def flat(a):
+        return a.reshape((-1,) + a.shape[-2:])
     n = int(np.prod(shape, dtype=int))
     s_b, s_bb, n_bb = np.empty(n), np.empty(n), np.empty(n, dtype=np.int32)
     f, f_err = np.empty((n, eps.size)), np.empty((n, eps.size))
@@ -150,8 +151,11 @@ def _pred_derive(ds):
         ex = pred.uncertainty_exponent(eps, f[i], n_eff)
         alpha[i], alpha_err[i] = ex.alpha, ex.alpha_err
     lead, dims_eps = tuple(lead), tuple(lead) + ("eps",)
-    r = lambda a: a.reshape(shape)
-    re = lambda a: a.reshape(shape + (eps.size,))
+    def r(a):
+        return a.reshape(shape)
+
+    def re(a):
+        return a.reshape(shape + (eps.size,))
     return {
         "eps": (("eps",), eps, {"units": "1", "long_name": "perturbation size in grid steps of beta and omega1"}),
         "S_b": (lead, r(s_b), {"units": "1", "long_name": "basin entropy: mean box entropy over all boxes [nats]"}),
