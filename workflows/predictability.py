@@ -284,7 +284,8 @@ def _prob_axes(s):
     w = float(s["omega1_max"])
     return [Axis("beta", np.linspace(s["beta_min"], s["beta_max"], int(s["n_beta"])), "rad",
                  "nominal initial height angle of the contact point on the rim's cross-section"),
-            Axis("omega1", np.linspace(-w, w, int(s["n_omega1"])), "s-1", "nominal initial transversal angular velocity")]
+            Axis("omega1", np.linspace(-w, w, int(s["n_omega1"])), "s-1",
+                 "nominal initial transversal angular velocity")]
 
 
 def sigma_of(s) -> np.ndarray:
@@ -355,7 +356,8 @@ def _prob_plot(ds):
     s = {k: float(setting_of(ds, k)) for k in ("sigma_beta", "sigma_omega1", "sigma_omega2", "sigma_omega3")}
     level = float(ds["sigma"][0]) if "sigma" in ds.dims else float(setting_of(ds, "sigma"))
     outer = [f"{d}={float(ds[d][0]):g}" for d in ds["p_fall_in"].dims if d not in ("beta", "omega1")]
-    fig.suptitle(rf"Make probability at $\omega_2$={float(ds['omega2'][0]) if 'omega2' in ds.dims else float(setting_of(ds, 'omega2')):g} 1/s: "
+    omega2 = float(ds["omega2"][0]) if "omega2" in ds.dims else float(setting_of(ds, "omega2"))
+    fig.suptitle(rf"Make probability at $\omega_2$={omega2:g} 1/s: "
                  rf"$\sigma$ = {level:g} x ({s['sigma_beta']:g} rad, {s['sigma_omega1']:g}, {s['sigma_omega2']:g}, "
                  rf"{s['sigma_omega3']:g} 1/s), {int(setting_of(ds, 'n_samples'))} samples per state"
                  + (f"; first of the sweep: {', '.join(outer)}" if outer else ""), fontsize=11)
