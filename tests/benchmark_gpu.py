@@ -156,8 +156,9 @@ def main(argv=None) -> int:
             cfg["rolling_kernel"] = kernel_time(cb, cuda, s_roll, states, rolling, args.repeat)
             print(f"registers cap {cap or '-'}, block {tpb}: compile {cfg['compile_rolling_s']:.1f} s, "
                   f"{cfg['registers']} registers, {cfg['local_bytes_per_thread']} B local; rolling only: end to end "
-                  f"{cfg['rolling_end_to_end']['best_ms']:.2f} ms, pipeline {cfg['rolling_device_pipeline']['best_ms']:.2f}"
-                  f" ms, kernel {cfg['rolling_kernel']['best_ms']:.2f} ms (best of {args.repeat})", flush=True)
+                  f"{cfg['rolling_end_to_end']['best_ms']:.2f} ms, "
+                  f"pipeline {cfg['rolling_device_pipeline']['best_ms']:.2f} ms, "
+                  f"kernel {cfg['rolling_kernel']['best_ms']:.2f} ms (best of {args.repeat})", flush=True)
             report["configs"].append(cfg)
     cb.MAX_REGISTERS = caps[0] or None
     cb.THREADS_PER_BLOCK = blocks[0]
@@ -171,9 +172,10 @@ def main(argv=None) -> int:
     first = report["configs"][0]
     report["slipping_over_rolling_end_to_end"] = (report["slipping_end_to_end"]["best_ms"]
                                                   / first["rolling_end_to_end"]["best_ms"])
-    print(f"mu = 1: compile {report['compile_slipping_s']:.1f} s; end to end {report['slipping_end_to_end']['best_ms']:.2f}"
-          f" ms, kernel {report['slipping_kernel']['best_ms']:.2f} ms; {report['slipping_over_rolling_end_to_end']:.1f}x"
-          " rolling only", flush=True)
+    print(f"mu = 1: compile {report['compile_slipping_s']:.1f} s; "
+          f"end to end {report['slipping_end_to_end']['best_ms']:.2f} ms, "
+          f"kernel {report['slipping_kernel']['best_ms']:.2f} ms; "
+          f"{report['slipping_over_rolling_end_to_end']:.1f}x rolling only", flush=True)
 
     if args.big:
         big = np.tile(states, (args.big, 1))

@@ -141,7 +141,8 @@ def _coefficients_R_over_rho(beta_end, x, j):
 
     if beta_end == 0:
         return np.eye(2)
-    return solve_ivp(f, (0.0, beta_end), np.eye(2).ravel(), method="DOP853", rtol=1e-12, atol=1e-14).y[:, -1].reshape(2, 2)
+    sol = solve_ivp(f, (0.0, beta_end), np.eye(2).ravel(), method="DOP853", rtol=1e-12, atol=1e-14)
+    return sol.y[:, -1].reshape(2, 2)
 
 
 def test_prop12_limit_R_to_zero():

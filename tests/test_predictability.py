@@ -198,7 +198,8 @@ def test_sampled_fraction_is_unbiased_over_strata():
     weight[rest] = 98_000 / 5000
     f, err = P.sampled_fraction(truth, weight)
     assert abs(f - truth.mean()) < 3 * err
-    assert P.sampled_fraction(truth) == pytest.approx((truth.mean(), np.sqrt(truth.mean() * (1 - truth.mean()) / truth.size)))
+    mean = truth.mean()
+    assert P.sampled_fraction(truth) == pytest.approx((mean, np.sqrt(mean * (1 - mean) / truth.size)))
 
 
 # ---------------------------------------------------------------- on the outcome sections
