@@ -37,7 +37,8 @@ TRANSECTS = [
     ("left edge with slipping, beta = 1.2", "slipping", (1.20, 0.0), (1.20, -5.0)),
 ]
 SCENES = {"rolling only": solver.Params(mu=float("inf")), "slipping": solver.Params(mu=1.0)}
-DISTANCES = np.geomspace(1e-9, 1e-1, 17)  # 1e-9 of 0.1 rad is 1e-10 rad: far below any grid  # fraction of the segment from the boundary
+# fraction of the segment from the boundary; 1e-9 of 0.1 rad is 1e-10 rad: far below any grid
+DISTANCES = np.geomspace(1e-9, 1e-1, 17)
 
 
 def states_at(inside, outside, s):
@@ -112,7 +113,8 @@ def main(argv=None):
         per = t["in"]["outcome"] == outcomes.PERIODIC_ROLLING
         kind = verdict(t)
         span = (f"{abs(TRANSECTS[k][3][0] - TRANSECTS[k][2][0]):g} rad"
-                if TRANSECTS[k][3][0] != TRANSECTS[k][2][0] else f"{abs(TRANSECTS[k][3][1] - TRANSECTS[k][2][1]):g} 1/s")
+                if TRANSECTS[k][3][0] != TRANSECTS[k][2][0]
+                else f"{abs(TRANSECTS[k][3][1] - TRANSECTS[k][2][1]):g} 1/s")
         label = f"{t['name']} ({t['scene']}, transect {span}): {kind}"
         ax_hp.semilogx(t["d_in"][per], t["in"]["half_period"][per], label=label, **style)
         ax_f2.semilogx(t["d_in"][per], t["in"]["f2_min"][per] / t["weight"], **style)
@@ -122,7 +124,8 @@ def main(argv=None):
         print(f"{t['name']:40s} {t['scene']:13s} ({t['x_star'][0]:.9f}, {t['x_star'][1]:+.6f}) "
               f"{t['in']['half_period'][per][-1]:8.3f} {t['in']['half_period'][per][0]:8.3f} "
               f"{t['in']['f2_min'][per][-1]:10.4f} {t['in']['f2_min'][per][0]:10.4f} "
-              f"{solver.OUTCOME_MEANINGS[int(o['outcome'][0])].split(':')[0]:>16s} {o['t_end'][0]:6.3f} {int(o['slip_phases'][0]):3d}  {kind}")
+              f"{solver.OUTCOME_MEANINGS[int(o['outcome'][0])].split(':')[0]:>16s} {o['t_end'][0]:6.3f} "
+              f"{int(o['slip_phases'][0]):3d}  {kind}")
     ax_hp.set_ylabel("half period of the periodic state [s]")
     ax_f2.set_ylabel(r"$F_{2,min}$ / (m g) of the periodic state")
     ax_tout.set_ylabel("time on the rim of the non-periodic state [s]\n(40 s = t_max: still on the rim)")

@@ -51,7 +51,8 @@ def case(name, omega2, row):
     """Fine samples across the cells around grid row ``row`` and the types of its boundary pair."""
     rows = np.arange(row - 3, row + 4)  # the grid-only test reads two periodic rows inside the pair
     grid = solver.simulate(states(GRID[rows], omega2), PARAMS, **GRID_RUN)
-    column = lambda key: np.repeat(grid[key][:, None], 3, axis=1)  # a 3-column strip: the grid's 2-D form
+    def column(key):  # a 3-column strip: the grid's 2-D form
+        return np.repeat(grid[key][:, None], 3, axis=1)
     grid_label = boundaries.classify(column("outcome"), column("f2_min"), column("half_period"), column("t_end"),
                                      PARAMS.m * PARAMS.g)[3, 1]
     pair = boundaries.refine_pairs(states([GRID[row]], omega2), states([GRID[row - 1]], omega2), PARAMS,
@@ -99,8 +100,9 @@ def main(argv=None):
             for ax in (ax_hp, ax_f2):
                 ax.axvline(r["b_peak"], color="#b8a000", ls=":", lw=1.2)
         top = np.nanmax(r["fine"]["half_period"][per])
+        beta_top = r["beta"][per][np.nanargmax(r["fine"]["half_period"][per])]  # where the largest lies
         ax_hp.set_ylim(0.0, 1.08 * top)
-        ax_hp.annotate(f"largest half period found: {top:.2f} s\nat beta = {r['beta'][per][np.nanargmax(r['fine']['half_period'][per])]:.5f} rad",
+        ax_hp.annotate(f"largest half period found: {top:.2f} s\nat beta = {beta_top:.5f} rad",
                        xy=(0.02, 0.97), xycoords="axes fraction", va="top", fontsize=8)
         ax_f2.annotate(f"deadlock boundary (F2_min -> 0) at beta = {r['b_bound']:.5f} rad\n"
                        f"grid pair (beta = {GRID[r['rows'][2]]:.5f} -> {GRID[r['rows'][1]]:.5f}):\n"
@@ -111,16 +113,18 @@ def main(argv=None):
                         fontsize=10)
         ax_hp.set_ylabel("half period [s] (periodic states)")
         ax_f2.set_ylabel(r"$F_{2,min}$ / (m g)")
-        ax_f2.set_xlabel(r"initial height angle $\beta$ [rad] (grid step %.5f rad)" % step)
+        ax_f2.set_xlabel(rf"initial height angle $\beta$ [rad] (grid step {step:.5f} rad)")
         ax_f2.set_ylim(-0.05, 1.5)
         print(f"{r['name']} omega1 = {OMEGA1:.4f}: deadlock boundary at beta = {r['b_bound']:.6f}; "
-              f"largest half period {top:.3f} s at beta = {r['beta'][per][np.nanargmax(r['fine']['half_period'][per])]:.6f}; "
+              f"largest half period {top:.3f} s at beta = {beta_top:.6f}; "
               f"grid points {np.round(GRID[r['rows']], 5).tolist()} outcomes {r['outcomes'].tolist()} "
               f"half periods {np.round(r['half_periods'], 3).tolist()}; pair {GRID[r['rows'][2]]:.5f} -> "
-              f"{GRID[r['rows'][1]]:.5f}: grid-only {flag(r['labels']['grid'])}, refined {flag(r['labels']['refined'])} "
+              f"{GRID[r['rows'][1]]:.5f}: grid-only {flag(r['labels']['grid'])}, "
+              f"refined {flag(r['labels']['refined'])} "
               f"({pair_p['n_runs']} runs)")
     from matplotlib.lines import Line2D
-    handles = [Line2D([], [], color=P.OUTCOME_PALETTE.colour(c), lw=2.0, label=f"grid point: {P.OUTCOME_PALETTE.label(c)}")
+    handles = [Line2D([], [], color=P.OUTCOME_PALETTE.colour(c), lw=2.0,
+                      label=f"grid point: {P.OUTCOME_PALETTE.label(c)}")
                for c in (outcomes.FALL_IN, outcomes.PERIODIC_ROLLING)]
     handles += [Line2D([], [], color="0.9", lw=8, label="the boundary pair's band (between its two grid points)"),
                 Line2D([], [], color="k", ls="--", lw=0.9, label="where periodic rolling ends (bisection)"),

@@ -1,8 +1,8 @@
 """The ``study`` command line: list, run, plot and describe named studies.
 
 Only argument parsing and orchestration live here; settings are resolved by ``study.settings``
-into a ``study.plan`` and every run goes through ``study.execute``. Every user error is one line ``study: error: ...`` on
-stderr and exit status 2.
+into a ``study.plan`` and every run goes through ``study.execute``. Every user error is one line
+``study: error: ...`` on stderr and exit status 2.
 """
 
 from __future__ import annotations
@@ -70,8 +70,9 @@ def _parser() -> argparse.ArgumentParser:
     ref = sub.add_parser("reference", help="stored reference slices (study/reference_slices): build them")
     ref.add_argument("--build", action="store_true", required=True,
                      help="compute the slices (outcome sections at rtol 1e-12, DOP853) and write them")
-    ref.add_argument("--out", default=None, help="directory to write (default: a source checkout's study/reference_slices; "
-                                                  "required when rimroll is installed)")
+    ref.add_argument("--out", default=None,
+                     help="directory to write (default: a source checkout's study/reference_slices; "
+                          "required when rimroll is installed)")
     ref.add_argument("--only", action="append", default=[], metavar="STUDY", help="build only this study's slices")
     ref.add_argument("--grid", action="append", default=[], choices=("default", "quick"),
                      help="build only the slice of this grid: a sub-grid of the default grid, or the whole "
@@ -251,7 +252,8 @@ def _cmd_info(args) -> int:
         print("\n".join(describe(args.file)))
         return 0
     if not is_file:
-        raise UserError(f"{args.file!r} is neither a results file nor a study; studies: {', '.join(natural_order(registry.names()))}")
+        raise UserError(f"{args.file!r} is neither a results file nor a study; "
+                        f"studies: {', '.join(natural_order(registry.names()))}")
     ds = io.open_result(target)
     print(f"{args.file}: {ds.attrs.get('title', '')} [study {ds.attrs['study']}]")
     print("dimensions: " + ", ".join(f"{k}={v}" for k, v in ds.sizes.items()))

@@ -13,9 +13,10 @@ continuous variables as a scaled error ``|x - x_ref| / (atol + rtol |x_ref|)`` a
 away from boundaries where every categorical variable agrees (elsewhere they describe different
 motions), with NaN == NaN and inf == inf of the same sign counted as equal.
 
-A result passes only if it holds every variable of the reference (but those its study never compares, such as ``n_steps``), and if its
-common points cover at least :data:`MIN_COVERAGE` of the reference's points: a coarse grid that
-shares a few corners with the slice has checked almost nothing.
+A result passes only if it holds every variable of the reference (but those its study never
+compares, such as ``n_steps``), and if its common points cover at least :data:`MIN_COVERAGE` of
+the reference's points: a coarse grid that shares a few corners with the slice has checked almost
+nothing.
 """
 
 from __future__ import annotations

@@ -251,11 +251,12 @@ def place_contour_labels(ax, cs, fmt, avoid=(), fontsize: float = 7.5, margin: f
             continue
         cand = cand[inside]
         def dist(points):  # distance in axes units, a label's own width counted along x
+            # called in this iteration only: cand is this level's (B023 a false positive)
             if not points:
-                return np.full(len(cand), np.inf)
+                return np.full(len(cand), np.inf)  # noqa: B023
             ref = np.concatenate(points)
-            return np.min(np.hypot((cand[:, None, 0] - ref[None, :, 0]) / 1.6,
-                                   cand[:, None, 1] - ref[None, :, 1]), axis=1)
+            return np.min(np.hypot((cand[:, None, 0] - ref[None, :, 0]) / 1.6,  # noqa: B023
+                                   cand[:, None, 1] - ref[None, :, 1]), axis=1)  # noqa: B023
 
         hard = dist(fixed + chosen)
         soft = np.minimum(hard, dist([lines[i] for i in range(len(lines)) if i != k and len(lines[i])]))

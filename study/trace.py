@@ -150,7 +150,8 @@ def from_map(path, at_text: str, sets: dict) -> tuple[np.ndarray, solver.Params,
     where = ", ".join(f"{d}={P.scene_key(point[d].values[()]) if d == 'scene' else f'{float(point[d]):g}'}"
                       for d in dims)
     prov = {"source_file": str(path), "source_study": str(ds.attrs.get("study", "")), "source_point": where,
-            "source_outcome": int(point["outcome"]), "source_t_end": float(point["t_end"]) if "t_end" in point else np.nan}
+            "source_outcome": int(point["outcome"]),
+            "source_t_end": float(point["t_end"]) if "t_end" in point else np.nan}
     if "rtol" in ds.attrs or "setting_rtol" in ds.attrs:
         prov["source_rtol"] = float(setting_of(ds, "rtol"))
     return state, params, t_max, prov
@@ -298,7 +299,8 @@ def run(args, command: str) -> int:
         raise UserError("give either --state BETA,OMEGA1,OMEGA2,OMEGA3 or a results FILE with --at DIM=VALUE,...")
     if args.file is not None:
         if not args.at:
-            raise UserError(f"{args.file}: say which point of the map with --at, e.g. --at omega1=2,beta=1.1,scene=slipping")
+            raise UserError(f"{args.file}: say which point of the map with --at, "
+                            "e.g. --at omega1=2,beta=1.1,scene=slipping")
         state, params, t_max, extra = from_map(args.file, args.at, sets)
     else:
         if args.at:

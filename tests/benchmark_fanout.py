@@ -72,7 +72,8 @@ def peak_rss_child(n_beta0: int) -> None:
     plan, st = fanout_once("fig3", [f"beta0=-3.1:3.1:{n_beta0}", "n_omega30=5000"], 2, out, quick=False)
     size = os.path.getsize(os.path.join(out, "fig3.nc"))
     print(json.dumps({"cube_bytes": n_beta0 * 5000 * 8, "file_bytes": size, "wall_s": time.perf_counter() - t0,
-                      "chunks": plan.n_chunks, "maxrss_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}))
+                      "chunks": plan.n_chunks,
+                      "maxrss_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}))
 
 
 def memory(quick: bool):

@@ -137,7 +137,7 @@ def main(argv=None) -> int:
               "run": RUN, "numba_cuda": _version("numba-cuda"), "numba": _version("numba"), "configs": []}
     print(f"device: {device}; section: {len(states)} states, {RUN}")
 
-    for i, cap in enumerate(caps):
+    for cap in caps:
         for tpb in blocks:
             cb.MAX_REGISTERS = cap or None
             cb.THREADS_PER_BLOCK = tpb
@@ -147,16 +147,18 @@ def main(argv=None) -> int:
             cfg["compile_rolling_s"] = time.perf_counter() - t0
             k = cb.kernel(s_roll, RUN["method"])
             sig = types.void(*cb.SIGNATURE)
-            cfg["registers"] = _safe(lambda: k.get_regs_per_thread(sig))
-            cfg["local_bytes_per_thread"] = _safe(lambda: k.get_local_mem_per_thread(sig))
+            # _safe calls the lambda at once, in this iteration
+            cfg["registers"] = _safe(lambda: k.get_regs_per_thread(sig))  # noqa: B023
+            cfg["local_bytes_per_thread"] = _safe(lambda: k.get_local_mem_per_thread(sig))  # noqa: B023
             cfg["rolling_end_to_end"] = timed(lambda: solver.simulate(states, rolling, **RUN, backend="cuda"),
                                               args.repeat)
             cfg["rolling_device_pipeline"] = timed(lambda: device_run(cb, s_roll, states, rolling), args.repeat)
             cfg["rolling_kernel"] = kernel_time(cb, cuda, s_roll, states, rolling, args.repeat)
             print(f"registers cap {cap or '-'}, block {tpb}: compile {cfg['compile_rolling_s']:.1f} s, "
                   f"{cfg['registers']} registers, {cfg['local_bytes_per_thread']} B local; rolling only: end to end "
-                  f"{cfg['rolling_end_to_end']['best_ms']:.2f} ms, pipeline {cfg['rolling_device_pipeline']['best_ms']:.2f}"
-                  f" ms, kernel {cfg['rolling_kernel']['best_ms']:.2f} ms (best of {args.repeat})", flush=True)
+                  f"{cfg['rolling_end_to_end']['best_ms']:.2f} ms, "
+                  f"pipeline {cfg['rolling_device_pipeline']['best_ms']:.2f} ms, "
+                  f"kernel {cfg['rolling_kernel']['best_ms']:.2f} ms (best of {args.repeat})", flush=True)
             report["configs"].append(cfg)
     cb.MAX_REGISTERS = caps[0] or None
     cb.THREADS_PER_BLOCK = blocks[0]
@@ -170,9 +172,10 @@ def main(argv=None) -> int:
     first = report["configs"][0]
     report["slipping_over_rolling_end_to_end"] = (report["slipping_end_to_end"]["best_ms"]
                                                   / first["rolling_end_to_end"]["best_ms"])
-    print(f"mu = 1: compile {report['compile_slipping_s']:.1f} s; end to end {report['slipping_end_to_end']['best_ms']:.2f}"
-          f" ms, kernel {report['slipping_kernel']['best_ms']:.2f} ms; {report['slipping_over_rolling_end_to_end']:.1f}x"
-          " rolling only", flush=True)
+    print(f"mu = 1: compile {report['compile_slipping_s']:.1f} s; "
+          f"end to end {report['slipping_end_to_end']['best_ms']:.2f} ms, "
+          f"kernel {report['slipping_kernel']['best_ms']:.2f} ms; "
+          f"{report['slipping_over_rolling_end_to_end']:.1f}x rolling only", flush=True)
 
     if args.big:
         big = np.tile(states, (args.big, 1))

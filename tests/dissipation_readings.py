@@ -82,7 +82,8 @@ def table(counted: dict) -> list[str]:
             "rolling res., moment |", "|---|---|---|---|---|---|"]
     for fig, c in counted.items():
         for name in ISLANDS:
-            cells = [" / ".join(str(v) for v in c[name, kind, reading]) for kind in DISSIPATIONS for reading in READINGS]
+            cells = [" / ".join(str(v) for v in c[name, kind, reading])
+                     for kind in DISSIPATIONS for reading in READINGS]
             rows.append(f"| {fig} | {name.replace('_', '-')} | " + " | ".join(cells) + " |")
     return rows
 

@@ -81,7 +81,8 @@ def test_leading_axes_are_independent_and_no_periodic_means_no_boundary():
     periodic = outcome == outcomes.PERIODIC_ROLLING
     f2 = np.where(periodic, WEIGHT * (1.0 - rel**2), 0.0)
     hp = np.where(periodic, 0.4, np.nan)
-    stack = lambda a, b: np.stack([a, b])
+    def stack(a, b):
+        return np.stack([a, b])
     falls = np.full_like(outcome, outcomes.FALL_IN)
     lab = B.classify(stack(outcome, falls), stack(f2, f2 * 0), stack(hp, hp * np.nan),
                      stack(np.ones_like(f2), np.ones_like(f2)), WEIGHT)

@@ -210,7 +210,8 @@ ENGINE_MODULES = ("physics/rolling", "physics/slipping", "physics/switching", "p
 @needs_numba_cuda
 def test_the_engine_calls_only_numpy_functions_the_device_lowers():
     """Every ``np.<f>(...)`` call in a compiled function of the engine (``@kernel``; the CPU chunk
-    driver run_scene and its new_work, whose work arrays the device launcher replaces, aside) is a ufunc numba-cuda lowers on scalars, or one of the loops solver.engine.cuda_backend adds: a new
+    driver run_scene and its new_work, whose work arrays the device launcher replaces, aside) is a
+    ufunc numba-cuda lowers on scalars, or one of the loops solver.engine.cuda_backend adds: a new
     numpy call in the engine that the device cannot compile fails here, without the CUDA compiler."""
     import ast
 

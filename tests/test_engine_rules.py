@@ -149,7 +149,8 @@ def test_slip_roll_cycling_is_steady_and_its_cost_is_the_stiff_slip():
     assert spent["on_rim_reason"] == outcomes.STOPPED_EARLY and spent["n_steps"] >= 60_000
     assert 3.0 < spent["t_end"] < 6.0  # ~12,000 steps per second of this motion
     rolling = simulate(SLIP_ROLL_STATE, ROLL, t_max=100.0)  # without slipping: a periodic orbit, found at once
-    assert rolling["outcome"] == outcomes.PERIODIC_ROLLING and rolling["n_steps"] < 1000 and rolling["n_slip_steps"] == 0
+    assert rolling["outcome"] == outcomes.PERIODIC_ROLLING
+    assert rolling["n_steps"] < 1000 and rolling["n_slip_steps"] == 0
 
 
 def test_on_rim_reason_reads_outcome_status_and_slips():

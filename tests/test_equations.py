@@ -45,7 +45,8 @@ def test_energy_60_with_rho_is_conserved_by_rolling_trajectories():
     E = rolling.energy(xs[0], xs[1], xs[2], xs[3], pa)
     assert np.ptp(xs[0]) > 0.05  # beta really moves, so the potential term is exercised
     assert np.max(np.abs(E - E[0])) / abs(E[0]) < 1e-10
-    # The printed (60), potential m g r sin(beta), is NOT conserved (the equations conserve m g rho sin(beta)): the check can fail.
+    # The printed (60), potential m g r sin(beta), is NOT conserved (the equations conserve
+    # m g rho sin(beta)): the check can fail.
     printed = E - p.m * p.g * (p.rho - p.r) * np.sin(xs[0])
     assert np.max(np.abs(printed - printed[0])) / abs(printed[0]) > 1e-4
 
@@ -73,7 +74,8 @@ def test_energy_rate_equals_dissipated_power_pointwise(k_r, k_d):
     for x in random_rolling_states(20):
         rates = np.array(rolling.rolling_rhs(*x, pa))
         grad = gradient(lambda z: rolling.energy(*z, pa), x)
-        assert grad @ rates == pytest.approx(rolling.dissipated_power(x[1], x[2], x[3], pa), abs=1e-6 * np.abs(grad * rates).max())
+        power = rolling.dissipated_power(x[1], x[2], x[3], pa)
+        assert grad @ rates == pytest.approx(power, abs=1e-6 * np.abs(grad * rates).max())
 
 
 @pytest.mark.parametrize("k_r, k_d", [(0.0, 0.0), (0.02, 0.0), (0.0, 0.02), (0.3, 0.7)])
@@ -130,7 +132,8 @@ def test_directional_limits_76_are_the_limits_of_42():
         for phi in np.linspace(0, 2 * np.pi, 7):  # (75): the limit of u_dot from direction phi
             d = 1e-9
             rates = slipping.slipping_rhs(*x, d * np.cos(phi), d * np.sin(phi), pa)
-            np.testing.assert_allclose(rates[4:], [B1 - C * np.cos(phi), B3 - C * np.sin(phi)], atol=1e-5 * (abs(C) + np.hypot(B1, B3)))
+            np.testing.assert_allclose(rates[4:], [B1 - C * np.cos(phi), B3 - C * np.sin(phi)],
+                                       atol=1e-5 * (abs(C) + np.hypot(B1, B3)))
 
 
 @pytest.mark.parametrize("k_r, k_d", [(0.0, 0.0), (0.05, 0.05)])
@@ -140,7 +143,8 @@ def test_phi1_switches_from_attracting_to_repelling_on_the_slip_boundary(k_r, k_
     w2, w3 = 35.0, 10.0
     beta = 1.3
     # walk omega1 outward from a rolling state until the friction cone (39) is left
-    margin = lambda w1: rolling.friction_margin(beta, w1, w2, w3, pa)
+    def margin(w1):
+        return rolling.friction_margin(beta, w1, w2, w3, pa)
     assert margin(0.0) > 0 and margin(12.0) < 0
     w1_star = brentq(margin, 0.0, 12.0, xtol=1e-13)
     for w1, expect_repelling in ((w1_star - 1e-4, False), (w1_star + 1e-4, True)):
@@ -149,7 +153,8 @@ def test_phi1_switches_from_attracting_to_repelling_on_the_slip_boundary(k_r, k_
         ud2 = slipping.radial_slip_rate(beta, w1, w2, w3, phi1 + np.pi, pa)
         assert (ud1 > 0) == expect_repelling
         assert ud2 < 0  # phi2 is always attracting while F2 > 0
-    assert abs(slipping.radial_slip_rate(beta, w1_star, w2, w3, slipping.limit_direction(beta, w1_star, w2, w3, pa), pa)) < 1e-8
+    phi_star = slipping.limit_direction(beta, w1_star, w2, w3, pa)
+    assert abs(slipping.radial_slip_rate(beta, w1_star, w2, w3, phi_star, pa)) < 1e-8
 
 
 def test_slipping_energy_decays_at_the_friction_power():

@@ -82,7 +82,9 @@ def test_outcome_legend_equals_the_categories_drawn(fig12):
              if isinstance(c, LineCollection) and (c.get_gid() or "").startswith("boundary_")}
     kinds = set(np.unique(fig12["boundary_type"].values)) - {boundaries.NOT_BOUNDARY}
     assert kinds, "the quick fig12 grid has typed boundaries"
-    boundary_texts = {s["label"] for s in __import__("rimroll.workflows.outcome_grids").workflows.outcome_grids.BOUNDARY_STYLES.values()}
+    from rimroll.workflows.outcome_grids import BOUNDARY_STYLES
+
+    boundary_texts = {s["label"] for s in BOUNDARY_STYLES.values()}
     assert {t for t in texts if t in boundary_texts} == set(drawn)
     # the legend draws each boundary exactly as the plot does
     handles = {h.get_label(): h for leg in fig.legends for h in leg.legend_handles}
@@ -117,7 +119,7 @@ def test_contour_labels_clear_of_the_star_and_of_each_other(fig12):
     fig = _rendered(get("fig12").plot(fig12))
     renderer = fig.canvas.get_renderer()
     checked = 0
-    for ax in [a for main in fig.axes for a in (main, *main.child_axes)]:  # zoom insets too
+    for ax in [a for panel in fig.axes for a in (panel, *panel.child_axes)]:  # zoom insets too
         stars = [line for line in ax.get_lines() if line.get_marker() == "*"]
         labels = [t for t in ax.texts if t.get_text().endswith(" s")]
         if not stars or not labels:
@@ -241,7 +243,8 @@ def test_cells_on_the_rim_are_marked_above_the_cells_and_both_islands_outlined(f
         ds["outcome"].values[1, i, j] = solver.engine.outcomes.ON_RIM_AT_T_MAX
         ds["on_rim_reason"].values[1, i, j] = solver.engine.outcomes.SLIP_ROLL_CYCLING
     fig = _rendered(get("fig12").plot(ds))
-    marks = [line for line in fig.axes[1].get_lines() if line.get_gid() == f"on_rim_{solver.engine.outcomes.SLIP_ROLL_CYCLING}"]
+    gid = f"on_rim_{solver.engine.outcomes.SLIP_ROLL_CYCLING}"
+    marks = [line for line in fig.axes[1].get_lines() if line.get_gid() == gid]
     assert len(marks) == 1
     x, y = marks[0].get_data()
     assert sorted(zip(np.round(y, 9), np.round(x, 9))) == sorted(

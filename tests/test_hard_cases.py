@@ -39,7 +39,8 @@ def assert_finite(r):
 def energy(beta, w1, w2, w3, p=P):
     """Mechanical energy (60) with the potential m g rho sin(beta) [J]."""
     r2 = p.r**2
-    return 0.5 * p.m * p.j * r2 * w2**2 + 0.5 * p.m * (1 + p.j) * r2 * (w1**2 + w3**2) + p.m * p.g * p.rho * np.sin(beta)
+    return (0.5 * p.m * p.j * r2 * w2**2 + 0.5 * p.m * (1 + p.j) * r2 * (w1**2 + w3**2)
+            + p.m * p.g * p.rho * np.sin(beta))
 
 
 # ------------------------------------------------------------------ singular steady motions

@@ -46,7 +46,8 @@ def test_periodic_rolling_without_slip_is_unchanged_by_finite_mu():
 def test_outside_the_friction_cone_slips_at_t0():
     p = Params(mu=0.2)
     x = np.array([1.2, 0.5, 35.0, 10.0])
-    assert rolling.friction_margin.py_func(*x, p.as_array()) < 0 < rolling.normal_force.py_func(x[0], x[1], x[3], p.as_array())
+    pa = p.as_array()
+    assert rolling.friction_margin.py_func(*x, pa) < 0 < rolling.normal_force.py_func(x[0], x[1], x[3], pa)
     res = simulate(x, p, t_max=2.0)
     assert res["slip_phases"] >= 1 and res["slip_time"] > 0 and res["status"] == 0
 

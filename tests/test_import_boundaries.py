@@ -26,7 +26,8 @@ def test_import_solver_loads_no_xarray_dask_or_study():
 
 def test_importing_the_study_layer_imports_no_workflows_module():
     modules = sorted(p.stem for p in (ROOT / "study").glob("*.py") if p.stem not in ("__main__",))
-    loaded = _loaded_after("\n".join(f"import rimroll.study.{m}" if m != "__init__" else "import rimroll.study" for m in modules))
+    imports = [f"import rimroll.study.{m}" if m != "__init__" else "import rimroll.study" for m in modules]
+    loaded = _loaded_after("\n".join(imports))
     assert "study" in loaded and "workflows" not in loaded
 
 

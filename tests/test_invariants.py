@@ -141,7 +141,8 @@ def _coefficients_R_over_rho(beta_end, x, j):
 
     if beta_end == 0:
         return np.eye(2)
-    return solve_ivp(f, (0.0, beta_end), np.eye(2).ravel(), method="DOP853", rtol=1e-12, atol=1e-14).y[:, -1].reshape(2, 2)
+    sol = solve_ivp(f, (0.0, beta_end), np.eye(2).ravel(), method="DOP853", rtol=1e-12, atol=1e-14)
+    return sol.y[:, -1].reshape(2, 2)
 
 
 def test_prop12_limit_R_to_zero():
@@ -169,8 +170,9 @@ def test_prop12_and_prop11_closed_forms_conserved_in_their_limits():
         for beta in rng.uniform(-1.2, 1.2, 5):
             h = 1e-6
             # c = gradient of P in (omega2, omega3); check dc/dbeta = -A^T c
-            def coeffs(b):  # rows: (c2, c3) of P_I and of P_II
-                return np.array([[closed(b, 1.0, 0.0, j)[i], closed(b, 0.0, 1.0, j)[i]] for i in range(2)])
+            def coeffs(b):  # rows: (c2, c3) of P_I and of P_II; called in this iteration only
+                rows = [[closed(b, 1.0, 0.0, j)[i], closed(b, 0.0, 1.0, j)[i]] for i in range(2)]  # noqa: B023
+                return np.array(rows)
 
             dc = (coeffs(beta + h) - coeffs(beta - h)) / (2 * h)
             A = floquet.system_matrix(beta, x if x > 0 else 1e-300, j, "coefficients")

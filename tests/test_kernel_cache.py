@@ -157,5 +157,6 @@ def test_the_step_loop_is_compiled_three_times_for_the_four_scenes(tmp_path):
     env = {**os.environ, "RIMROLL_CACHE_DIR": str(tmp_path / "cache")}
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, env=env)
     assert out.returncode == 0, out.stderr[-2000:]
-    assert sorted(out.stdout.split("\n")[:-1]) == ["rolling_rhs Literal[bool](False)", "rolling_rhs Literal[bool](True)",
+    assert sorted(out.stdout.split("\n")[:-1]) == ["rolling_rhs Literal[bool](False)",
+                                                   "rolling_rhs Literal[bool](True)",
                                                    "slipping_rhs Literal[bool](True)"]

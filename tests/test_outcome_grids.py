@@ -33,8 +33,8 @@ def test_files_carry_scenes_every_result_field_and_t_max(sections):
     for name in ("outcome", "t_end", "f2_min", "half_period", "revolutions", "slip_phases", "slip_time",
                  "energy_drift", "n_steps", "beta_end", "omega1_end", "omega2_end", "omega3_end", "status"):
         assert "units" in ds[name].attrs and "long_name" in ds[name].attrs
-    assert ds["outcome"].attrs["flag_meanings"].split() == ["fall_in", "fall_out", "periodic_rolling", "on_rim_at_t_max",
-                                                          "steady_motion"]
+    assert ds["outcome"].attrs["flag_meanings"].split() == ["fall_in", "fall_out", "periodic_rolling",
+                                                          "on_rim_at_t_max", "steady_motion"]
     assert ds.attrs["setting_omega2"] == 65.0
     assert (ds["status"] == outcomes.OK).all()
 
@@ -130,7 +130,8 @@ def test_former_periodic_marks_both_islands_and_counts_their_fates(sections):
     assert var.attrs["fate_order"] == "fall_in fall_out other"
     out = ds["outcome"].values
     flags = var.values[0]
-    islands = {"rolling_only": out[ROLL] == outcomes.PERIODIC_ROLLING, "slipping": out[SLIP] == outcomes.PERIODIC_ROLLING}
+    islands = {"rolling_only": out[ROLL] == outcomes.PERIODIC_ROLLING,
+               "slipping": out[SLIP] == outcomes.PERIODIC_ROLLING}
     assert ((flags & 1) == 1).tolist() == islands["rolling_only"].tolist()
     assert ((flags & 2) == 2).tolist() == islands["slipping"].tolist()
     for scene, k in (("drilling", DRILL), ("rolling_resistance", RRES)):
@@ -141,7 +142,8 @@ def test_former_periodic_marks_both_islands_and_counts_their_fates(sections):
             assert counts.tolist() == expected + [mask.sum() - sum(expected)]
             assert var.attrs[f"island_cells_{island}"] == mask.sum()
             np.testing.assert_allclose(var.attrs[f"fate_fractions_{scene}_{island}"], counts / mask.sum())
-    fr = lambda scene, island: var.attrs[f"fate_fractions_{scene}_{island}"]
+    def fr(scene, island):
+        return var.attrs[f"fate_fractions_{scene}_{island}"]
     assert fr("rolling_resistance", "slipping")[0] >= 0.9 and fr("drilling", "slipping")[1] >= 0.9
     assert 0.1 <= fr("rolling_resistance", "rolling_only")[1] <= 0.5  # part of the larger island falls out
     assert not any(k.startswith("fate_counts_slipping") or k.startswith("fate_counts_rolling_only_")

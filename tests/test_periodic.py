@@ -16,7 +16,8 @@ ROLL = Params(mu=INF)
 
 
 def energy(res, p):
-    return rolling.energy.py_func(res["beta_end"], res["omega1_end"], res["omega2_end"], res["omega3_end"], p.as_array())
+    return rolling.energy.py_func(res["beta_end"], res["omega1_end"], res["omega2_end"], res["omega3_end"],
+                                  p.as_array())
 
 
 @pytest.mark.parametrize("beta0,omega30", [(1.2, 10.0), (1.0, 10.0), (0.5, 30.0)])

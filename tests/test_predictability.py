@@ -147,8 +147,11 @@ def test_fractal_boundary_below_a_weierstrass_graph():
     """Region below W(x) = sum a^k cos(b^k pi x): graph dimension D = 2 + ln a / ln b (Kaplan,
     Mallet-Paret, Yorke 1984), so alpha = 2 - D = -ln a / ln b for perturbations along x."""
     a, b, terms = 0.5, 4, 16
-    weierstrass = lambda x: sum(a ** k * np.cos(b ** k * np.pi * x) for k in range(terms))
-    classify = lambda s: (s[..., 1] > weierstrass(s[..., 0])).astype(int)
+    def weierstrass(x):
+        return sum(a ** k * np.cos(b ** k * np.pi * x) for k in range(terms))
+
+    def classify(s):
+        return (s[..., 1] > weierstrass(s[..., 0])).astype(int)
     rng = np.random.default_rng(1)
     states = np.column_stack([rng.uniform(0, 1, 200_000), rng.uniform(-2, 2, 200_000)])
     eps = np.logspace(-6, -2, 9)  # three log-periods of b = 4 and more
@@ -195,7 +198,8 @@ def test_sampled_fraction_is_unbiased_over_strata():
     weight[rest] = 98_000 / 5000
     f, err = P.sampled_fraction(truth, weight)
     assert abs(f - truth.mean()) < 3 * err
-    assert P.sampled_fraction(truth) == pytest.approx((truth.mean(), np.sqrt(truth.mean() * (1 - truth.mean()) / truth.size)))
+    mean = truth.mean()
+    assert P.sampled_fraction(truth) == pytest.approx((mean, np.sqrt(mean * (1 - mean) / truth.size)))
 
 
 # ---------------------------------------------------------------- on the outcome sections

@@ -38,7 +38,9 @@ def test_readme_starts_with_the_install_block_and_the_test_block():
     for step in ("python3 -m venv .venv", ". .venv/bin/activate", "pip install .", "study run fig8 --quick"):
         assert step in install  # a virtual environment: system pip refuses to install (PEP 668)
     assert install.index("python3 -m venv .venv") < install.index("pip install .") < install.index("study run")
-    assert _commands(second[1]) == ['. .venv/bin/activate && pip install ".[test]" && python -m pytest -q']
+    # ruff, then the import contract (docs/architecture.md), then the tests, with the reasons of the skipped ones
+    assert _commands(second[1]) == ['. .venv/bin/activate && pip install ".[test]" && ruff check . && lint-imports'
+                                    ' && python -m pytest -q -rs']
 
 
 def test_ci_runs_exactly_the_readme_test_command():

@@ -78,7 +78,8 @@ def test_outcomes_match_scipy_reference_hybrid_large(scene):
 
 def test_periodic_states_match_in_the_slipping_scene():
     """States that roll periodically with mu = 1 (never leaving the friction cone): same half period."""
-    x = np.array([[0.9819171631789656, -1.1690973786715766, 35.0, 10.0], [1.072859350296218, 1.513516967593116, 35.0, 10.0],
+    x = np.array([[0.9819171631789656, -1.1690973786715766, 35.0, 10.0],
+                  [1.072859350296218, 1.513516967593116, 35.0, 10.0],
                   [1.1359304531912175, 0.14701514118956283, 35.0, 10.0]])
     p = Params(mu=1.0)
     ours = simulate(x, p, t_max=10.0)

@@ -18,8 +18,9 @@ INF = float("inf")
 FIELDS = {
     "outcome": np.int8, "t_end": np.float64, "f2_min": np.float64, "half_period": np.float64,
     "revolutions": np.float64, "slip_phases": np.int32, "slip_time": np.float64, "energy_drift": np.float64,
-    "n_steps": np.int64, "n_searched": np.int64, "beta_end": np.float64, "omega1_end": np.float64, "omega2_end": np.float64,
-    "omega3_end": np.float64, "steady_h": np.float64, "status": np.int8, "n_slip_steps": np.int64,
+    "n_steps": np.int64, "n_searched": np.int64, "beta_end": np.float64, "omega1_end": np.float64,
+    "omega2_end": np.float64, "omega3_end": np.float64, "steady_h": np.float64, "status": np.int8,
+    "n_slip_steps": np.int64,
     "on_rim_reason": np.int8,
 }
 

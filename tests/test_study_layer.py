@@ -161,8 +161,8 @@ def test_entry_point_in_a_subprocess(tmp_path):
                          capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stderr
     assert (tmp_path / "fig8.nc").exists() and (tmp_path / "fig8.png").exists()
-    bad = subprocess.run([sys.executable, "-m", "rimroll.study", "run", "fig8", "--set", "j=-1", "--out", str(tmp_path)],
-                         capture_output=True, text=True, timeout=120)
+    bad = subprocess.run([sys.executable, "-m", "rimroll.study", "run", "fig8", "--set", "j=-1",
+                          "--out", str(tmp_path)], capture_output=True, text=True, timeout=120)
     assert bad.returncode == 2 and bad.stderr.startswith("study: error:") and "Traceback" not in bad.stderr
 
 

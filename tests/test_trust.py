@@ -135,7 +135,7 @@ def test_concurrent_runs_of_different_inputs_never_both_write(tmp_path):
         assert f"v_throw={ds.attrs['setting_v_throw']}" == winner[-1]
 
 
-# ================================================================ 3, 7. parts carry their identity; any damage is recomputed
+# ================================================================ 3, 7. parts carry their identity; damage recomputed
 def _failed_run_with_parts(probe, out, log):
     os.environ["FANOUT_PROBE_FAIL_MU"] = "2.0"
     try:
@@ -262,7 +262,8 @@ def test_verify_after_pip_install(tmp_path):
             (src / f).write_bytes((root / f).read_bytes())
     venv = tmp_path / "venv"
     subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True)
-    site = subprocess.run([str(venv / "bin" / "python"), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+    purelib = "import sysconfig; print(sysconfig.get_paths()['purelib'])"
+    site = subprocess.run([str(venv / "bin" / "python"), "-c", purelib],
                           capture_output=True, text=True, check=True).stdout.strip()
     pathlib.Path(site, "zz_deps.pth").write_text(sysconfig.get_paths()["purelib"] + "\n")
     install = subprocess.run([str(venv / "bin" / "pip"), "install", "-q", "--no-deps", str(src)],
@@ -288,7 +289,8 @@ def test_verify_after_pip_install(tmp_path):
     assert quick.returncode == 0, quick.stderr
     verify = subprocess.run([study, "verify", str(tmp_path / "quick" / "fig8.nc")], cwd=tmp_path, env=env,
                             capture_output=True, text=True, timeout=600)
-    assert verify.returncode == 0 and "site-packages/rimroll/study/reference_slices/quick/fig8.nc" in verify.stdout, verify
+    shipped = "site-packages/rimroll/study/reference_slices/quick/fig8.nc"
+    assert verify.returncode == 0 and shipped in verify.stdout, verify
 
 
 # ================================================================ 6. a cube with every swept setting scalar

@@ -1,4 +1,5 @@
-"""The work-precision study (docs/work-precision.md): every integrator in every scene, errors against the rtol-1e-12 reference.
+"""The work-precision study (docs/work-precision.md): every integrator in every scene, errors
+against the rtol-1e-12 reference.
 
 Only accuracy is asserted; timings are figures of the study, never assertions.
 """

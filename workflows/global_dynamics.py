@@ -271,7 +271,8 @@ register(Study(
         Var("type", "1", "type of the solution through the state: the item of Theorem 1, 0 if undetermined "
             "(docs/solution-types.md)", dtype="int8",
             flag_values=st.TYPE_FLAG_VALUES, flag_meanings=st.TYPE_FLAG_MEANINGS),
-        Var("half_period", "s", "time t2 - t1 between two transversal zeros of omega1 (NaN unless periodic by Prop. 4)"),
+        Var("half_period", "s", "time t2 - t1 between two transversal zeros of omega1 "
+            "(NaN unless periodic by Prop. 4)"),
         Var("period", "s", "period: 2 half_period, or q revolutions of beta for a rotation with rotation number p/q "
             "(NaN unless periodic)"),
         Var("t_first_zero", "s", "first zero of omega1 at or after t = 0 (NaN if none within t_max)"),

@@ -149,7 +149,8 @@ def _derive(ds) -> dict:
     refined by simulation), and ``former_periodic`` with the fates of the islands."""
     p = params_of(ds)
     dims = ("scene", "beta", "omega1")
-    get = lambda name: ds[name].transpose(*dims).values
+    def get(name):
+        return ds[name].transpose(*dims).values
     outcome, f2, hp, t_end = get("outcome"), get("f2_min"), get("half_period"), get("t_end")
     mu = ds["mu"].values
     conservative = (ds["k_r"].values == 0) & (ds["k_d"].values == 0)
@@ -238,7 +239,8 @@ def _draw_boundaries(ax, sel, w1, beta) -> set:
 
 def steady_beta0(omega2: float, omega3: float, p: solver.Params, lo: float, hi: float) -> float | None:
     """beta0 in [lo, hi] [rad] of the steady motion (48) with these omega20, omega30; None if none."""
-    f = lambda b: steady.omega20(b, omega3, p) - omega2
+    def f(b):
+        return steady.omega20(b, omega3, p) - omega2
     grid = np.linspace(lo, min(hi, np.pi / 2 - 1e-6), 400)
     vals = f(grid)
     sign = np.nonzero(np.sign(vals[:-1]) != np.sign(vals[1:]))[0]
@@ -272,7 +274,8 @@ def _on_rim_marks(ax, sel, w1, beta, extras, size: float) -> None:
     if "on_rim_reason" in sel:
         reason = sel["on_rim_reason"].transpose("beta", "omega1").values
     else:  # files written before on_rim_reason was stored
-        get = lambda name: sel[name].transpose("beta", "omega1").values
+        def get(name):
+            return sel[name].transpose("beta", "omega1").values
         reason = outcomes.on_rim_reason(out, get("status"), get("slip_phases"))
     for code, style in ON_RIM_MARKERS.items():
         i, j = np.nonzero(on & (reason == code))

@@ -135,7 +135,8 @@ def _pred_derive(ds):
     shape = codes.shape[:-2]
     eps = eps_values(setting_of(ds, "n_fine"), setting_of(ds, "n_coarse"))
     box = int(setting_of(ds, "box"))
-    flat = lambda a: a.reshape((-1,) + a.shape[-2:])
+    def flat(a):
+        return a.reshape((-1,) + a.shape[-2:])
     n = int(np.prod(shape, dtype=int))
     s_b, s_bb, n_bb = np.empty(n), np.empty(n), np.empty(n, dtype=np.int32)
     f, f_err = np.empty((n, eps.size)), np.empty((n, eps.size))
@@ -150,8 +151,11 @@ def _pred_derive(ds):
         ex = pred.uncertainty_exponent(eps, f[i], n_eff)
         alpha[i], alpha_err[i] = ex.alpha, ex.alpha_err
     lead, dims_eps = tuple(lead), tuple(lead) + ("eps",)
-    r = lambda a: a.reshape(shape)
-    re = lambda a: a.reshape(shape + (eps.size,))
+    def r(a):
+        return a.reshape(shape)
+
+    def re(a):
+        return a.reshape(shape + (eps.size,))
     return {
         "eps": (("eps",), eps, {"units": "1", "long_name": "perturbation size in grid steps of beta and omega1"}),
         "S_b": (lead, r(s_b), {"units": "1", "long_name": "basin entropy: mean box entropy over all boxes [nats]"}),
@@ -280,7 +284,8 @@ def _prob_axes(s):
     w = float(s["omega1_max"])
     return [Axis("beta", np.linspace(s["beta_min"], s["beta_max"], int(s["n_beta"])), "rad",
                  "nominal initial height angle of the contact point on the rim's cross-section"),
-            Axis("omega1", np.linspace(-w, w, int(s["n_omega1"])), "s-1", "nominal initial transversal angular velocity")]
+            Axis("omega1", np.linspace(-w, w, int(s["n_omega1"])), "s-1",
+                 "nominal initial transversal angular velocity")]
 
 
 def sigma_of(s) -> np.ndarray:
@@ -351,7 +356,8 @@ def _prob_plot(ds):
     s = {k: float(setting_of(ds, k)) for k in ("sigma_beta", "sigma_omega1", "sigma_omega2", "sigma_omega3")}
     level = float(ds["sigma"][0]) if "sigma" in ds.dims else float(setting_of(ds, "sigma"))
     outer = [f"{d}={float(ds[d][0]):g}" for d in ds["p_fall_in"].dims if d not in ("beta", "omega1")]
-    fig.suptitle(rf"Make probability at $\omega_2$={float(ds['omega2'][0]) if 'omega2' in ds.dims else float(setting_of(ds, 'omega2')):g} 1/s: "
+    omega2 = float(ds["omega2"][0]) if "omega2" in ds.dims else float(setting_of(ds, "omega2"))
+    fig.suptitle(rf"Make probability at $\omega_2$={omega2:g} 1/s: "
                  rf"$\sigma$ = {level:g} x ({s['sigma_beta']:g} rad, {s['sigma_omega1']:g}, {s['sigma_omega2']:g}, "
                  rf"{s['sigma_omega3']:g} 1/s), {int(setting_of(ds, 'n_samples'))} samples per state"
                  + (f"; first of the sweep: {', '.join(outer)}" if outer else ""), fontsize=11)
