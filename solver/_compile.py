@@ -1,7 +1,7 @@
 """Compilation policy of the integration kernels (stepper, events, scenes).
 
-As ``solver._jit.kernel`` (nopython, ``nogil``, cached on disk, ``RIMROLL_NO_JIT=1`` runs the
-Python source) but with numba's ``error_model="numpy"``: a division by zero gives inf/NaN,
+As ``solver._jit.kernel`` (nopython, ``nogil``, no reference counting, cached on disk,
+``RIMROLL_NO_JIT=1`` runs the Python source) but with numba's ``error_model="numpy"``: a division by zero gives inf/NaN,
 which the kernels turn into a ``status`` code for that lane, instead of raising
 ``ZeroDivisionError`` out of a whole chunk of trajectories. No ``fastmath``: event location and
 energy checks rely on IEEE arithmetic.
@@ -17,7 +17,7 @@ import numba
 from rimroll.solver import _jit
 
 
-def kernel(func=None, *, inline=False, takes_functions=False):
+def kernel(func=None, *, inline=False, takes_functions=False, runtime=False):
     """Compile ``func`` with numba (nopython, nogil, cache, error_model="numpy").
 
     ``@kernel(inline=True)`` marks a small function on the per-step hot path (the RK step and
@@ -32,13 +32,20 @@ def kernel(func=None, *, inline=False, takes_functions=False):
     process's function object: such an entry never hits in another process, and re-saving the
     index with entries of a finished process can raise ``ReferenceError``. Its machine code is
     cached anyway, inside every cached kernel that calls it.
+
+    Kernels are compiled without numba's runtime (``solver._jit.NO_REFCOUNT``: no reference
+    counting, no allocation). ``@kernel(runtime=True)`` keeps it for the functions that are also
+    called with broadcast numpy arrays (the rules: the analysis of Theorem 1 calls them on arrays of
+    states), where numba allocates the result.
     """
     if func is None:
-        return lambda f: kernel(f, inline=inline, takes_functions=takes_functions)
+        return lambda f: kernel(f, inline=inline, takes_functions=takes_functions, runtime=runtime)
     if _jit._DISABLE:
         func.py_func = func
         return func
     options = dict(nogil=True, error_model="numpy", inline="always" if inline else "never")
+    if not runtime:
+        options.update(_jit.NO_REFCOUNT)
     if takes_functions:
         return numba.njit(cache=False, **options)(func)
     return _jit.njit_cached(func, **options)

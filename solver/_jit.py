@@ -19,6 +19,16 @@ import numba
 import numpy as np
 
 _DISABLE = os.environ.get("RIMROLL_NO_JIT", "") not in ("", "0")
+
+NO_REFCOUNT = {"_nrt": False}
+"""numba option of the engine's kernels (``solver._compile.kernel``): compile without numba's runtime
+(NRT). With it, every array view made and every array a function receives costs an atomic increment
+and decrement of its owner's reference count: 55-60 % of the engine's time on the Fig. 11 section
+went to those two instructions (``perf`` of the section), and the section ran 2-2.4x slower. The
+engine allocates nothing (its work arrays are made by ``simulate`` in Python and live while the
+kernel runs), which is all the runtime is needed for; the CUDA target has no runtime either, so
+the one source compiles alike for both. The physics kernels (:func:`kernel`) keep the runtime: they
+take and return numbers, and called with numpy arrays they build the broadcast result."""
 _SOURCES = pathlib.Path(__file__).resolve().parent
 
 

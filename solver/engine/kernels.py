@@ -540,50 +540,49 @@ def trajectory(sw, conservative, x0, p, method, limits, work, res_f, res_i):
     record(rolling_phase, y, p, E0, slip_time, t_slip0, slip_phases, work, res_f, res_i)
 
 
-@kernel(inline=True)
-def new_work(method):
-    """Zeroed work arrays for trajectories integrated with ``method`` (a ``tableaus.Method``)."""
+def new_work(method) -> Work:
+    """Zeroed work arrays for trajectories integrated with ``method`` (a ``tableaus.Method``), made in
+    Python: the kernels allocate nothing (they are compiled without numba's runtime, ``solver._jit``)."""
     return Work(np.zeros((N_W, N_MAX)), np.zeros((method.A.shape[0], N_MAX)), np.zeros((N_MAX, method.P.shape[1])),
                 np.zeros((N_G, N_EVENTS)), np.zeros(N_EVENTS, dtype=np.int64), np.zeros(N_EVENTS, dtype=np.bool_),
                 np.ones((2, N_EVENTS), dtype=np.bool_))
 
 
 @kernel(inline=True)
-def run_scene(sw, conservative, states, p, method, limits, res_f, res_i):
+def run_scene(sw, conservative, states, p, method, limits, work, res_f, res_i):
     """Simulate every row of ``states`` (m, 4) in the scene (sw: None for rolling only,
-    conservative: a literal); results into the rows of res_f, res_i. Inlined into the four scene
-    kernels."""
-    work = new_work(method)
+    conservative: a literal) with the work arrays ``work`` (:func:`new_work`); results into the
+    rows of res_f, res_i. Inlined into the four scene kernels."""
     for k in range(states.shape[0]):
         trajectory(sw, conservative, states[k], p, method, limits, work, res_f[k], res_i[k])
 
 
 @kernel
-def scene_rolling_conservative(states, p, sw, method, limits, res_f, res_i):
+def scene_rolling_conservative(states, p, sw, method, limits, work, res_f, res_i):
     """Scene mu = inf, k_r = k_d = 0 (sw is None): every row of ``states`` (see :func:`run_scene`)."""
-    run_scene(sw, True, states, p, method, limits, res_f, res_i)
+    run_scene(sw, True, states, p, method, limits, work, res_f, res_i)
 
 
 @kernel
-def scene_rolling_dissipative(states, p, sw, method, limits, res_f, res_i):
+def scene_rolling_dissipative(states, p, sw, method, limits, work, res_f, res_i):
     """Scene mu = inf, k_r or k_d > 0 (sw is None): every row of ``states`` (see :func:`run_scene`)."""
-    run_scene(sw, False, states, p, method, limits, res_f, res_i)
+    run_scene(sw, False, states, p, method, limits, work, res_f, res_i)
 
 
 @kernel
-def scene_hybrid_conservative(states, p, sw, method, limits, res_f, res_i):
+def scene_hybrid_conservative(states, p, sw, method, limits, work, res_f, res_i):
     """Scene finite mu, k_r = k_d = 0: every row of ``states`` (see :func:`run_scene`)."""
-    run_scene(sw, True, states, p, method, limits, res_f, res_i)
+    run_scene(sw, True, states, p, method, limits, work, res_f, res_i)
 
 
 @kernel
-def scene_hybrid_dissipative(states, p, sw, method, limits, res_f, res_i):
+def scene_hybrid_dissipative(states, p, sw, method, limits, work, res_f, res_i):
     """Scene finite mu, k_r or k_d > 0: every row of ``states`` (see :func:`run_scene`)."""
-    run_scene(sw, False, states, p, method, limits, res_f, res_i)
+    run_scene(sw, False, states, p, method, limits, work, res_f, res_i)
 
 
 SCENE_KERNELS = {kernel.py_func.__name__: kernel for kernel in (
     scene_rolling_conservative, scene_rolling_dissipative, scene_hybrid_conservative, scene_hybrid_dissipative)}
 """The kernel of each scene by name (``SCENE_KERNELS[scene.kernel]``, ``solver.engine.scenes``):
-(states, p, sw, method, limits, res_f, res_i) with ``method`` a ``tableaus.Method`` and ``limits`` a
-:class:`Limits`."""
+(states, p, sw, method, limits, work, res_f, res_i) with ``method`` a ``tableaus.Method``, ``limits`` a
+:class:`Limits` and ``work`` the arrays of :func:`new_work`."""

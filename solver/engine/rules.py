@@ -62,14 +62,14 @@ SLIP = 2
 STEADY = 3
 
 
-@kernel
+@kernel(runtime=True)
 def omega_scale(omega1, omega2, omega3, p):
     """max(|omega1|, |omega2|, |omega3|, sqrt(g/rho)) [1/s]: the size of the angular velocities."""
     return np.maximum(np.maximum(np.abs(omega1), np.abs(omega2)),
                       np.maximum(np.abs(omega3), np.sqrt(p[P_G] / p[P_RHO])))
 
 
-@kernel
+@kernel(runtime=True)
 def rate_scale(beta, omega1, omega2, omega3, p):
     """Size of the terms of omega1_dot (33) with dissipation (83) [1/s^2].
 
@@ -84,7 +84,7 @@ def rate_scale(beta, omega1, omega2, omega3, p):
             + p[P_G] / (r * (1.0 + j)) + np.abs(p[P_K_R] * omega1))
 
 
-@kernel
+@kernel(runtime=True)
 def steady_residual(beta, omega1, omega2, omega3, p):
     """Relative size of the rates of the rolling state (dimensionless); 0 on an equilibrium.
 
@@ -99,20 +99,20 @@ def steady_residual(beta, omega1, omega2, omega3, p):
                       np.maximum(np.abs(d2) / (s * s), np.abs(d3) / (s * s)))
 
 
-@kernel
+@kernel(runtime=True)
 def on_steady_motion(beta, omega1, omega2, omega3, p):
     """Whether the rolling state is an equilibrium of (33)-(36)/(83) to within STEADY_TOL."""
     return steady_residual(beta, omega1, omega2, omega3, p) <= STEADY_TOL
 
 
-@kernel
+@kernel(runtime=True)
 def transversal_omega1_zero(beta, omega1, omega2, omega3, p, rtol):
     """Whether an omega1 zero at this rolling state crosses transversally at tolerance rtol."""
     _, d1, _, _ = rolling.rolling_rhs(beta, omega1, omega2, omega3, p)
     return np.abs(d1) > TRANSVERSAL_RTOL_FACTOR * rtol * rate_scale(beta, omega1, omega2, omega3, p)
 
 
-@kernel
+@kernel(runtime=True)
 def phase_start_action(rolling_phase, hybrid, first, f2, friction_margin, steady):
     """What happens at the start of a phase, in the rules' order.
 
@@ -130,7 +130,7 @@ def phase_start_action(rolling_phase, hybrid, first, f2, friction_margin, steady
     return RUN
 
 
-@kernel
+@kernel(runtime=True)
 def fall_outcome(beta, omega1, omega3, u1, u3, p):
     """FALL_IN or FALL_OUT by free flight from the separation state (u1 = u3 = 0 when rolling)."""
     if lands_inside(beta, omega1, omega3, u1, u3, p):

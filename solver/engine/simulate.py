@@ -159,7 +159,7 @@ def _run_cpu(scene, method, flat, p, sw, limits, workers, res_f, res_i):
     n_chunks = min(m, workers * _CHUNKS_PER_WORKER) if workers > 1 else min(m, 1)
     if n_chunks <= 1:
         if m:
-            scene_kernel(flat, p, sw, method, limits, res_f, res_i)
+            scene_kernel(flat, p, sw, method, limits, kernels.new_work(method), res_f, res_i)
         return
     order = np.argsort(np.arange(m) % n_chunks, kind="stable")
     dealt = flat[order]
@@ -167,7 +167,7 @@ def _run_cpu(scene, method, flat, p, sw, limits, workers, res_f, res_i):
     dealt_i = np.empty_like(res_i)
 
     def run(lo, hi):
-        scene_kernel(dealt[lo:hi], p, sw, method, limits, dealt_f[lo:hi], dealt_i[lo:hi])
+        scene_kernel(dealt[lo:hi], p, sw, method, limits, kernels.new_work(method), dealt_f[lo:hi], dealt_i[lo:hi])
 
     bounds = np.searchsorted(order % n_chunks, np.arange(n_chunks + 1))
     with ThreadPoolExecutor(max_workers=workers) as pool:
