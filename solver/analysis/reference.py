@@ -59,7 +59,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
-from rimroll.solver.engine import rules
+from rimroll.solver.engine import rules, scene_code
 from rimroll.solver.engine.outcomes import ON_RIM_AT_T_MAX, PERIODIC_ROLLING, STEADY_MOTION
 from rimroll.solver.engine.scenes import scene_of
 from rimroll.solver.physics import kinematics, rolling, slipping, switching
@@ -124,14 +124,16 @@ def _omega1_zero():
     return scipy_event(lambda y: y[1], terminal=2, direction=0)
 
 
-def _transversal_zeros(t_w1, y_w1, p, rtol) -> list[float]:
+def _transversal_zeros(t_w1, y_w1, system, rtol) -> list[float]:
     """Times of the transversal omega1 zeros (``solver.engine.rules``) among scipy's omega1 events."""
-    return [float(t) for t, y in zip(t_w1, y_w1) if rules.transversal_omega1_zero(y[0], y[1], y[2], y[3], p, rtol)]
+    return [float(t) for t, y in zip(t_w1, y_w1) if _starts_crossing(y, system, rtol, at_zero=False)]
 
 
-def _starts_crossing(y, p, rtol):
-    """Whether a rolling phase starts on omega1 = 0 with a transversal slope (a first crossing)."""
-    return y[1] == 0.0 and bool(rules.transversal_omega1_zero(y[0], y[1], y[2], y[3], p, rtol))
+def _starts_crossing(y, system, rtol, at_zero=True):
+    """Whether omega1 = 0 here (``at_zero``: exactly) crosses with a transversal slope (a first crossing)."""
+    if at_zero and y[1] != 0.0:
+        return False
+    return bool(rules.transversal_omega1_zero(y[0], y[1], y[2], y[3], system.p, rtol, system.load(y)))
 
 
 def _energy_drift(E0, E1, p):
@@ -195,10 +197,12 @@ class _System:
     """The scipy systems of one run: right-hand sides, event values and ``solve_ivp`` events of the
     rolling and slipping phases, and the return rule, for one scene and the run's settings."""
 
-    def __init__(self, params: Params, t_max, rtol, atol, method, switching_tolerances):
+    def __init__(self, params: Params, t_max, rtol, atol, method, switching_tolerances, terms=()):
         self.p = params.as_array()
         self.sw = switching.default_tolerances(**(switching_tolerances or {}))
-        self.hybrid, self.conservative = scene_of(params).flags
+        scene = scene_of(params, tuple(terms))
+        self.hybrid, self.conservative = scene.flags
+        self.load_fn = scene_code.load_of(scene)  # the scene's external load (compiled), None without terms
         self.u_stop = self.sw[switching.SW_U_STOP]
         self.t_max, self.rtol, self.atol, self.method = t_max, rtol, atol, method
         self.out = np.empty(7)  # the rolling state of a return (try_return)
@@ -216,37 +220,44 @@ class _System:
             self.roll_events["omega1"] = self.omega1_zero
         self.at = {name: i for i, name in enumerate(self.roll_events)}
 
+    def load(self, y):
+        """The load of the scene's terms at the state y (rolling layout of 5, slipping of 7), or None."""
+        if self.load_fn is None:
+            return None
+        u1, u3 = (y[4], y[5]) if len(y) == 7 else (0.0, 0.0)
+        return self.load_fn(y[0], y[1], y[2], y[3], u1, u3, self.p)
+
     def fun_roll(self, t, y):
-        b, w1, w2, w3 = rolling.rolling_rhs(y[0], y[1], y[2], y[3], self.p)
+        b, w1, w2, w3 = rolling.rolling_rhs(y[0], y[1], y[2], y[3], self.p, self.load(y))
         alpha_dot, _ = kinematics.angle_rates(y[0], y[1], y[3], 0.0, 0.0, self.p)
         return [b, w1, w2, w3, alpha_dot]
 
     def fun_slip(self, t, y):
-        b, w1, w2, w3, du1, du3 = slipping.slipping_rhs(y[0], y[1], y[2], y[3], y[4], y[5], self.p)
+        b, w1, w2, w3, du1, du3 = slipping.slipping_rhs(y[0], y[1], y[2], y[3], y[4], y[5], self.p, self.load(y))
         alpha_dot, _ = kinematics.angle_rates(y[0], y[1], y[3], y[4], y[5], self.p)
         return [b, w1, w2, w3, du1, du3, alpha_dot]
 
     def fall_roll_value(self, y):
-        return rolling.normal_force(y[0], y[1], y[3], self.p)
+        return rolling.normal_force(y[0], y[1], y[3], self.p, self.load(y))
 
     def margin_value(self, y):
-        return rolling.friction_margin(y[0], y[1], y[2], y[3], self.p)
+        return rolling.friction_margin(y[0], y[1], y[2], y[3], self.p, self.load(y))
 
     def fall_slip_value(self, y):
-        return slipping.slipping_normal_force(y[0], y[1], y[3], y[4], y[5], self.p)
+        return slipping.slipping_normal_force(y[0], y[1], y[3], y[4], y[5], self.p, self.load(y))
 
     def f2_rate_roll(self, y):  # dF2/dt of (31)
-        b, w1, _, w3 = rolling.rolling_rhs(y[0], y[1], y[2], y[3], self.p)
+        b, w1, _, w3 = rolling.rolling_rhs(y[0], y[1], y[2], y[3], self.p, self.load(y))
         return rolling.normal_force_rate(y[0], y[1], y[3], b, w1, w3, self.p)
 
     def f2_rate_slip(self, y):  # dF2/dt of (41)
-        b, w1, _, w3, du1, du3 = slipping.slipping_rhs(y[0], y[1], y[2], y[3], y[4], y[5], self.p)
+        b, w1, _, w3, du1, du3 = slipping.slipping_rhs(y[0], y[1], y[2], y[3], y[4], y[5], self.p, self.load(y))
         return slipping.slipping_normal_force_rate(y[0], y[1], y[3], y[4], y[5], b, w1, w3, du1, du3, self.p)
 
     def return_dt(self, t, y):
         """try_return at (t, y): the time it advances (>= 0), or -1.0 (refused); rolling state in ``out``."""
         yy = np.ascontiguousarray(y, dtype=float)
-        return switching.try_return(yy, self.p, self.sw, self.t_max - t, self.out)
+        return switching.try_return(yy, self.p, self.sw, self.t_max - t, self.out, self.load_fn)
 
     def _refused_event(self):
         """+1 while the return is refused, -1 where it is allowed (depends on t: the time left caps it)."""
@@ -262,7 +273,7 @@ class _System:
     def solve_rolling(self, t, y):
         """solve_ivp of one rolling phase from (t, y): (solution, its transversal omega1 zeros, the
         pair of omega1 crossings that makes it periodic or None, rhs evaluations)."""
-        t_start = t if self.conservative and _starts_crossing(y, self.p, self.rtol) else None
+        t_start = t if self.conservative and _starts_crossing(y, self, self.rtol) else None
         self.omega1_zero.terminal = 1 if t_start is not None else 2
 
         def run():
@@ -270,7 +281,7 @@ class _System:
                             events=list(self.roll_events.values()), dense_output=True)
             if not self.conservative:
                 return sol, [], None
-            zeros = _transversal_zeros(sol.t_events[self.at["omega1"]], sol.y_events[self.at["omega1"]], self.p,
+            zeros = _transversal_zeros(sol.t_events[self.at["omega1"]], sol.y_events[self.at["omega1"]], self,
                                        self.rtol)
             crossings = ([t_start] if t_start is not None else []) + zeros
             return sol, zeros, (crossings[:2] if len(crossings) >= 2 else None)
@@ -313,7 +324,7 @@ class _Run:
 
 
 def integrate(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, method="DOP853", *,
-              switching_tolerances=None, max_switches=10_000) -> dict:
+              switching_tolerances=None, max_switches=10_000, terms=()) -> dict:
     """One rolling initial state by ``solve_ivp``, phase by phase, in any scene.
 
     Returns dict(outcome, t_end, half_period, nfev, slip_phases, slip_time, energy_drift,
@@ -326,9 +337,10 @@ def integrate(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, method=
     list, kinds of :data:`EVENT_KINDS` (``solver.analysis.trace`` samples them).
 
     Every phase starts with the rules' ``rules.phase_start_action`` (fall, slip, steady motion or
-    run), as in the compiled engine; only the integration and the event location differ.
+    run), as in the compiled engine; only the integration and the event location differ. ``terms``:
+    load terms of the scene table, as ``simulate(..., terms=...)`` takes them.
     """
-    system = _System(params, t_max, rtol, atol, method, switching_tolerances)
+    system = _System(params, t_max, rtol, atol, method, switching_tolerances, terms)
     run = _Run(y=np.array([*np.asarray(state, float), 0.0]))
     p = system.p
     E0 = rolling.energy(run.y[0], run.y[1], run.y[2], run.y[3], p)
@@ -367,7 +379,7 @@ def _start_action(system: _System, run: _Run) -> int:
         return int(rules.phase_start_action(False, system.hybrid, False, system.fall_slip_value(y), 1.0, False))
     first = run.t == 0.0 and run.switches == 0
     margin = system.margin_value(y) if system.hybrid else 1.0
-    steady = first and bool(rules.on_steady_motion(y[0], y[1], y[2], y[3], system.p))
+    steady = first and bool(rules.on_steady_motion(y[0], y[1], y[2], y[3], system.p, system.load(y)))
     return int(rules.phase_start_action(True, system.hybrid, first, system.fall_roll_value(y), margin, steady))
 
 
@@ -386,7 +398,7 @@ def _to_slipping(system: _System, run: _Run, max_switches: int) -> None:
     y7 = np.empty(7)
     y7[:5] = run.y
     y7[5:] = 0.0
-    switching.enter_slipping(y7, system.p, system.sw)
+    switching.enter_slipping(y7, system.p, system.sw, system.load_fn)
     run.y = y7
     run.slipping = True
     run.slip_phases += 1
@@ -572,24 +584,24 @@ def _first_allowed(sol, t_end, u_stop, return_dt):
     return None
 
 
-def reference_one(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, method="DOP853"):
+def reference_one(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, method="DOP853", terms=()):
     """Outcome of one rolling initial state by ``solve_ivp`` in any scene.
 
     Returns dict(outcome, t_end, half_period, nfev, slip_phases, slip_time, energy_drift,
     steps_rolling, steps_slipping).
     """
-    res = integrate(state, params, t_max, rtol, atol, method)
+    res = integrate(state, params, t_max, rtol, atol, method, terms=terms)
     for key in ("y_end", "switches", "reason", "phases", "events"):
         res.pop(key)
     return res
 
 
-def reference(states, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, method="DOP853"):
+def reference(states, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, method="DOP853", terms=()):
     """``reference_one`` over an array (..., 4) of states: dict of arrays (outcome, t_end, half_period,
     nfev, slip_phases, slip_time, energy_drift)."""
     x = np.asarray(states, float)
     flat = x.reshape(-1, 4)
-    rows = [reference_one(s, params, t_max, rtol, atol, method) for s in flat]
+    rows = [reference_one(s, params, t_max, rtol, atol, method, terms) for s in flat]
     shape = x.shape[:-1]
     return {
         "outcome": np.array([r["outcome"] for r in rows], dtype=np.int8).reshape(shape),

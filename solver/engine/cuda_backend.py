@@ -47,7 +47,7 @@ import threading
 import numpy as np
 from numba import cuda, types
 
-from rimroll.solver.engine import kernels, tableaus
+from rimroll.solver.engine import kernels, scene_code, system, tableaus
 from rimroll.solver.engine.backends import simulated
 from rimroll.solver.engine.kernels import N_G, N_RF, N_RI, N_W
 from rimroll.solver.engine.scenes import Scene
@@ -135,7 +135,9 @@ def launcher(scene: Scene, method: str):
     n_stages, err_mode, error_order = tab.n_stages, tab.err_mode, tab.error_order
     n_dense, n_poly = A.shape[0], P.shape[1]
     f64, i64, b1 = types.float64, types.int64, types.boolean
-    Method, Limits, Work = tableaus.Method, kernels.Limits, kernels.Work
+    Method, Limits, Work, Model = tableaus.Method, kernels.Limits, kernels.Work, system.Model
+    has_load = bool(scene.loads)  # the scene's load terms come from its generated module (scene_code)
+    terms = scene_code.module(scene) if has_load else None
 
     def launch(states, m, p, t_max, rtol, atol, max_steps, max_switches, sw, res_f, res_i):
         k = cuda.grid(1)
@@ -165,11 +167,15 @@ def launcher(scene: Scene, method: str):
         work = Work(W, K, Q, G, sign, search, active)
         method = Method(A, E, P, n_stages, err_mode, error_order)
         limits = Limits(t_max, rtol, atol, max_steps, max_switches)
+        if has_load:  # a constant of the kernel, as slips: numba compiles one branch
+            model = Model(native(p), terms.load)
+        else:
+            model = Model(native(p), None)
         if slips:  # a constant of the kernel: numba compiles one of the two calls
-            trajectory(native(sw), conservative, native(states[k]), native(p), method, limits, work,
+            trajectory(native(sw), conservative, native(states[k]), model, method, limits, work,
                        native(res_f[k]), native(res_i[k]))
         else:  # rolling only: no switching tolerances, no slipping code
-            trajectory(None, conservative, native(states[k]), native(p), method, limits, work, native(res_f[k]),
+            trajectory(None, conservative, native(states[k]), model, method, limits, work, native(res_f[k]),
                        native(res_i[k]))
 
     launch.__qualname__ = launch.__name__ = f"launch_{scene.kernel}_{method}"
@@ -187,7 +193,7 @@ _LOCK = threading.RLock()  # one call at a time uses the device (and the kept bu
 def kernel(scene: Scene, method: str):
     """The kernel of a scene and method (numba-cuda compiles it at its first launch in this process;
     :func:`compile_kernel` does that ahead of time)."""
-    key = (scene.flags, method, MAX_REGISTERS)
+    key = (scene.flags, tuple(t.name for t in scene.loads), method, MAX_REGISTERS)
     with _LOCK:
         if key not in _KERNELS:
             options = {} if MAX_REGISTERS is None or SIMULATED else {"max_registers": MAX_REGISTERS}

@@ -161,7 +161,7 @@ def scratch_of(work):
 
 
 @kernel(inline=True, takes_functions=True)
-def begin_phase(rhs, events, aux, phase, p, work, t, rtol):
+def begin_phase(rhs, events, aux, phase, model, work, t, rtol):
     """Slopes, event values and signs at the start of a phase from W[W_Y] at time t [s]; the omega1
     crossing count starts at 1 if the phase starts on a transversal zero of omega1 (conservative
     rolling). False if the slopes are not finite."""
@@ -170,25 +170,26 @@ def begin_phase(rhs, events, aux, phase, p, work, t, rtol):
     K = work.K
     y = W[W_Y]
     f = W[W_F]
-    rhs(y, p, K, 0)
+    rhs(y, model, K, 0)
     for i in range(phase.n):
         f[i] = K[0, i]
         if not np.isfinite(f[i]):
             return False
-    events(y, f, p, aux, G[G_G], G[G_GR])
+    events(y, f, model, aux, G[G_G], G[G_GR])
     initial_signs(G[G_G], phase.direction, work.sign)
     for e in range(N_EVENTS):
         G[G_THIRD, e] = np.nan
     G[G_CROSS, 0] = 0.0
     G[G_CROSS, 1] = 0.0
-    if phase.active[EV_OMEGA1] and y[1] == 0.0 and rules.transversal_omega1_zero(y[0], y[1], y[2], y[3], p, rtol):
+    if phase.active[EV_OMEGA1] and y[1] == 0.0 and rules.transversal_omega1_zero(
+            y[0], y[1], y[2], y[3], model.p, rtol, system.rolling_load(model, y)):
         G[G_CROSS, 0] = 1.0
         G[G_CROSS, 1] = t
     return True
 
 
 @kernel(inline=True, takes_functions=True)
-def gate(rhs, events, aux, phase, p, method, rtol, h, h_prev, work):
+def gate(rhs, events, aux, phase, model, method, rtol, h, h_prev, work):
     """Does the accepted step of length h [s] need its dense output searched for events? (the
     grazing gate of ``solver.engine.events``). Returns (searched, dense output prepared); sets
     ``work.search``, the running minima and the gate's memory of the step (G_TH, G_THIRD)."""
@@ -211,10 +212,10 @@ def gate(rhs, events, aux, phase, p, method, rtol, h, h_prev, work):
             mid_err = 0.0
             if not np.isfinite(G[G_THIRD, e]):  # first step of the phase: measure the remainder
                 if not prepared:
-                    dense_prepare(rhs, method, W[W_Y], h, phase.n, work.K, work.Q, W[W_TMP], p)
+                    dense_prepare(rhs, method, W[W_Y], h, phase.n, work.K, work.Q, W[W_TMP], model)
                     prepared = True
                 dense = Dense(W[W_Y], h, 0.0, work.Q, phase.n)
-                g_mid = value_at(events, e, 0.5, dense, p, aux, scratch_of(work))
+                g_mid = value_at(events, e, 0.5, dense, model, aux, scratch_of(work))
                 mid_err = abs(g_mid - hermite_at(g[e], gr[e], g1[e], gr1[e], h, 0.5))
             want, lo, th_lo, third = trough_possible(g[e], gr[e], g1[e], gr1[e], h, h_prev, G[G_THIRD, e], mid_err,
                                                      rtol)
@@ -230,7 +231,7 @@ def gate(rhs, events, aux, phase, p, method, rtol, h, h_prev, work):
 
 
 @kernel(takes_functions=True)
-def act_on_events(events, aux, ret, phase, p, limits, work, t, h, res_f, res_i):
+def act_on_events(events, aux, ret, phase, model, limits, work, t, h, res_f, res_i):
     """The events of an accepted step from t [s] of length h [s], in time order, each with its
     action (the phase's event table): fall, periodic orbit, slip, return to rolling or an omega1
     crossing counted. Returns (END_* of the phase, or END_NONE if the step is taken in full; the
@@ -249,7 +250,7 @@ def act_on_events(events, aux, ret, phase, p, limits, work, t, h, res_f, res_i):
     for e in range(N_EVENTS):
         g_ev[e] = G[G_G, e]
     while True:
-        ev, theta = next_event(events, phase, tracking, theta0, g_ev, G[G_G1], G[G_GR1], dense, p, aux, scratch)
+        ev, theta = next_event(events, phase, tracking, theta0, g_ev, G[G_G1], G[G_GR1], dense, model, aux, scratch)
         if ev < 0:
             return END_NONE, t, dt_return
         if theta >= 1.0:
@@ -257,13 +258,13 @@ def act_on_events(events, aux, ret, phase, p, limits, work, t, h, res_f, res_i):
                 y_ev[i] = W[W_Y_NEW, i]
         else:
             dense_eval(theta, y, h, work.Q, n, work.Q.shape[1], y_ev)
-        events(y_ev, W[W_SLOPE], p, aux, g_ev, G[G_RTMP])
+        events(y_ev, W[W_SLOPE], model, aux, g_ev, G[G_RTMP])
         t_ev = t + theta * h
         act = phase.action[ev]
         if ret is None:  # a rolling phase (numba compiles only this phase's actions)
-            end = rolling_action(act, y_ev, p, limits.rtol, t_ev, work, res_f, res_i)
+            end = rolling_action(act, y_ev, model, limits.rtol, t_ev, work, res_f, res_i)
         else:
-            end, dt_return = slipping_action(act, y_ev, p, ret, limits.t_max - t_ev, work, res_i)
+            end, dt_return = slipping_action(act, y_ev, model, ret, limits.t_max - t_ev, work, res_i)
         if end != END_NONE:
             for i in range(n):
                 y[i] = y_ev[i]
@@ -276,7 +277,7 @@ def act_on_events(events, aux, ret, phase, p, limits, work, t, h, res_f, res_i):
 
 
 @kernel(inline=True)
-def rolling_action(act, y_ev, p, rtol, t_ev, work, res_f, res_i):
+def rolling_action(act, y_ev, model, rtol, t_ev, work, res_f, res_i):
     """The action of a rolling event at the state y_ev, time t_ev [s]: END_FALL (outcome by free
     flight), END_SWITCH (the ball starts to slip), END_PERIODIC (a second transversal omega1 zero)
     or END_NONE (a first one counted)."""
@@ -284,11 +285,12 @@ def rolling_action(act, y_ev, p, rtol, t_ev, work, res_f, res_i):
     if act == ACT_FALL:
         if G[G_EV, EV_FALL] < G[G_MIN, EV_FALL]:
             G[G_MIN, EV_FALL] = G[G_EV, EV_FALL]
-        res_i[RI_OUTCOME] = rules.fall_outcome(y_ev[0], y_ev[1], y_ev[3], 0.0, 0.0, p)
+        res_i[RI_OUTCOME] = rules.fall_outcome(y_ev[0], y_ev[1], y_ev[3], 0.0, 0.0, model.p)
         return END_FALL
     if act == ACT_SLIP:
         return END_SWITCH
-    if act == ACT_OMEGA1 and rules.transversal_omega1_zero(y_ev[0], y_ev[1], y_ev[2], y_ev[3], p, rtol):
+    if act == ACT_OMEGA1 and rules.transversal_omega1_zero(y_ev[0], y_ev[1], y_ev[2], y_ev[3], model.p, rtol,
+                                                           system.rolling_load(model, y_ev)):
         G[G_CROSS, 0] += 1.0
         if G[G_CROSS, 0] == 1.0:
             G[G_CROSS, 1] = t_ev
@@ -299,7 +301,7 @@ def rolling_action(act, y_ev, p, rtol, t_ev, work, res_f, res_i):
 
 
 @kernel(inline=True)
-def slipping_action(act, y_ev, p, sw, t_left, work, res_i):
+def slipping_action(act, y_ev, model, sw, t_left, work, res_i):
     """The action of a slipping event at the state y_ev, t_left [s] before t_max: END_FALL
     (outcome by free flight), END_SWITCH (the return rule lets the ball roll again: its rolling
     state in W[W_Y_RET]) or END_NONE. Returns (end, the time of the return [s] or -1)."""
@@ -307,10 +309,10 @@ def slipping_action(act, y_ev, p, sw, t_left, work, res_i):
     if act == ACT_FALL:
         if G[G_EV, EV_FALL] < G[G_MIN, EV_FALL]:
             G[G_MIN, EV_FALL] = G[G_EV, EV_FALL]
-        res_i[RI_OUTCOME] = rules.fall_outcome(y_ev[0], y_ev[1], y_ev[3], y_ev[I_U1], y_ev[I_U3], p)
+        res_i[RI_OUTCOME] = rules.fall_outcome(y_ev[0], y_ev[1], y_ev[3], y_ev[I_U1], y_ev[I_U3], model.p)
         return END_FALL, -1.0
     if act == ACT_RETURN:
-        dt_return = try_return(y_ev, p, sw, t_left, work.W[W_Y_RET])
+        dt_return = try_return(y_ev, model.p, sw, t_left, work.W[W_Y_RET], model.load_fn)
         if dt_return >= 0.0:
             return END_SWITCH, dt_return
         return END_NONE, dt_return
@@ -318,7 +320,7 @@ def slipping_action(act, y_ev, p, sw, t_left, work, res_i):
 
 
 @kernel(takes_functions=True)
-def run_phase(rhs, events, aux, ret, phase, p, method, limits, work, res_f, res_i):
+def run_phase(rhs, events, aux, ret, phase, model, method, limits, work, res_f, res_i):
     """Run one phase from the state W[W_Y] at time res_f[RF_T_END] to its terminal event.
 
     rhs, events: the phase's right-hand side and event function (``solver.engine.system``); aux:
@@ -342,18 +344,18 @@ def run_phase(rhs, events, aux, ret, phase, p, method, limits, work, res_f, res_
     rtol = limits.rtol
     n_steps = res_i[RI_N_STEPS]
     n_searched = res_i[RI_N_SEARCHED]
-    if not begin_phase(rhs, events, aux, phase, p, work, t, rtol):
+    if not begin_phase(rhs, events, aux, phase, model, work, t, rtol):
         res_i[RI_STATUS] = NON_FINITE
         return END_FAILED, -1.0
     control = Control(n, n - 1, rtol, phase.atol, t_max)
     arrays = Arrays(y, f, K, y_new, W[W_TMP])
-    h = initial_step(rhs, y, f, n, n - 1, method.error_order, rtol, phase.atol, t_max - t, W[W_TMP], K, p)
+    h = initial_step(rhs, y, f, n, n - 1, method.error_order, rtol, phase.atol, t_max - t, W[W_TMP], K, model)
     h_prev = h
     after_reject = False
     end = END_T_MAX
     dt_return = -1.0
     while t < t_max:
-        code, h, h_next, attempts, last = attempt(rhs, method, control, p, arrays, t, h, after_reject,
+        code, h, h_next, attempts, last = attempt(rhs, method, control, model, arrays, t, h, after_reject,
                                                   limits.max_steps - n_steps)
         n_steps += attempts
         if code != ACCEPTED:
@@ -363,14 +365,14 @@ def run_phase(rhs, events, aux, ret, phase, p, method, limits, work, res_f, res_
             break
         for i in range(n):  # the FSAL slope of y_new (the slope of y is in K[0])
             f_new[i] = K[method.n_stages, i]
-        events(y_new, f_new, p, aux, G[G_G1], G[G_GR1])
-        searched, prepared = gate(rhs, events, aux, phase, p, method, rtol, h, h_prev, work)
+        events(y_new, f_new, model, aux, G[G_G1], G[G_GR1])
+        searched, prepared = gate(rhs, events, aux, phase, model, method, rtol, h, h_prev, work)
         h_prev = h
         if searched:
             n_searched += 1
             if not prepared:
-                dense_prepare(rhs, method, y, h, n, K, work.Q, W[W_TMP], p)
-            end, t, dt_return = act_on_events(events, aux, ret, phase, p, limits, work, t, h, res_f, res_i)
+                dense_prepare(rhs, method, y, h, n, K, work.Q, W[W_TMP], model)
+            end, t, dt_return = act_on_events(events, aux, ret, phase, model, limits, work, t, h, res_f, res_i)
             if end != END_NONE:
                 break
             end = END_T_MAX
@@ -389,7 +391,7 @@ def run_phase(rhs, events, aux, ret, phase, p, method, limits, work, res_f, res_
         h = h_next
         after_reject = False
         if ret is not None:  # a slipping phase: the return rule at every step end too
-            dt_return = try_return(y, p, ret, t_max - t, W[W_Y_RET])
+            dt_return = try_return(y, model.p, ret, t_max - t, W[W_Y_RET], model.load_fn)
             if dt_return >= 0.0:
                 end = END_SWITCH
                 break
@@ -420,7 +422,7 @@ def begin_trajectory(x0, p, work, res_f, res_i):
 
 
 @kernel(inline=True)
-def start_action(sw, rolling_phase, first, y, p, mins):
+def start_action(sw, rolling_phase, first, y, model, mins):
     """The rules' action at the start of a phase (``rules.phase_start_action``), or -1 when the
     state or its normal force is not finite; lowers the running minimum of F2."""
     n = N_ROLLING if rolling_phase else N_SLIPPING
@@ -428,12 +430,14 @@ def start_action(sw, rolling_phase, first, y, p, mins):
     for i in range(n):
         if not np.isfinite(y[i]):
             finite = False
+    p = model.p
     if rolling_phase:
-        f2 = rolling.normal_force(y[0], y[1], y[3], p)
-        margin = rolling.friction_margin(y[0], y[1], y[2], y[3], p) if sw is not None else 1.0
-        steady = first and rules.on_steady_motion(y[0], y[1], y[2], y[3], p)
+        load = system.rolling_load(model, y)
+        f2 = rolling.normal_force(y[0], y[1], y[3], p, load)
+        margin = rolling.friction_margin(y[0], y[1], y[2], y[3], p, load) if sw is not None else 1.0
+        steady = first and rules.on_steady_motion(y[0], y[1], y[2], y[3], p, load)
     else:
-        f2 = slipping.slipping_normal_force(y[0], y[1], y[3], y[I_U1], y[I_U3], p)
+        f2 = slipping.slipping_normal_force(y[0], y[1], y[3], y[I_U1], y[I_U3], p, system.slipping_load(model, y))
         margin = 1.0
         steady = False
     if not (finite and np.isfinite(f2) and np.isfinite(margin)):
@@ -470,13 +474,14 @@ def record(rolling_phase, y, p, E0, slip_time, t_slip0, slip_phases, work, res_f
 
 
 @kernel(inline=True)
-def trajectory(sw, conservative, x0, p, method, limits, work, res_f, res_i):
+def trajectory(sw, conservative, x0, model, method, limits, work, res_f, res_i):
     """One trajectory from the rolling initial state x0 in the scene: sw, the switching tolerances
     of a scene that slips (None: rolling only; numba then compiles no slipping code), conservative:
     periodic rolling is detected."""
     W = work.W
     y = W[W_Y]
     roll, slip = system.phases(sw, conservative, limits.atol, work.active, W[W_ATOL_ROLL], W[W_ATOL_SLIP])
+    p = model.p
     E0 = begin_trajectory(x0, p, work, res_f, res_i)
     rolling_phase = True
     first = True
@@ -486,7 +491,7 @@ def trajectory(sw, conservative, x0, p, method, limits, work, res_f, res_i):
     t_slip0 = 0.0
     dt_return = -1.0
     while True:
-        start = start_action(sw, rolling_phase, first, y, p, work.G[G_MIN])
+        start = start_action(sw, rolling_phase, first, y, model, work.G[G_MIN])
         first = False
         if start < 0:
             res_i[RI_STATUS] = NON_FINITE
@@ -505,11 +510,11 @@ def trajectory(sw, conservative, x0, p, method, limits, work, res_f, res_i):
                 break
             # ---------------- one phase to its terminal event ----------------
             if rolling_phase:
-                end, dt_return = run_phase(system.rolling_rhs, system.rolling_events, sw, None, roll, p, method,
+                end, dt_return = run_phase(system.rolling_rhs, system.rolling_events, sw, None, roll, model, method,
                                            limits, work, res_f, res_i)
             elif sw is not None:  # only scenes that slip have a slipping phase
                 steps_before = res_i[RI_N_STEPS]
-                end, dt_return = run_phase(system.slipping_rhs, system.slipping_events, sw, sw, slip, p, method,
+                end, dt_return = run_phase(system.slipping_rhs, system.slipping_events, sw, sw, slip, model, method,
                                            limits, work, res_f, res_i)
                 res_i[RI_N_SLIP_STEPS] += res_i[RI_N_STEPS] - steps_before
             else:
@@ -527,7 +532,7 @@ def trajectory(sw, conservative, x0, p, method, limits, work, res_f, res_i):
             res_i[RI_STATUS] = TOO_MANY_SWITCHES
             break
         if rolling_phase:
-            enter_slipping(y, p, sw)
+            enter_slipping(y, p, sw, model.load_fn)
             rolling_phase = False
             slip_phases += 1
             t_slip0 = res_f[RF_T_END]
@@ -549,36 +554,36 @@ def new_work(method) -> Work:
 
 
 @kernel(inline=True)
-def run_scene(sw, conservative, states, p, method, limits, work, res_f, res_i):
+def run_scene(sw, conservative, states, model, method, limits, work, res_f, res_i):
     """Simulate every row of ``states`` (m, 4) in the scene (sw: None for rolling only,
     conservative: a literal) with the work arrays ``work`` (:func:`new_work`); results into the
     rows of res_f, res_i. Inlined into the four scene kernels."""
     for k in range(states.shape[0]):
-        trajectory(sw, conservative, states[k], p, method, limits, work, res_f[k], res_i[k])
+        trajectory(sw, conservative, states[k], model, method, limits, work, res_f[k], res_i[k])
 
 
 @kernel
 def scene_rolling_conservative(states, p, sw, method, limits, work, res_f, res_i):
     """Scene mu = inf, k_r = k_d = 0 (sw is None): every row of ``states`` (see :func:`run_scene`)."""
-    run_scene(sw, True, states, p, method, limits, work, res_f, res_i)
+    run_scene(sw, True, states, system.Model(p, None), method, limits, work, res_f, res_i)
 
 
 @kernel
 def scene_rolling_dissipative(states, p, sw, method, limits, work, res_f, res_i):
     """Scene mu = inf, k_r or k_d > 0 (sw is None): every row of ``states`` (see :func:`run_scene`)."""
-    run_scene(sw, False, states, p, method, limits, work, res_f, res_i)
+    run_scene(sw, False, states, system.Model(p, None), method, limits, work, res_f, res_i)
 
 
 @kernel
 def scene_hybrid_conservative(states, p, sw, method, limits, work, res_f, res_i):
     """Scene finite mu, k_r = k_d = 0: every row of ``states`` (see :func:`run_scene`)."""
-    run_scene(sw, True, states, p, method, limits, work, res_f, res_i)
+    run_scene(sw, True, states, system.Model(p, None), method, limits, work, res_f, res_i)
 
 
 @kernel
 def scene_hybrid_dissipative(states, p, sw, method, limits, work, res_f, res_i):
     """Scene finite mu, k_r or k_d > 0: every row of ``states`` (see :func:`run_scene`)."""
-    run_scene(sw, False, states, p, method, limits, work, res_f, res_i)
+    run_scene(sw, False, states, system.Model(p, None), method, limits, work, res_f, res_i)
 
 
 SCENE_KERNELS = {kernel.py_func.__name__: kernel for kernel in (

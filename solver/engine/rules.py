@@ -46,7 +46,7 @@ import numpy as np
 
 from rimroll.solver._compile import kernel
 from rimroll.solver.engine.outcomes import FALL_IN, FALL_OUT
-from rimroll.solver.physics import rolling
+from rimroll.solver.physics import loads, rolling
 from rimroll.solver.physics.flight import lands_inside
 from rimroll.solver.physics.params import P_G, P_J, P_K_R, P_R_BALL, P_R_RIM, P_RHO
 
@@ -70,8 +70,8 @@ def omega_scale(omega1, omega2, omega3, p):
 
 
 @kernel(runtime=True)
-def rate_scale(beta, omega1, omega2, omega3, p):
-    """Size of the terms of omega1_dot (33) with dissipation (83) [1/s^2].
+def rate_scale(beta, omega1, omega2, omega3, p, load=None):
+    """Size of the terms of omega1_dot (33) with dissipation (83) and an external ``load`` [1/s^2].
 
     The sum of their magnitudes, with the gravity term taken at its largest, g / (r (1+j)), so
     that the scale does not vanish where cos(beta) = 0 (the trivial equilibrium (46)).
@@ -80,12 +80,15 @@ def rate_scale(beta, omega1, omega2, omega3, p):
     j = p[P_J]
     c = np.cos(beta)
     D = p[P_R_RIM] - p[P_RHO] * c
-    return (np.abs(r * omega3 * omega3 * np.sin(beta) / D) + np.abs(j * r * omega2 * omega3 * c / ((1.0 + j) * D))
-            + p[P_G] / (r * (1.0 + j)) + np.abs(p[P_K_R] * omega1))
+    scale = (np.abs(r * omega3 * omega3 * np.sin(beta) / D) + np.abs(j * r * omega2 * omega3 * c / ((1.0 + j) * D))
+             + p[P_G] / (r * (1.0 + j)) + np.abs(p[P_K_R] * omega1))
+    if load is not None:
+        scale = scale + np.abs(loads.rolling_rates(load, p)[0])
+    return scale
 
 
 @kernel(runtime=True)
-def steady_residual(beta, omega1, omega2, omega3, p):
+def steady_residual(beta, omega1, omega2, omega3, p, load=None):
     """Relative size of the rates of the rolling state (dimensionless); 0 on an equilibrium.
 
     max(|omega1| / S, |omega1_dot| / rate_scale, |omega2_dot| / S^2, |omega3_dot| / S^2) with
@@ -94,22 +97,24 @@ def steady_residual(beta, omega1, omega2, omega3, p):
     -k_r omega3, which vanish only with the spin.
     """
     s = omega_scale(omega1, omega2, omega3, p)
-    _, d1, d2, d3 = rolling.rolling_rhs(beta, omega1, omega2, omega3, p)
-    return np.maximum(np.maximum(np.abs(omega1) / s, np.abs(d1) / rate_scale(beta, omega1, omega2, omega3, p)),
+    _, d1, d2, d3 = rolling.rolling_rhs(beta, omega1, omega2, omega3, p, load)
+    return np.maximum(np.maximum(np.abs(omega1) / s, np.abs(d1) / rate_scale(beta, omega1, omega2, omega3, p, load)),
                       np.maximum(np.abs(d2) / (s * s), np.abs(d3) / (s * s)))
 
 
 @kernel(runtime=True)
-def on_steady_motion(beta, omega1, omega2, omega3, p):
-    """Whether the rolling state is an equilibrium of (33)-(36)/(83) to within STEADY_TOL."""
-    return steady_residual(beta, omega1, omega2, omega3, p) <= STEADY_TOL
+def on_steady_motion(beta, omega1, omega2, omega3, p, load=None):
+    """Whether the rolling state is an equilibrium of (33)-(36)/(83) (and an external ``load``) to
+    within STEADY_TOL."""
+    return steady_residual(beta, omega1, omega2, omega3, p, load) <= STEADY_TOL
 
 
 @kernel(runtime=True)
-def transversal_omega1_zero(beta, omega1, omega2, omega3, p, rtol):
-    """Whether an omega1 zero at this rolling state crosses transversally at tolerance rtol."""
-    _, d1, _, _ = rolling.rolling_rhs(beta, omega1, omega2, omega3, p)
-    return np.abs(d1) > TRANSVERSAL_RTOL_FACTOR * rtol * rate_scale(beta, omega1, omega2, omega3, p)
+def transversal_omega1_zero(beta, omega1, omega2, omega3, p, rtol, load=None):
+    """Whether an omega1 zero at this rolling state crosses transversally at tolerance rtol (with an
+    external ``load``, if any)."""
+    _, d1, _, _ = rolling.rolling_rhs(beta, omega1, omega2, omega3, p, load)
+    return np.abs(d1) > TRANSVERSAL_RTOL_FACTOR * rtol * rate_scale(beta, omega1, omega2, omega3, p, load)
 
 
 @kernel(runtime=True)

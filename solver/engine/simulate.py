@@ -12,13 +12,14 @@ from __future__ import annotations
 
 import math
 import os
+import pathlib
 import sys
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
 from rimroll.solver import _jit
-from rimroll.solver.engine import backends, kernels
+from rimroll.solver.engine import backends, kernels, scene_code
 from rimroll.solver.engine.outcomes import STEADY_MOTION, on_rim_reason
 from rimroll.solver.engine.outputs import OUTPUTS, column
 from rimroll.solver.engine.scenes import Scene, scene_of
@@ -47,21 +48,23 @@ _announced = set()
 
 
 def kernels_cached(scene: Scene | None = None) -> bool:
-    """Whether the kernel of ``scene`` (default: every scene kernel) is compiled in this process or cached on disk."""
-    names = list(kernels.SCENE_KERNELS) if scene is None else [scene.kernel]
-    for name in names:
-        func = kernels.SCENE_KERNELS[name]
-        if not (func.signatures or any(_jit.cache_dir().glob(f"**/kernels.{name}-*.nbi"))):
+    """Whether the kernel of ``scene`` (default: the four scene kernels of ``kernels``) is compiled in
+    this process or cached on disk."""
+    funcs = list(kernels.SCENE_KERNELS.values()) if scene is None else [scene_code.kernel_of(scene)]
+    for func in funcs:
+        stem = pathlib.Path(func.py_func.__code__.co_filename).stem
+        if not (func.signatures or any(_jit.cache_dir().glob(f"**/{stem}.{func.py_func.__name__}-*.nbi"))):
             return False
     return True
 
 
 def _announce_compile(scene: Scene):
     """One line on stderr before a scene kernel's first compile in this environment: a long silence otherwise."""
-    if scene.kernel in _announced or _jit._DISABLE or kernels_cached(scene):
+    key = (scene.kernel, tuple(t.name for t in scene.loads))
+    if key in _announced or _jit._DISABLE or kernels_cached(scene):
         return
-    _announced.add(scene.kernel)
-    name = scene.kernel.removeprefix("scene_")
+    _announced.add(key)
+    name = scene.kernel.removeprefix("scene_") + "".join(f" + {t.name}" for t in scene.loads)
     sys.stderr.write(f"rimroll: compiling the simulation kernel of the {name} scene, first run only: about "
                      f"{COLD_COMPILE_S[scene.kernel]} s on 2 cores (cached in {_jit.cache_dir()})\n")
     sys.stderr.flush()
@@ -69,7 +72,7 @@ def _announce_compile(scene: Scene):
 
 def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="dp5", *,
              max_steps=DEFAULT_MAX_STEPS, max_switches=DEFAULT_MAX_SWITCHES, workers=None, switching=None,
-             backend="cpu"):
+             backend="cpu", terms=()):
     """Integrate rolling initial states until they fall, roll periodically or reach t_max.
 
     Parameters
@@ -100,6 +103,10 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
         Where to run (``solver.engine.backends``): the CPU; a CUDA device, one thread per trajectory
         (needs the extra ``rimroll[gpu]`` and a device); or the device when one is usable, else
         the CPU. ``solver.engine.backends.resolve(backend)`` says which one "auto" picks, and on what.
+    terms : sequence of str
+        Load terms of the scene table (``solver.engine.scenes.TERMS``, e.g. one registered with
+        ``register_term``) added to the equations of both phases; the terms switched on by a
+        parameter (``k_r``, ``k_d``) come from ``params``.
 
     Returns
     -------
@@ -137,7 +144,7 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
     flat = np.ascontiguousarray(x.reshape(-1, 4))
     res_f = np.empty((flat.shape[0], kernels.N_RF))
     res_i = np.empty((flat.shape[0], kernels.N_RI), dtype=np.int64)
-    scene = scene_of(params)
+    scene = scene_of(params, tuple(terms))
     if where.name == "cuda":
         from rimroll.solver.engine import cuda_backend
 
@@ -154,7 +161,7 @@ def _run_cpu(scene, method, flat, p, sw, limits, workers, res_f, res_i):
     together (a boundary, an island that stays on the rim), and contiguous blocks would hand them
     all to one thread."""
     _announce_compile(scene)
-    scene_kernel = kernels.SCENE_KERNELS[scene.kernel]
+    scene_kernel = scene_code.kernel_of(scene)
     m = flat.shape[0]
     n_chunks = min(m, workers * _CHUNKS_PER_WORKER) if workers > 1 else min(m, 1)
     if n_chunks <= 1:

@@ -10,8 +10,9 @@ alpha, the cyclic angle (19), is stored last and only integrated to report revol
 feeds back and is left out of the error norm. Its rate, like every rate of the contact angles,
 comes from ``solver.kinematics`` (19)-(20).
 
-Per phase, ``*_rhs(y, p, K, s)`` writes the rates of y into row s of the 2-D array K (the one
-right-hand side of the phase), and ``*_events(y, f, p, aux, g, gr)`` writes the event values
+Per phase, ``*_rhs(y, model, K, s)`` writes the rates of y into row s of the 2-D array K (the one
+right-hand side of the phase; ``model``: a :class:`Model`, the parameters and the scene's external
+load), and ``*_events(y, f, model, aux, g, gr)`` writes the event values
 into g and their time derivatives (along the rates f) into gr; a derivative that is not available
 cheaply is NaN. ``aux`` is the switching-tolerance vector of ``solver.physics.switching`` in
 scenes that slip and None in rolling-only ones: numba prunes a branch on ``aux is None`` before it
@@ -47,7 +48,7 @@ from typing import NamedTuple
 import numpy as np
 
 from rimroll.solver._compile import kernel
-from rimroll.solver.physics import kinematics, rolling, slipping
+from rimroll.solver.physics import kinematics, loads, rolling, slipping
 from rimroll.solver.physics.switching import SW_DELTA, SW_U_STOP
 
 N_ROLLING = 5  # beta, omega1, omega2, omega3, alpha
@@ -77,6 +78,28 @@ U_ATOL_FRACTION = 1e-3
 = delta, the slip angle to 1e-2 rad). With the user's atol instead (1e-6 m/s at rtol 1e-4), u is
 known to 10% of delta, its angle is noise, the return rule is not met and the slip goes on at
 the stability limit of the stiff slipping equations: rtol 1e-4 cost 6x rtol 1e-6."""
+
+
+class Model(NamedTuple):
+    """What the equations of a scene need besides the state: the flat parameter vector ``p``
+    (``Params.as_array``) and ``load_fn``, the function of the state giving the external load of the
+    scene's terms (``solver.physics.loads``), or None for a scene without terms (its equations then
+    compile without any load)."""
+
+    p: np.ndarray
+    load_fn: object
+
+
+@kernel(inline=True)
+def rolling_load(model, y):
+    """The load of the scene's terms at the rolling state y (None in a scene without terms)."""
+    return loads.at(model.load_fn, y[0], y[1], y[2], y[3], 0.0, 0.0, model.p)
+
+
+@kernel(inline=True)
+def slipping_load(model, y):
+    """The load of the scene's terms at the slipping state y (None in a scene without terms)."""
+    return loads.at(model.load_fn, y[0], y[1], y[2], y[3], y[I_U1], y[I_U3], model.p)
 
 
 class Phase(NamedTuple):
@@ -141,12 +164,14 @@ def slipping_active(hybrid, conservative, out):
 
 
 @kernel(inline=True)
-def rolling_rhs(y, p, K, s):
-    """Rates of the rolling state y, (33)-(36)/(83) and alpha_dot (19), into row s of K."""
+def rolling_rhs(y, model, K, s):
+    """Rates of the rolling state y, (33)-(36)/(83) with the scene's load and alpha_dot (19), into
+    row s of K."""
     beta = y[0]
     w1 = y[1]
     w3 = y[3]
-    b, d1, d2, d3 = rolling.rolling_rhs(beta, w1, y[2], w3, p)
+    p = model.p
+    b, d1, d2, d3 = rolling.rolling_rhs(beta, w1, y[2], w3, p, rolling_load(model, y))
     alpha_dot = kinematics.alpha_rate(beta, w3, 0.0, p)
     K[s, 0] = b
     K[s, 1] = d1
@@ -156,14 +181,15 @@ def rolling_rhs(y, p, K, s):
 
 
 @kernel(inline=True)
-def slipping_rhs(y, p, K, s):
-    """Rates of the slipping state y, (42) and alpha_dot (19), into row s of K."""
+def slipping_rhs(y, model, K, s):
+    """Rates of the slipping state y, (42) with the scene's load and alpha_dot (19), into row s of K."""
     beta = y[0]
     w1 = y[1]
     w3 = y[3]
     u1 = y[I_U1]
     u3 = y[I_U3]
-    b, d1, d2, d3, du1, du3 = slipping.slipping_rhs(beta, w1, y[2], w3, u1, u3, p)
+    p = model.p
+    b, d1, d2, d3, du1, du3 = slipping.slipping_rhs(beta, w1, y[2], w3, u1, u3, p, slipping_load(model, y))
     alpha_dot = kinematics.alpha_rate(beta, w3, u1, p)
     K[s, 0] = b
     K[s, 1] = d1
@@ -175,16 +201,18 @@ def slipping_rhs(y, p, K, s):
 
 
 @kernel(inline=True)
-def rolling_events(y, f, p, aux, g, gr):
+def rolling_events(y, f, model, aux, g, gr):
     """Rolling event values into g, their time derivatives along the rates f into gr (see the table);
     the friction margin only where the ball can slip (aux not None)."""
     beta = y[0]
     w1 = y[1]
     w3 = y[3]
-    g[EV_FALL] = rolling.normal_force(beta, w1, w3, p)
+    p = model.p
+    load = rolling_load(model, y)
+    g[EV_FALL] = rolling.normal_force(beta, w1, w3, p, load)
     gr[EV_FALL] = rolling.normal_force_rate(beta, w1, w3, f[0], f[1], f[3], p)
     if aux is not None:
-        g[EV_SWITCH] = rolling.friction_margin(beta, w1, y[2], w3, p)
+        g[EV_SWITCH] = rolling.friction_margin(beta, w1, y[2], w3, p, load)
         gr[EV_SWITCH] = np.nan
     else:
         g[EV_SWITCH] = 1.0
@@ -194,11 +222,12 @@ def rolling_events(y, f, p, aux, g, gr):
 
 
 @kernel(inline=True)
-def slipping_events(y, f, p, aux, g, gr):
+def slipping_events(y, f, model, aux, g, gr):
     """Slipping event values into g, their time derivatives along the rates f into gr (see the table)."""
     u1 = y[I_U1]
     u3 = y[I_U3]
-    g[EV_FALL] = slipping.slipping_normal_force(y[0], y[1], y[3], u1, u3, p)
+    p = model.p
+    g[EV_FALL] = slipping.slipping_normal_force(y[0], y[1], y[3], u1, u3, p, slipping_load(model, y))
     gr[EV_FALL] = slipping.slipping_normal_force_rate(y[0], y[1], y[3], u1, u3, f[0], f[1], f[3], f[I_U1],
                                                       f[I_U3], p)
     u = np.hypot(u1, u3)

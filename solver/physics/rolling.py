@@ -18,13 +18,14 @@ from __future__ import annotations
 import numpy as np
 
 from rimroll.solver._jit import kernel
-from rimroll.solver.physics import kinematics
+from rimroll.solver.physics import kinematics, loads
 from rimroll.solver.physics.params import P_G, P_J, P_K_D, P_K_R, P_M, P_MU, P_R_BALL, P_R_RIM, P_RHO
 
 
 @kernel
-def rolling_rhs(beta, omega1, omega2, omega3, p):
-    """Right-hand side of the rolling equations (33)-(36) with dissipation (83).
+def rolling_rhs(beta, omega1, omega2, omega3, p, load=None):
+    """Right-hand side of the rolling equations (33)-(36) with dissipation (83), and the rates an
+    external ``load`` adds (``solver.physics.loads``; None: none, and none of its code is compiled).
 
     Returns (beta_dot [rad/s], omega1_dot, omega2_dot, omega3_dot [1/s^2]).
     """
@@ -44,23 +45,34 @@ def rolling_rhs(beta, omega1, omega2, omega3, p):
     )
     omega2_dot = r * R * omega1 * omega3 / (rho * D) - p[P_K_D] * omega2
     omega3_dot = -r * omega1 * omega3 * s / D - j * r * omega1 * omega2 / (rho * (1.0 + j)) - p[P_K_R] * omega3
+    if load is not None:
+        e1, e2, e3 = loads.rolling_rates(load, p)
+        omega1_dot += e1
+        omega2_dot += e2
+        omega3_dot += e3
     return beta_dot, omega1_dot, omega2_dot, omega3_dot
 
 
 @kernel
-def normal_force(beta, omega1, omega3, p):
-    """Normal contact force F2 of a rolling ball (31) [N]; the ball separates where F2 < 0."""
+def normal_force(beta, omega1, omega3, p, load=None):
+    """Normal contact force F2 of a rolling ball (31) [N], less the normal component of an external
+    ``load``'s force; the ball separates where F2 < 0."""
     r = p[P_R_BALL]
     rho = p[P_RHO]
     c = np.cos(beta)
     m = p[P_M]
-    return (m * r * r * omega3 * omega3 * c / (p[P_R_RIM] - rho * c) - m * r * r * omega1 * omega1 / rho
-            + m * p[P_G] * np.sin(beta))
+    F2 = (m * r * r * omega3 * omega3 * c / (p[P_R_RIM] - rho * c) - m * r * r * omega1 * omega1 / rho
+          + m * p[P_G] * np.sin(beta))
+    if load is not None:
+        F2 -= load[4]
+    return F2
 
 
 @kernel
 def normal_force_rate(beta, omega1, omega3, beta_dot, omega1_dot, omega3_dot, p):
-    """Time derivative of the rolling normal force (31) along the rates given [N/s]."""
+    """Time derivative of the rolling normal force (31) along the rates given [N/s] (an external load's
+    normal force is taken as constant over a step: the event locator then checks the dip on the
+    dense output, ``solver.engine.events``)."""
     r = p[P_R_BALL]
     rho = p[P_RHO]
     R = p[P_R_RIM]
@@ -74,8 +86,9 @@ def normal_force_rate(beta, omega1, omega3, beta_dot, omega1_dot, omega3_dot, p)
 
 
 @kernel
-def contact_forces(beta, omega1, omega2, omega3, p):
-    """Contact force (F1, F2, F3) [N] of a rolling ball in the n-basis: (30)-(32) plus dissipation.
+def contact_forces(beta, omega1, omega2, omega3, p, load=None):
+    """Contact force (F1, F2, F3) [N] of a rolling ball in the n-basis: (30)-(32) plus dissipation,
+    plus what an external ``load`` adds (``solver.physics.loads.contact_forces``).
 
     F1, F3 are the friction components, F2 the normal force.
     """
@@ -92,16 +105,21 @@ def contact_forces(beta, omega1, omega2, omega3, p):
         - j * m * r * r * omega2 * omega3 * c / ((1.0 + j) * D)
         - m * r * p[P_K_R] * omega1
     )
+    if load is not None:
+        d1, d2, d3 = loads.contact_forces(load, p)
+        F1 += d1
+        F2 += d2
+        F3 += d3
     return F1, F2, F3
 
 
 @kernel
-def friction_margin(beta, omega1, omega2, omega3, p):
+def friction_margin(beta, omega1, omega2, omega3, p, load=None):
     """Margin of the friction cone (39), mu F2 - sqrt(F1^2 + F3^2) [N]; rolling is valid where >= 0.
 
-    Meaningful for finite mu only (with mu = inf the cone is never left).
+    Meaningful for finite mu only (with mu = inf the cone is never left). ``load``: an external load.
     """
-    F1, F2, F3 = contact_forces(beta, omega1, omega2, omega3, p)
+    F1, F2, F3 = contact_forces(beta, omega1, omega2, omega3, p, load)
     return p[P_MU] * F2 - np.sqrt(F1 * F1 + F3 * F3)
 
 

@@ -20,17 +20,17 @@ from __future__ import annotations
 import numpy as np
 
 from rimroll.solver._jit import kernel
-from rimroll.solver.physics import kinematics
+from rimroll.solver.physics import kinematics, loads
 from rimroll.solver.physics.params import P_G, P_J, P_K_D, P_K_R, P_M, P_MU, P_R_BALL, P_R_RIM, P_RHO
 
 
 @kernel
-def free_rates(beta, omega1, omega2, omega3, u1, u3, p):
+def free_rates(beta, omega1, omega2, omega3, u1, u3, p, load=None):
     """Rates of the state without friction force, and the normal force.
 
     Returns (beta_dot, a1, a2, a3, b1, b3, F2): beta_dot [rad/s]; a = omega_dot without
     friction [1/s^2] (contact moment M_C included); b = u_dot without friction [m/s^2]; F2 the
-    normal force (41) [N].
+    normal force (41) [N]; with an external ``load`` (``solver.physics.loads.free_rates``) added.
     """
     r = p[P_R_BALL]
     j = p[P_J]
@@ -47,6 +47,14 @@ def free_rates(beta, omega1, omega2, omega3, u1, u3, p):
     b1 = r * a3 - Om2 * V3
     b3 = -r * a1 - p[P_G] * c + Om2 * V1
     F2 = p[P_M] * (Om3 * V1 - beta_dot * V3 + p[P_G] * s)
+    if load is not None:
+        da1, da2, da3, db1, db3, dF2 = loads.free_rates(load, p)
+        a1 += da1
+        a2 += da2
+        a3 += da3
+        b1 += db1
+        b3 += db3
+        F2 += dF2
     return beta_dot, a1, a2, a3, b1, b3, F2
 
 
@@ -64,13 +72,13 @@ def newton_euler_rates(beta, omega1, omega2, omega3, u1, u3, F1, F3, p):
 
 
 @kernel
-def slipping_rhs(beta, omega1, omega2, omega3, u1, u3, p):
-    """Right-hand side of the slipping equations (42) with dissipation, for u != 0.
+def slipping_rhs(beta, omega1, omega2, omega3, u1, u3, p, load=None):
+    """Right-hand side of the slipping equations (42) with dissipation and an external ``load``, for u != 0.
 
     Coulomb friction (29): (F1, F3) = -mu F2 (u1, u3) / |u|. Returns the six rates
     (beta_dot, omega1_dot, omega2_dot, omega3_dot, u1_dot, u3_dot).
     """
-    beta_dot, a1, a2, a3, b1, b3, F2 = free_rates(beta, omega1, omega2, omega3, u1, u3, p)
+    beta_dot, a1, a2, a3, b1, b3, F2 = free_rates(beta, omega1, omega2, omega3, u1, u3, p, load)
     speed = np.sqrt(u1 * u1 + u3 * u3)
     F1 = -p[P_MU] * F2 * u1 / speed
     F3 = -p[P_MU] * F2 * u3 / speed
@@ -81,15 +89,19 @@ def slipping_rhs(beta, omega1, omega2, omega3, u1, u3, p):
 
 
 @kernel
-def slipping_normal_force(beta, omega1, omega3, u1, u3, p):
-    """Normal contact force of a slipping ball (41) [N]."""
+def slipping_normal_force(beta, omega1, omega3, u1, u3, p, load=None):
+    """Normal contact force of a slipping ball (41) [N], less the normal component of an external
+    ``load``'s force."""
     r = p[P_R_BALL]
     rho = p[P_RHO]
     c = np.cos(beta)
     V1 = u1 - r * omega3
     V3 = u3 + r * omega1
     m = p[P_M]
-    return m * V1 * V1 * c / (p[P_R_RIM] - rho * c) - m * V3 * V3 / rho + m * p[P_G] * np.sin(beta)
+    F2 = m * V1 * V1 * c / (p[P_R_RIM] - rho * c) - m * V3 * V3 / rho + m * p[P_G] * np.sin(beta)
+    if load is not None:
+        F2 -= load[4]
+    return F2
 
 
 @kernel
@@ -110,29 +122,30 @@ def slipping_normal_force_rate(beta, omega1, omega3, u1, u3, beta_dot, omega1_do
 
 
 @kernel
-def directional_limits(beta, omega1, omega2, omega3, p):
-    """B1, B3 [m/s^2] and C [m/s^2] of (76) at a rolling state (dissipation included).
+def directional_limits(beta, omega1, omega2, omega3, p, load=None):
+    """B1, B3 [m/s^2] and C [m/s^2] of (76) at a rolling state (dissipation and an external ``load``
+    included).
 
     The directional limit of u_dot from the direction phi is (B1 - C cos phi, B3 - C sin phi) (75).
     """
-    _, _, _, _, b1, b3, F2 = free_rates(beta, omega1, omega2, omega3, 0.0, 0.0, p)
+    _, _, _, _, b1, b3, F2 = free_rates(beta, omega1, omega2, omega3, 0.0, 0.0, p, load)
     return b1, b3, p[P_MU] * (1.0 + p[P_J]) / (p[P_J] * p[P_M]) * F2
 
 
 @kernel
-def limit_direction(beta, omega1, omega2, omega3, p):
+def limit_direction(beta, omega1, omega2, omega3, p, load=None):
     """The limit direction phi1 = atan2(B3, B1) of (81) [rad]; phi2 = phi1 + pi."""
-    b1, b3, _ = directional_limits(beta, omega1, omega2, omega3, p)
+    b1, b3, _ = directional_limits(beta, omega1, omega2, omega3, p, load)
     return np.arctan2(b3, b1)
 
 
 @kernel
-def radial_slip_rate(beta, omega1, omega2, omega3, phi, p):
+def radial_slip_rate(beta, omega1, omega2, omega3, phi, p, load=None):
     """Directional limit of the slip speed's rate, u_dot*(x, phi) of (79) [m/s^2].
 
     Positive: the direction phi is repelling (slip grows); negative: attracting.
     """
-    b1, b3, C = directional_limits(beta, omega1, omega2, omega3, p)
+    b1, b3, C = directional_limits(beta, omega1, omega2, omega3, p, load)
     return b1 * np.cos(phi) + b3 * np.sin(phi) - C
 
 

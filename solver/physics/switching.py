@@ -31,7 +31,7 @@ from __future__ import annotations
 import numpy as np
 
 from rimroll.solver._compile import kernel
-from rimroll.solver.physics import kinematics, rolling, slipping
+from rimroll.solver.physics import kinematics, loads, rolling, slipping
 from rimroll.solver.physics.params import P_J, P_M, P_R_BALL
 
 DELTA = 1e-5
@@ -82,8 +82,8 @@ def default_tolerances(**changes) -> np.ndarray:
     return out
 
 
-@kernel
-def enter_slipping(y, p, sw):
+@kernel(takes_functions=True)
+def enter_slipping(y, p, sw, load_fn=None):
     """Rolling layout (beta, w1, w2, w3, alpha) -> slipping layout with u = delta e(phi1), in place.
 
     The slip is launched by the tangential contact impulse J = j m delta e(phi1) / (1 + j) that
@@ -91,9 +91,11 @@ def enter_slipping(y, p, sw):
     omega1 by -delta sin(phi1) / ((1+j) r) and omega3 by +delta cos(phi1) / ((1+j) r). An
     impulse at a contact point at rest does no work to first order (J . v_C = 0), so the switch
     changes the energy only by (1/2) j m delta^2 / (1 + j), not by O(delta) as setting u at
-    fixed omega would; that is what lets delta be large enough for cheap steps.
+    fixed omega would; that is what lets delta be large enough for cheap steps. ``load_fn``: the
+    scene's external load (``solver.physics.loads.at``), None if it has none.
     """
-    phi1 = slipping.limit_direction(y[0], y[1], y[2], y[3], p)
+    load = loads.at(load_fn, y[0], y[1], y[2], y[3], 0.0, 0.0, p)
+    phi1 = slipping.limit_direction(y[0], y[1], y[2], y[3], p, load)
     delta = sw[SW_DELTA]
     c = np.cos(phi1)
     s = np.sin(phi1)
@@ -112,7 +114,7 @@ def _wrap(angle):
 
 
 @kernel
-def _rate_phi1(y, p):
+def _rate_phi1(y, p, load=None):
     """u_dot*(x, phi1) = |B| - C (79) [m/s^2], computed as -(1+j)/(j m) times the friction margin (39).
 
     The two are equal (paper Sect. 5.2.1: the repelling/attracting boundary of phi1 is the slip
@@ -120,12 +122,12 @@ def _rate_phi1(y, p):
     function, so rounding (large when mu F2 and |F_t| nearly cancel, e.g. mu = 1e8 at
     separation) cannot make them disagree and chatter.
     """
-    margin = rolling.friction_margin(y[0], y[1], y[2], y[3], p)
+    margin = rolling.friction_margin(y[0], y[1], y[2], y[3], p, load)
     return -(1.0 + p[P_J]) / (p[P_J] * p[P_M]) * margin
 
 
-@kernel
-def stop_slip_rate(y, p, sw):
+@kernel(takes_functions=True)
+def stop_slip_rate(y, p, sw, load_fn=None):
     """u_dot* (79) [m/s^2] along the limit direction the slip returns by, or 0.0 if no return now.
 
     A negative value means: the slip reaches 0 within dt_max (see the module docstring).
@@ -137,12 +139,13 @@ def stop_slip_rate(y, p, sw):
     if u > sw[SW_U_STOP]:
         return 0.0, False
     phi = np.arctan2(u3, u1)
-    phi1 = slipping.limit_direction(y[0], y[1], y[2], y[3], p)
+    load = loads.at(load_fn, y[0], y[1], y[2], y[3], 0.0, 0.0, p)  # the directional limits: at u = 0
+    phi1 = slipping.limit_direction(y[0], y[1], y[2], y[3], p, load)
     d1 = abs(_wrap(phi - phi1))
     d2 = abs(_wrap(phi - phi1 - np.pi))
     along1 = d1 <= d2
-    rate1 = _rate_phi1(y, p)
-    rate2 = slipping.radial_slip_rate(y[0], y[1], y[2], y[3], phi1 + np.pi, p)
+    rate1 = _rate_phi1(y, p, load)
+    rate2 = slipping.radial_slip_rate(y[0], y[1], y[2], y[3], phi1 + np.pi, p, load)
     rate = rate1 if along1 else rate2
     fast = -rate * sw[SW_DT_MAX] >= u
     if min(d1, d2) <= sw[SW_PHI_TOL] and rate < 0.0 and fast:
@@ -157,35 +160,37 @@ def stop_slip_rate(y, p, sw):
     return 0.0, False
 
 
-@kernel
-def try_return(y, p, sw, t_left, out):
+@kernel(takes_functions=True)
+def try_return(y, p, sw, t_left, out, load_fn=None):
     """The slipping -> rolling map, if the return rule allows it now.
 
     On success writes the rolling state (beta, w1, w2, w3, alpha) into ``out`` and returns the
-    time advanced (>= 0) [s]; returns -1.0 when slipping goes on.
+    time advanced (>= 0) [s]; returns -1.0 when slipping goes on. ``load_fn``: the scene's external
+    load (``solver.physics.loads.at``), None if it has none.
     """
-    rate, along1 = stop_slip_rate(y, p, sw)
+    rate, along1 = stop_slip_rate(y, p, sw, load_fn)
     if not rate < 0.0:
         return -1.0
     for i in range(7):
         out[i] = y[i]
-    dt = leave_slipping(out, p, rate, t_left)
-    if along1 and not rolling.friction_margin(out[0], out[1], out[2], out[3], p) > 0.0:
+    dt = leave_slipping(out, p, rate, t_left, loads.at(load_fn, y[0], y[1], y[2], y[3], y[4], y[5], p))
+    load = loads.at(load_fn, out[0], out[1], out[2], out[3], 0.0, 0.0, p)
+    if along1 and not rolling.friction_margin(out[0], out[1], out[2], out[3], p, load) > 0.0:
         return -1.0
     return dt
 
 
 @kernel
-def leave_slipping(y, p, rate, t_left):
+def leave_slipping(y, p, rate, t_left, load=None):
     """Slipping layout -> rolling layout, in place, after the extrapolated time u / (-rate).
 
-    The time is capped at t_left; the state moves by one Euler step of the slipping equations.
-    Returns the time advanced [s].
+    The time is capped at t_left; the state moves by one Euler step of the slipping equations (with
+    the external ``load`` at that state, if any). Returns the time advanced [s].
     """
     u1 = y[4]
     u3 = y[5]
     dt = min(np.hypot(u1, u3) / (-rate), t_left)
-    b, d1, d2, d3, _, _ = slipping.slipping_rhs(y[0], y[1], y[2], y[3], u1, u3, p)
+    b, d1, d2, d3, _, _ = slipping.slipping_rhs(y[0], y[1], y[2], y[3], u1, u3, p, load)
     alpha_dot = kinematics.alpha_rate(y[0], y[3], u1, p)
     alpha = y[6] + dt * alpha_dot
     y[0] += dt * b
