@@ -99,7 +99,8 @@ def device_run(cb, scene, states: np.ndarray, params):
     res_f = np.empty((m, kernels.N_RF))
     res_i = np.empty((m, kernels.N_RI), dtype=np.int64)
     cb.run(scene, RUN["method"], states, params.as_array(),
-           kernels.Limits(RUN["t_max"], RUN["rtol"], RUN["atol"], STEPS, SWITCHES), default_tolerances(), res_f, res_i)
+           kernels.Limits(RUN["t_max"], RUN["rtol"], RUN["atol"], STEPS, SWITCHES, scene.conservative),
+           default_tolerances(), res_f, res_i)
     return res_f, res_i
 
 

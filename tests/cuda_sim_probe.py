@@ -60,7 +60,7 @@ def main(out: str, n: int, max_batch: int | None) -> None:
         from rimroll.solver.physics.switching import default_tolerances
 
         cuda_backend.run(scene_of(params), "dp5", flat, params.as_array(),
-                         Limits(20.0, 1e-8, 1e-10, 1_000_000, 10_000), default_tolerances(), res_f, res_i,
+                         Limits(20.0, 1e-8, 1e-10, 1_000_000, 10_000, True), default_tolerances(), res_f, res_i,
                          max_batch=max_batch)
         saved["batched/res_f"] = res_f
         saved["batched/res_i"] = res_i

@@ -15,7 +15,7 @@ from rimroll.solver.physics import rolling
 
 def test_solver_kernels_cache_in_the_per_user_directory_of_the_sources_digest():
     package = pathlib.Path(solver.__file__).resolve().parent
-    for func in (rolling.rolling_rhs, kernels.scene_rolling_conservative):
+    for func in (rolling.rolling_rhs, kernels.scene_rolling):
         path = pathlib.Path(func._cache._cache_path).resolve()
         assert path.is_relative_to(_jit.cache_dir().resolve())
         assert not path.is_relative_to(package)
@@ -78,16 +78,16 @@ def test_a_first_compile_is_announced_on_stderr_once(monkeypatch, capsys):
     solver.simulate(x, solver.Params(mu=float("inf")), t_max=0.1)
     err = capsys.readouterr().err
     assert err.count("first run only") == 1
-    assert "rolling_conservative scene" in err
+    assert "rolling scene" in err
     assert str(_jit.cache_dir()) in err
     solver.simulate(x, solver.Params(mu=1.0), t_max=0.1)  # another scene: its own line
     err = capsys.readouterr().err
-    assert err.count("first run only") == 1 and "hybrid_conservative scene" in err
+    assert err.count("first run only") == 1 and "hybrid scene" in err
 
 
 def test_the_cache_index_of_the_scene_kernel_is_found_after_a_run():
     solver.simulate([[1.1, 2.0, 35.0, 10.0]], solver.Params(mu=float("inf")), t_max=0.1)
-    assert any(_jit.cache_dir().glob("**/kernels.scene_rolling_conservative-*.nbi"))
+    assert any(_jit.cache_dir().glob("**/kernels.scene_rolling-*.nbi"))
 
 
 def test_functions_taking_compiled_functions_are_not_cached_on_their_own():
@@ -126,9 +126,9 @@ def test_scenes_compiled_in_separate_processes_share_one_cache(tmp_path):
     scene into the same cache without error, and a third loads both without compiling."""
     cache = tmp_path / "cache"
     flags, first, err = _child(tmp_path, "inf", 0.0, cache)
-    assert flags == "[True, False, False, False]" and "rolling_conservative scene" in err
+    assert flags == "[True, False]" and "rolling scene" in err
     flags, _, err = _child(tmp_path, 1.0, 0.0, cache)
-    assert flags == "[False, False, True, False]" and "hybrid_conservative scene" in err
+    assert flags == "[False, True]" and "hybrid scene" in err
     for mu in ("inf", 1.0):
         _, again, err = _child(tmp_path, mu, 0.0, cache)
         assert "first run only" not in err
@@ -138,14 +138,15 @@ def test_scenes_compiled_in_separate_processes_share_one_cache(tmp_path):
 def test_a_rolling_only_process_builds_only_the_rolling_only_kernel(tmp_path):
     """A process compiles (or loads) a scene's kernel when it first runs that scene, and no other."""
     flags, _, _ = _child(tmp_path, "inf", 0.0, None)
-    assert flags == "[True, False, False, False]"
+    assert flags == "[True, False]"
 
 
 @pytest.mark.slow
-def test_the_step_loop_is_compiled_three_times_for_the_four_scenes(tmp_path):
-    """run_phase is the costly part of the first compile: rolling with and without the friction
-    cone, slipping once (only hybrid scenes slip); never once per scene and phase (eight).
-    A cold cache, so that the process compiles everything it runs."""
+def test_the_step_loop_is_compiled_twice_for_the_four_scenes(tmp_path):
+    """run_phase is the costly part of the first compile: once for the scenes that only roll (no
+    friction cone, no slipping code) and once for those that slip (one step loop for both phases);
+    whether a scene is conservative is a run-time setting, never a compile. A cold cache, so that
+    the process compiles everything it runs."""
     import subprocess
     import sys
 
@@ -153,10 +154,10 @@ def test_the_step_loop_is_compiled_three_times_for_the_four_scenes(tmp_path):
             "for mu, k_r in ((float('inf'), 0.0), (float('inf'), 0.02), (1.0, 0.0), (1.0, 0.02)):\n"
             "    solver.simulate([[1.1, 2.0, 35.0, 10.0]], solver.Params(mu=mu, k_r=k_r), t_max=0.1, workers=1)\n"
             "for s in kernels.run_phase.signatures:\n"
-            "    print(str(s[0]).split('function ')[1].split(' ')[0], s[3])\n")
+            "    print(str(s[0]).split('function ')[1].split(' ')[0])\n"
+            "print([bool(k.signatures) for k in kernels.SCENE_KERNELS.values()])\n")
     env = {**os.environ, "RIMROLL_CACHE_DIR": str(tmp_path / "cache")}
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, env=env)
     assert out.returncode == 0, out.stderr[-2000:]
-    assert sorted(out.stdout.split("\n")[:-1]) == ["rolling_rhs Literal[bool](False)",
-                                                   "rolling_rhs Literal[bool](True)",
-                                                   "slipping_rhs Literal[bool](True)"]
+    lines = out.stdout.split("\n")[:-1]
+    assert sorted(lines[:-1]) == ["hybrid_rhs", "rolling_rhs"] and lines[-1] == "[True, True]"

@@ -79,7 +79,7 @@ def test_a_scene_with_load_terms_gets_a_generated_kernel_that_names_exactly_its_
     assert scene.name == "slipping+toy_drilling" and not scene.conservative
     text = scene_code.source(scene)
     assert "toy_drilling_damping as term_0" in text and "toy_nothing" not in text
-    assert scene_code.kernel_of(scenes.scene_of(solver.Params(mu=1.0))).py_func.__name__ == "scene_hybrid_conservative"
+    assert scene_code.kernel_of(scenes.scene_of(solver.Params(mu=1.0))).py_func.__name__ == "scene_hybrid"
     with pytest.raises(ValueError, match="unknown terms"):
         solver.simulate(_states(2), solver.Params(), terms=("no_such_term",))
 

@@ -166,16 +166,16 @@ def launcher(scene: Scene, method: str):
                 G[r, e] = 0.0
         work = Work(W, K, Q, G, sign, search, active)
         method = Method(A, E, P, n_stages, err_mode, error_order)
-        limits = Limits(t_max, rtol, atol, max_steps, max_switches)
+        limits = Limits(t_max, rtol, atol, max_steps, max_switches, conservative)
         if has_load:  # a constant of the kernel, as slips: numba compiles one branch
-            model = Model(native(p), terms.load)
+            model = Model(native(p), terms.load, False)
         else:
-            model = Model(native(p), None)
+            model = Model(native(p), None, False)
         if slips:  # a constant of the kernel: numba compiles one of the two calls
-            trajectory(native(sw), conservative, native(states[k]), model, method, limits, work,
+            trajectory(native(sw), native(states[k]), model, method, limits, work,
                        native(res_f[k]), native(res_i[k]))
         else:  # rolling only: no switching tolerances, no slipping code
-            trajectory(None, conservative, native(states[k]), model, method, limits, work, native(res_f[k]),
+            trajectory(None, native(states[k]), model, method, limits, work, native(res_f[k]),
                        native(res_i[k]))
 
     launch.__qualname__ = launch.__name__ = f"launch_{scene.kernel}_{method}"
@@ -322,7 +322,7 @@ def run(scene: Scene, method: str, states: np.ndarray, p: np.ndarray, limits: ke
                 slot.h_states[:n] = states[lo:hi]
                 slot.d_states[:n].copy_to_device(slot.h_states[:n], stream=slot.stream)
                 launch = _configure(k, -(-n // THREADS_PER_BLOCK), slot.stream)
-                launch(slot.d_states, n, d_p, *limits, d_sw, slot.d_f, slot.d_i)
+                launch(slot.d_states, n, d_p, *limits[:5], d_sw, slot.d_f, slot.d_i)  # periodic: a constant
                 slot.d_f[:n].copy_to_host(slot.h_f[:n], stream=slot.stream)
                 slot.d_i[:n].copy_to_host(slot.h_i[:n], stream=slot.stream)
                 slot.rows = (lo, hi)

@@ -46,7 +46,10 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+from numba import types
+from numba.extending import overload
 
+from rimroll.solver import _jit
 from rimroll.solver._compile import kernel
 from rimroll.solver.engine import rules, system
 from rimroll.solver.engine.events import (
@@ -143,13 +146,15 @@ class Work(NamedTuple):
 
 class Limits(NamedTuple):
     """The settings of a run that every trajectory shares: t_max [s], rtol [1], atol [units of each
-    component], the step budget and the budget of rolling/slipping switches per trajectory."""
+    component], the step budget and the budget of rolling/slipping switches per trajectory, and
+    whether periodic rolling is detected (``periodic``: the scene is conservative, Prop. 4)."""
 
     t_max: float
     rtol: float
     atol: float
     max_steps: int
     max_switches: int
+    periodic: bool
 
 
 @kernel(inline=True)
@@ -261,10 +266,10 @@ def act_on_events(events, aux, ret, phase, model, limits, work, t, h, res_f, res
         events(y_ev, W[W_SLOPE], model, aux, g_ev, G[G_RTMP])
         t_ev = t + theta * h
         act = phase.action[ev]
-        if ret is None:  # a rolling phase (numba compiles only this phase's actions)
-            end = rolling_action(act, y_ev, model, limits.rtol, t_ev, work, res_f, res_i)
-        else:
+        if ret is not None and model.slipping:  # (ret is None: rolling only, numba drops the slipping actions)
             end, dt_return = slipping_action(act, y_ev, model, ret, limits.t_max - t_ev, work, res_i)
+        else:
+            end = rolling_action(act, y_ev, model, limits.rtol, t_ev, work, res_f, res_i)
         if end != END_NONE:
             for i in range(n):
                 y[i] = y_ev[i]
@@ -390,7 +395,7 @@ def run_phase(rhs, events, aux, ret, phase, model, method, limits, work, res_f, 
             G[G_MIN, EV_FALL] = G[G_G1, EV_FALL]
         h = h_next
         after_reject = False
-        if ret is not None:  # a slipping phase: the return rule at every step end too
+        if ret is not None and model.slipping:  # a slipping phase: the return rule at every step end too
             dt_return = try_return(y, model.p, ret, t_max - t, W[W_Y_RET], model.load_fn)
             if dt_return >= 0.0:
                 end = END_SWITCH
@@ -399,6 +404,32 @@ def run_phase(rhs, events, aux, ret, phase, model, method, limits, work, res_f, 
     res_i[RI_N_STEPS] = n_steps
     res_i[RI_N_SEARCHED] = n_searched
     return end, dt_return
+
+
+def scene_phase(sw, phase, model, method, limits, work, res_f, res_i):
+    """One phase of a trajectory (:func:`run_phase`) with the systems of the scene: in a rolling-only
+    scene (sw None) the rolling system and no return rule; in a scene that slips one step loop for
+    both phases (``system.hybrid_rhs``: ``model.slipping`` says which). Compiled code takes the
+    choice from the type of ``sw`` (:func:`_scene_phase`), so each kernel holds one step loop."""
+    if sw is None:
+        return run_phase(system.rolling_rhs, system.rolling_events, None, None, phase, model, method, limits, work,
+                         res_f, res_i)
+    return run_phase(system.hybrid_rhs, system.hybrid_events, sw, sw, phase, model, method, limits, work, res_f,
+                     res_i)
+
+
+@overload(scene_phase, jit_options={"nogil": True, **_jit.NO_REFCOUNT})
+def _scene_phase(sw, phase, model, method, limits, work, res_f, res_i):
+    if isinstance(sw, (types.NoneType, types.Omitted)):
+        def rolling_only(sw, phase, model, method, limits, work, res_f, res_i):
+            return run_phase(system.rolling_rhs, system.rolling_events, None, None, phase, model, method, limits,
+                             work, res_f, res_i)
+        return rolling_only
+
+    def hybrid(sw, phase, model, method, limits, work, res_f, res_i):
+        return run_phase(system.hybrid_rhs, system.hybrid_events, sw, sw, phase, model, method, limits, work, res_f,
+                         res_i)
+    return hybrid
 
 
 @kernel(inline=True)
@@ -474,13 +505,13 @@ def record(rolling_phase, y, p, E0, slip_time, t_slip0, slip_phases, work, res_f
 
 
 @kernel(inline=True)
-def trajectory(sw, conservative, x0, model, method, limits, work, res_f, res_i):
+def trajectory(sw, x0, model, method, limits, work, res_f, res_i):
     """One trajectory from the rolling initial state x0 in the scene: sw, the switching tolerances
-    of a scene that slips (None: rolling only; numba then compiles no slipping code), conservative:
-    periodic rolling is detected."""
+    of a scene that slips (None: rolling only; numba then compiles no slipping code); periodic
+    rolling is detected where ``limits.periodic``."""
     W = work.W
     y = W[W_Y]
-    roll, slip = system.phases(sw, conservative, limits.atol, work.active, W[W_ATOL_ROLL], W[W_ATOL_SLIP])
+    roll, slip = system.phases(sw, limits.periodic, limits.atol, work.active, W[W_ATOL_ROLL], W[W_ATOL_SLIP])
     p = model.p
     E0 = begin_trajectory(x0, p, work, res_f, res_i)
     rolling_phase = True
@@ -509,16 +540,12 @@ def trajectory(sw, conservative, x0, model, method, limits, work, res_f, res_i):
             if res_f[RF_T_END] >= limits.t_max:
                 break
             # ---------------- one phase to its terminal event ----------------
-            if rolling_phase:
-                end, dt_return = run_phase(system.rolling_rhs, system.rolling_events, sw, None, roll, model, method,
-                                           limits, work, res_f, res_i)
-            elif sw is not None:  # only scenes that slip have a slipping phase
-                steps_before = res_i[RI_N_STEPS]
-                end, dt_return = run_phase(system.slipping_rhs, system.slipping_events, sw, sw, slip, model, method,
-                                           limits, work, res_f, res_i)
+            steps_before = res_i[RI_N_STEPS]
+            phase = roll if rolling_phase else slip
+            end, dt_return = scene_phase(sw, phase, system.Model(p, model.load_fn, not rolling_phase), method, limits,
+                                         work, res_f, res_i)
+            if not rolling_phase:
                 res_i[RI_N_SLIP_STEPS] += res_i[RI_N_STEPS] - steps_before
-            else:
-                break  # unreachable: a rolling-only trajectory never leaves rolling
             if end == END_PERIODIC:
                 res_i[RI_OUTCOME] = PERIODIC_ROLLING
                 break
@@ -554,40 +581,27 @@ def new_work(method) -> Work:
 
 
 @kernel(inline=True)
-def run_scene(sw, conservative, states, model, method, limits, work, res_f, res_i):
-    """Simulate every row of ``states`` (m, 4) in the scene (sw: None for rolling only,
-    conservative: a literal) with the work arrays ``work`` (:func:`new_work`); results into the
-    rows of res_f, res_i. Inlined into the four scene kernels."""
+def run_scene(sw, states, model, method, limits, work, res_f, res_i):
+    """Simulate every row of ``states`` (m, 4) in the scene (sw: None for rolling only) with the work
+    arrays ``work`` (:func:`new_work`); results into the rows of res_f, res_i. Inlined into the scene
+    kernels."""
     for k in range(states.shape[0]):
-        trajectory(sw, conservative, states[k], model, method, limits, work, res_f[k], res_i[k])
+        trajectory(sw, states[k], model, method, limits, work, res_f[k], res_i[k])
 
 
 @kernel
-def scene_rolling_conservative(states, p, sw, method, limits, work, res_f, res_i):
-    """Scene mu = inf, k_r = k_d = 0 (sw is None): every row of ``states`` (see :func:`run_scene`)."""
-    run_scene(sw, True, states, system.Model(p, None), method, limits, work, res_f, res_i)
+def scene_rolling(states, p, sw, method, limits, work, res_f, res_i):
+    """Scenes with mu = inf (sw is None): every row of ``states`` (see :func:`run_scene`)."""
+    run_scene(sw, states, system.Model(p, None, False), method, limits, work, res_f, res_i)
 
 
 @kernel
-def scene_rolling_dissipative(states, p, sw, method, limits, work, res_f, res_i):
-    """Scene mu = inf, k_r or k_d > 0 (sw is None): every row of ``states`` (see :func:`run_scene`)."""
-    run_scene(sw, False, states, system.Model(p, None), method, limits, work, res_f, res_i)
+def scene_hybrid(states, p, sw, method, limits, work, res_f, res_i):
+    """Scenes with finite mu (rolling and slipping): every row of ``states`` (see :func:`run_scene`)."""
+    run_scene(sw, states, system.Model(p, None, False), method, limits, work, res_f, res_i)
 
 
-@kernel
-def scene_hybrid_conservative(states, p, sw, method, limits, work, res_f, res_i):
-    """Scene finite mu, k_r = k_d = 0: every row of ``states`` (see :func:`run_scene`)."""
-    run_scene(sw, True, states, system.Model(p, None), method, limits, work, res_f, res_i)
-
-
-@kernel
-def scene_hybrid_dissipative(states, p, sw, method, limits, work, res_f, res_i):
-    """Scene finite mu, k_r or k_d > 0: every row of ``states`` (see :func:`run_scene`)."""
-    run_scene(sw, False, states, system.Model(p, None), method, limits, work, res_f, res_i)
-
-
-SCENE_KERNELS = {kernel.py_func.__name__: kernel for kernel in (
-    scene_rolling_conservative, scene_rolling_dissipative, scene_hybrid_conservative, scene_hybrid_dissipative)}
+SCENE_KERNELS = {kernel.py_func.__name__: kernel for kernel in (scene_rolling, scene_hybrid)}
 """The kernel of each scene by name (``SCENE_KERNELS[scene.kernel]``, ``solver.engine.scenes``):
 (states, p, sw, method, limits, work, res_f, res_i) with ``method`` a ``tableaus.Method``, ``limits`` a
 :class:`Limits` and ``work`` the arrays of :func:`new_work`."""

@@ -47,7 +47,7 @@ def scene(states, p, sw, method, limits, work, res_f, res_i):
     """Every row of ``states`` in this scene (see ``kernels.run_scene``)."""
     # this.load, not load: numba lowers a function named through a module as a constant of no size; a
     # global function value would be an address of this process, and the kernel could not be cached
-    kernels.run_scene(sw, {conservative}, states, system.Model(p, this.load), method, limits, work, res_f, res_i)
+    kernels.run_scene(sw, states, system.Model(p, this.load, False), method, limits, work, res_f, res_i)
 '''
 
 
@@ -66,7 +66,7 @@ def source(scene: Scene) -> str:
         calls = [f"    l{k} = term_{k}({args})" for k in range(len(terms))]
         sums = ", ".join(" + ".join(f"l{k}[{i}]" for k in range(len(terms))) for i in range(6))
         body = "\n".join(calls) + f"\n    return ({sums})"
-    lines.append(_LOAD.format(body=body, conservative=scene.conservative))
+    lines.append(_LOAD.format(body=body))
     return "\n".join(lines)
 
 

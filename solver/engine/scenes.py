@@ -106,9 +106,10 @@ class Scene:
 
     @property
     def kernel(self) -> str:
-        """Name of the compiled kernel of this scene's phases (one per value of :attr:`flags`; a scene
-        with load terms runs a kernel generated from it, ``solver.engine.scene_code``)."""
-        return kernel_name(*self.flags)
+        """Name of the compiled kernel of this scene's phases: ``scene_rolling`` or ``scene_hybrid`` (a
+        scene with load terms runs a kernel generated from it, ``solver.engine.scene_code``); whether
+        periodic rolling is detected is a run-time setting of both (``kernels.Limits.periodic``)."""
+        return kernel_name(self.slips)
 
     def parameters(self, mu: float, strength: float) -> dict[str, float]:
         """mu and every parametrised term's parameter for this scene: ``mu`` if it slips (else inf),
@@ -120,13 +121,9 @@ class Scene:
         return out
 
 
-def kernel_name(hybrid: bool, conservative: bool) -> str:
-    """``scene_<rolling|hybrid>_<conservative|dissipative>``: the scene kernel of these flags."""
-    return f"scene_{'hybrid' if hybrid else 'rolling'}_{'conservative' if conservative else 'dissipative'}"
-
-
-KERNEL_FLAGS = ((False, True), (False, False), (True, True), (True, False))
-"""The (hybrid, conservative) flags of the four compiled scene kernels."""
+def kernel_name(hybrid: bool) -> str:
+    """``scene_rolling`` or ``scene_hybrid``: the scene kernel of scenes that only roll or also slip."""
+    return f"scene_{'hybrid' if hybrid else 'rolling'}"
 
 NAMED = (
     Scene("rolling_only", "rolling only", slips=False),

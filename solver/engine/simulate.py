@@ -40,8 +40,7 @@ DEFAULT_MAX_SWITCHES = 10_000
 _CHUNKS_PER_WORKER = 8  # chunks per thread: balances fast falls against long periodic runs
 
 
-COLD_COMPILE_S = {"scene_rolling_conservative": 20, "scene_rolling_dissipative": 20, "scene_hybrid_conservative": 30,
-                  "scene_hybrid_dissipative": 30}
+COLD_COMPILE_S = {"scene_rolling": 10, "scene_hybrid": 13}
 """Measured first compile of each scene's kernel on 2 cores [s], in a fresh process (printed, not
 enforced); a scene compiled after another one reuses the step loops they share."""
 _announced = set()
@@ -133,7 +132,8 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
         For ``backend="cuda"`` without the extra or a device (one line saying which).
     """
     x = _checked_states(states, params)
-    limits = _checked_limits(t_max, rtol, atol, max_steps, max_switches)
+    scene = scene_of(params, tuple(terms))
+    limits = _checked_limits(t_max, rtol, atol, max_steps, max_switches)._replace(periodic=scene.conservative)
     if method not in TABLEAUS:
         raise ValueError(f"`method` must be one of {sorted(TABLEAUS)}; got {method!r}")
     workers = _count("workers", (os.cpu_count() or 1) if workers is None else workers)
@@ -144,7 +144,6 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
     flat = np.ascontiguousarray(x.reshape(-1, 4))
     res_f = np.empty((flat.shape[0], kernels.N_RF))
     res_i = np.empty((flat.shape[0], kernels.N_RI), dtype=np.int64)
-    scene = scene_of(params, tuple(terms))
     if where.name == "cuda":
         from rimroll.solver.engine import cuda_backend
 
@@ -207,7 +206,7 @@ def _checked_limits(t_max, rtol, atol, max_steps, max_switches) -> kernels.Limit
     if atol > ATOL_MAX:
         raise ValueError(f"`atol` must be in (0, {ATOL_MAX:g}]; got {atol!r}")
     return kernels.Limits(t_max, rtol, atol, _count("max_steps", max_steps),
-                          _count("max_switches", max_switches, minimum=0))
+                          _count("max_switches", max_switches, minimum=0), True)
 
 
 def _fields(flat, shape, res_f, res_i, params):

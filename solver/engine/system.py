@@ -82,12 +82,14 @@ the stability limit of the stiff slipping equations: rtol 1e-4 cost 6x rtol 1e-6
 
 class Model(NamedTuple):
     """What the equations of a scene need besides the state: the flat parameter vector ``p``
-    (``Params.as_array``) and ``load_fn``, the function of the state giving the external load of the
+    (``Params.as_array``); ``load_fn``, the function of the state giving the external load of the
     scene's terms (``solver.physics.loads``), or None for a scene without terms (its equations then
-    compile without any load)."""
+    compile without any load); and ``slipping``, the phase the hybrid system functions run
+    (:func:`hybrid_rhs`, :func:`hybrid_events`)."""
 
     p: np.ndarray
     load_fn: object
+    slipping: bool
 
 
 @kernel(inline=True)
@@ -235,6 +237,25 @@ def slipping_events(y, f, model, aux, g, gr):
     gr[EV_SWITCH] = (u1 * f[I_U1] + u3 * f[I_U3]) / u
     g[EV_OMEGA1] = 0.0
     gr[EV_OMEGA1] = 0.0
+
+
+@kernel(inline=True)
+def hybrid_rhs(y, model, K, s):
+    """Rates of the phase ``model.slipping`` says: one step loop serves both phases of a scene that
+    slips (compiled once, not once per phase)."""
+    if model.slipping:
+        slipping_rhs(y, model, K, s)
+    else:
+        rolling_rhs(y, model, K, s)
+
+
+@kernel(inline=True)
+def hybrid_events(y, f, model, aux, g, gr):
+    """Event values of the phase ``model.slipping`` says (see :func:`hybrid_rhs`)."""
+    if model.slipping:
+        slipping_events(y, f, model, aux, g, gr)
+    else:
+        rolling_events(y, f, model, aux, g, gr)
 
 
 @kernel
