@@ -372,6 +372,7 @@ def test_auto_picks_the_device_and_batches_agree():
     res_f = np.full((5000, solver.engine.kernels.N_RF), np.nan)
     res_i = np.full((5000, solver.engine.kernels.N_RI), -1, dtype=np.int64)
     cuda_backend.run(scene_of(params), "dp5", states, params.as_array(),
-                     Limits(20.0, 1e-8, 1e-10, 1_000_000, 10_000, True), default_tolerances(), res_f, res_i, max_batch=777)
+                     Limits(20.0, 1e-8, 1e-10, 1_000_000, 10_000, True), default_tolerances(), res_f, res_i,
+                     max_batch=777)
     np.testing.assert_array_equal(res_i[:, solver.engine.kernels.RI_OUTCOME], one["outcome"])
     np.testing.assert_array_equal(res_f[:, solver.engine.kernels.RF_T_END], one["t_end"])
