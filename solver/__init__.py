@@ -10,26 +10,42 @@ numpy arrays in, numpy arrays out; no xarray, no dask, no I/O. Three rooms
 * ``analysis``: steady motions, Floquet analysis, conserved quantities, reduced dynamics,
   solution types, boundaries, predictability, traces and the scipy reference.
 
-The names below are the public API.
+The names of :data:`__all__` are the public API. Each is imported on first use (``import
+rimroll.solver.physics.params`` does not load the engine, scipy's special functions or numba's
+kernels).
 """
 
-from rimroll.solver.analysis import floquet, predictability, steady
-from rimroll.solver.analysis.invariants import invariants
-from rimroll.solver.engine.outcomes import OUTCOME_MEANINGS, STATUS_MEANINGS
-from rimroll.solver.engine.simulate import simulate
-from rimroll.solver.physics import kinematics, rolling, slipping
-from rimroll.solver.physics.params import Params
+import importlib
 
-__all__ = [
-    "OUTCOME_MEANINGS",
-    "STATUS_MEANINGS",
-    "Params",
-    "floquet",
-    "invariants",
-    "kinematics",
-    "predictability",
-    "rolling",
-    "simulate",
-    "slipping",
-    "steady",
-]
+_PUBLIC = {
+    "OUTCOME_MEANINGS": ("rimroll.solver.engine.outcomes", "OUTCOME_MEANINGS"),
+    "STATUS_MEANINGS": ("rimroll.solver.engine.outcomes", "STATUS_MEANINGS"),
+    "Params": ("rimroll.solver.physics.params", "Params"),
+    "floquet": ("rimroll.solver.analysis.floquet", None),
+    "invariants": ("rimroll.solver.analysis.invariants", "invariants"),
+    "kinematics": ("rimroll.solver.physics.kinematics", None),
+    "predictability": ("rimroll.solver.analysis.predictability", None),
+    "rolling": ("rimroll.solver.physics.rolling", None),
+    "simulate": ("rimroll.solver.engine.simulate", "simulate"),
+    "slipping": ("rimroll.solver.physics.slipping", None),
+    "steady": ("rimroll.solver.analysis.steady", None),
+}
+
+__all__ = sorted(_PUBLIC)
+
+
+def __getattr__(name: str):
+    """A name of the public API, imported on first use; the rooms and modules of the solver as usual."""
+    if name in _PUBLIC:
+        module, attr = _PUBLIC[name]
+        value = importlib.import_module(module)
+        value = getattr(value, attr) if attr else value
+        globals()[name] = value
+        return value
+    if name in ("physics", "engine", "analysis"):
+        return importlib.import_module(f"rimroll.solver.{name}")
+    raise AttributeError(f"module 'rimroll.solver' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted({*globals(), *__all__, "physics", "engine", "analysis"})
