@@ -78,6 +78,22 @@ def test_energy_rate_equals_dissipated_power_pointwise(k_r, k_d):
         assert grad @ rates == pytest.approx(power, abs=1e-6 * np.abs(grad * rates).max())
 
 
+@pytest.mark.parametrize("k_r, k_d", [(0.0, 0.0), (0.3, 0.7)])
+def test_contact_force_and_friction_margin_rates_are_their_time_derivatives(k_r, k_d):
+    """The analytic rates of (F1, F2, F3) and of the margin (39), which the slip-onset gate bounds the
+    margin with, equal the derivatives of the forces along the rolling rates (central differences)."""
+    pa = solver.Params(mu=0.8, k_r=k_r, k_d=k_d).as_array()
+    for x in random_rolling_states(20):
+        rates = np.array(rolling.rolling_rhs(*x, pa))
+        for i in range(3):
+            grad = gradient(lambda z, i=i: rolling.contact_forces(*z, pa)[i], x)
+            dF = rolling.contact_forces_rate(*x, *rates, pa)[i]
+            assert dF == pytest.approx(grad @ rates, abs=1e-6 * np.abs(grad * rates).max() + 1e-9)
+        grad = gradient(lambda z: rolling.friction_margin(*z, pa), x)
+        rate = rolling.friction_margin_rate(*x, *rates, pa)
+        assert rate == pytest.approx(grad @ rates, abs=1e-6 * np.abs(grad * rates).max() + 1e-9)
+
+
 @pytest.mark.parametrize("k_r, k_d", [(0.0, 0.0), (0.02, 0.0), (0.0, 0.02), (0.3, 0.7)])
 def test_slipping_equations_with_rolling_force_reproduce_rolling(k_r, k_d):
     pa = solver.Params(k_r=k_r, k_d=k_d).as_array()

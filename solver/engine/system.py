@@ -24,7 +24,7 @@ The event tables (declared data, read by the engine and the locator):
 index  rolling                             dir.   min        action
 =====  ==================================  =====  =========  ==========================
 0      F2 (31)                             down   tracked    FALL (free flight)
-1      friction margin (39) (finite mu)    down   -          SLIP (enter slipping)
+1      friction margin (39) (finite mu)    down   tracked    SLIP (enter slipping)
 2      omega1 (conservative scenes)        both   -          OMEGA1 (count a crossing)
 =====  ==================================  =====  =========  ==========================
 
@@ -36,9 +36,10 @@ index  slipping                            dir.   min        action
 2      (unused)                            -      -          NONE
 =====  ==================================  =====  =========  ==========================
 
-"dir." is the crossing direction that fires (-1 down, +1 up, 0 both); "min" marks the event
+"dir." is the crossing direction that fires (-1 down, +1 up, 0 both); "min" marks the events
 whose minimum over each step the locator tracks (``solver.engine.events``: a dip of F2 below zero
-inside a step is a fall even if F2 is positive at both step ends).
+inside a step is a fall even if F2 is positive at both step ends, and a dip of the friction margin
+a slip onset; both have analytic rates, so the gate bounds them between the step ends).
 """
 
 from __future__ import annotations
@@ -65,7 +66,7 @@ EV_OMEGA1 = 2
 ACT_NONE, ACT_FALL, ACT_SLIP, ACT_RETURN, ACT_OMEGA1 = 0, 1, 2, 3, 4
 
 ROLLING_DIRECTION = np.array([-1, -1, 0], dtype=np.int64)
-ROLLING_TRACK_MIN = np.array([True, False, False])
+ROLLING_TRACK_MIN = np.array([True, True, False])
 ROLLING_ACTION = np.array([ACT_FALL, ACT_SLIP, ACT_OMEGA1], dtype=np.int64)
 SLIPPING_DIRECTION = np.array([-1, -1, 0], dtype=np.int64)
 SLIPPING_TRACK_MIN = np.array([True, False, False])
@@ -205,7 +206,8 @@ def slipping_rhs(y, model, K, s):
 @kernel(inline=True)
 def rolling_events(y, f, model, aux, g, gr):
     """Rolling event values into g, their time derivatives along the rates f into gr (see the table);
-    the friction margin only where the ball can slip (aux not None)."""
+    the friction margin only where the ball can slip (aux not None). With an external load the
+    derivatives are central differences along f (:func:`_rolling_event_rates`)."""
     beta = y[0]
     w1 = y[1]
     w3 = y[3]
@@ -215,12 +217,36 @@ def rolling_events(y, f, model, aux, g, gr):
     gr[EV_FALL] = rolling.normal_force_rate(beta, w1, w3, f[0], f[1], f[3], p)
     if aux is not None:
         g[EV_SWITCH] = rolling.friction_margin(beta, w1, y[2], w3, p, load)
-        gr[EV_SWITCH] = np.nan
+        gr[EV_SWITCH] = rolling.friction_margin_rate(beta, w1, y[2], w3, f[0], f[1], f[2], f[3], p)
     else:
         g[EV_SWITCH] = 1.0
         gr[EV_SWITCH] = 0.0
+    if load is not None:
+        _rolling_event_rates(y, f, model, aux, gr)
     g[EV_OMEGA1] = w1
     gr[EV_OMEGA1] = f[1]
+
+
+FD_STEP = 1e-6
+"""Relative size [s, times the rates' largest component] of the central difference that gives the
+rolling events' rates in a scene with an external load (whose own rates the loads do not give)."""
+
+
+@kernel(inline=True)
+def _rolling_event_rates(y, f, model, aux, gr):
+    """The rates of F2 and of the friction margin along f by central differences, loads included."""
+    p = model.p
+    scale = max(max(abs(f[0]), abs(f[1])), max(abs(f[2]), abs(f[3])))
+    dt = FD_STEP / max(scale, 1.0)
+    b0, w10, w20, w30 = y[0] + dt * f[0], y[1] + dt * f[1], y[2] + dt * f[2], y[3] + dt * f[3]
+    b1, w11, w21, w31 = y[0] - dt * f[0], y[1] - dt * f[1], y[2] - dt * f[2], y[3] - dt * f[3]
+    load0 = loads.at(model.load_fn, b0, w10, w20, w30, 0.0, 0.0, p)
+    load1 = loads.at(model.load_fn, b1, w11, w21, w31, 0.0, 0.0, p)
+    gr[EV_FALL] = (rolling.normal_force(b0, w10, w30, p, load0)
+                   - rolling.normal_force(b1, w11, w31, p, load1)) / (2.0 * dt)
+    if aux is not None:
+        gr[EV_SWITCH] = (rolling.friction_margin(b0, w10, w20, w30, p, load0)
+                         - rolling.friction_margin(b1, w11, w21, w31, p, load1)) / (2.0 * dt)
 
 
 @kernel(inline=True)

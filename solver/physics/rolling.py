@@ -124,6 +124,39 @@ def friction_margin(beta, omega1, omega2, omega3, p, load=None):
 
 
 @kernel
+def contact_forces_rate(beta, omega1, omega2, omega3, beta_dot, omega1_dot, omega2_dot, omega3_dot, p):
+    """Time derivative of the contact force (F1, F2, F3) of a rolling ball (:func:`contact_forces`,
+    without an external load) along the rates given [N/s]."""
+    r = p[P_R_BALL]
+    rho = p[P_RHO]
+    R = p[P_R_RIM]
+    j = p[P_J]
+    m = p[P_M]
+    s = np.sin(beta)
+    c = np.cos(beta)
+    D = R - rho * c
+    k = j * m * r * r / (1.0 + j)
+    dF1 = k / rho * (omega1_dot * omega2 + omega1 * omega2_dot) + m * r * p[P_K_R] * omega3_dot
+    dF2 = normal_force_rate(beta, omega1, omega3, beta_dot, omega1_dot, omega3_dot, p)
+    dF3 = (-j * m * p[P_G] * s * beta_dot / (1.0 + j)
+           - k * ((omega2_dot * omega3 + omega2 * omega3_dot) * c / D - omega2 * omega3 * s * R * beta_dot / (D * D))
+           - m * r * p[P_K_R] * omega1_dot)
+    return dF1, dF2, dF3
+
+
+@kernel
+def friction_margin_rate(beta, omega1, omega2, omega3, beta_dot, omega1_dot, omega2_dot, omega3_dot, p):
+    """Time derivative of the friction margin (39), mu dF2/dt - d|F_t|/dt [N/s], along the rates given
+    (no external load). It lets the event locator bound the margin between step ends as it bounds
+    F2 (``solver.engine.events``), so a slip onset inside a step is found, not sampled."""
+    F1, F2, F3 = contact_forces(beta, omega1, omega2, omega3, p)
+    dF1, dF2, dF3 = contact_forces_rate(beta, omega1, omega2, omega3, beta_dot, omega1_dot, omega2_dot, omega3_dot,
+                                        p)
+    ft = np.sqrt(F1 * F1 + F3 * F3)
+    return p[P_MU] * dF2 - (F1 * dF1 + F3 * dF3) / ft
+
+
+@kernel
 def energy(beta, omega1, omega2, omega3, p):
     """Total mechanical energy of the rolling ball (60) [J], with potential m g rho sin(beta).
 
