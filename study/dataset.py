@@ -33,7 +33,8 @@ def rimroll_version() -> str:
     the installed one, else the ``version`` of the source tree's pyproject.toml; 'unknown' if neither."""
     try:
         dist = importlib.metadata.distribution("rimroll")
-        if pathlib.Path(dist.locate_file("study/__init__.py")).resolve() == HERE / "__init__.py":
+        installed = pathlib.Path(dist.locate_file("rimroll/study/__init__.py")).resolve()
+        if installed == (HERE / "__init__.py").resolve():
             return dist.version
     except (importlib.metadata.PackageNotFoundError, OSError):
         pass
