@@ -133,6 +133,27 @@ def test_slipping_rhs_matches_the_papers_42():
         np.testing.assert_allclose(slipping.slipping_rhs(*y, pa), paper_42(y, p), rtol=1e-11, atol=1e-9)
 
 
+@pytest.mark.parametrize("kw", [dict(mu=1.0), dict(mu=0.7, k_r=0.3, k_d=0.7), dict(mu=1e9)])
+def test_slipping_jacobian_is_the_derivative_of_42(kw):
+    """The hand-differentiated Jacobian against complex-step derivatives of (42) and (19) (exact to
+    rounding: no subtraction), on states with slip speeds from 1e-6 to 1 m/s."""
+    pa = solver.Params(**kw).as_array()
+
+    def rates(z):
+        return np.array([*slipping.slipping_rhs.py_func(*z, pa), kinematics.alpha_rate.py_func(z[0], z[3], z[4], pa)])
+
+    for x in random_rolling_states(20):
+        y = np.concatenate([x, RNG.normal(0.0, 1.0, 2) * 10.0 ** RNG.uniform(-6, 0)])
+        J = np.zeros((7, 7))
+        slipping.slipping_jacobian(*y, pa, J)
+        J_cs = np.zeros((7, 7))
+        for k in range(6):
+            z = y.astype(complex)
+            z[k] += 1e-30j
+            J_cs[:, k] = np.imag(rates(z)) / 1e-30
+        np.testing.assert_allclose(J, J_cs, rtol=1e-9, atol=1e-12 * np.abs(J_cs).max())
+
+
 def test_directional_limits_76_are_the_limits_of_42():
     p = solver.Params(mu=0.8)
     pa = p.as_array()

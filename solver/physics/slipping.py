@@ -89,6 +89,77 @@ def slipping_rhs(beta, omega1, omega2, omega3, u1, u3, p, load=None):
 
 
 @kernel
+def slipping_jacobian(beta, omega1, omega2, omega3, u1, u3, p, J):
+    """Jacobian of the slipping equations (42) (no external load) into J[:7, :7].
+
+    Rows: the rates of (beta, omega1, omega2, omega3, u1, u3) of :func:`slipping_rhs` and alpha_dot
+    of (19); columns: the derivatives by (beta [rad], omega1, omega2, omega3 [1/s], u1, u3 [m/s],
+    alpha [rad]) (the last column is zero: nothing depends on alpha). Forward differentiation by
+    hand: column k is the derivative along the unit vector e_k, each line the derivative of the
+    line of the same name in :func:`free_rates` and :func:`slipping_rhs`. Units: those of the rate
+    over those of the variable. Its entries in u grow as 1/|u| (the slip angle relaxes at
+    |B|/|u|), which is what makes (42) stiff for small slips: an implicit or linearly implicit
+    (Rosenbrock) step of a slip phase solves with this matrix.
+    """
+    r = p[P_R_BALL]
+    rho = p[P_RHO]
+    j = p[P_J]
+    m = p[P_M]
+    g = p[P_G]
+    mu = p[P_MU]
+    kk = (1.0 + j) / j * p[P_K_R]
+    kd = p[P_K_D]
+    jmr = j * m * r
+    kf = (1.0 + j) / (j * m)
+    s = np.sin(beta)
+    c = np.cos(beta)
+    D = p[P_R_RIM] - rho * c
+    V1 = u1 - r * omega3
+    V3 = u3 + r * omega1
+    ad = V1 / D  # alpha_dot
+    bd = V3 / rho  # beta_dot
+    Om2 = ad * s
+    Om3 = ad * c
+    F2 = m * (Om3 * V1 - bd * V3 + g * s)
+    speed = np.sqrt(u1 * u1 + u3 * u3)
+    e1 = u1 / speed
+    e3 = u3 / speed
+    for k in range(6):
+        db = 1.0 if k == 0 else 0.0
+        dw1 = 1.0 if k == 1 else 0.0
+        dw2 = 1.0 if k == 2 else 0.0
+        dw3 = 1.0 if k == 3 else 0.0
+        du1 = 1.0 if k == 4 else 0.0
+        du3 = 1.0 if k == 5 else 0.0
+        dV1 = du1 - r * dw3
+        dV3 = du3 + r * dw1
+        dad = (dV1 - ad * rho * s * db) / D
+        dbd = dV3 / rho
+        dOm2 = dad * s + ad * c * db
+        dOm3 = dad * c - ad * s * db
+        da1 = -(dOm2 * omega3 + Om2 * dw3 - dOm3 * omega2 - Om3 * dw2) - kk * dw1
+        da2 = -(dOm3 * omega1 + Om3 * dw1 - dbd * omega3 - bd * dw3) - kd * dw2
+        da3 = -(dbd * omega2 + bd * dw2 - dOm2 * omega1 - Om2 * dw1) - kk * dw3
+        db1 = r * da3 - dOm2 * V3 - Om2 * dV3
+        db3 = -r * da1 + g * s * db + dOm2 * V1 + Om2 * dV1
+        dF2 = m * (dOm3 * V1 + Om3 * dV1 - dbd * V3 - bd * dV3 + g * c * db)
+        dspeed = e1 * du1 + e3 * du3
+        de1 = (du1 - e1 * dspeed) / speed
+        de3 = (du3 - e3 * dspeed) / speed
+        dF1 = -mu * (dF2 * e1 + F2 * de1)
+        dF3 = -mu * (dF2 * e3 + F2 * de3)
+        J[0, k] = dbd
+        J[1, k] = da1 - dF3 / jmr
+        J[2, k] = da2
+        J[3, k] = da3 + dF1 / jmr
+        J[4, k] = db1 + kf * dF1
+        J[5, k] = db3 + kf * dF3
+        J[6, k] = dad
+    for i in range(7):
+        J[i, 6] = 0.0
+
+
+@kernel
 def slipping_normal_force(beta, omega1, omega3, u1, u3, p, load=None):
     """Normal contact force of a slipping ball (41) [N], less the normal component of an external
     ``load``'s force."""
