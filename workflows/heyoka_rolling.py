@@ -224,7 +224,7 @@ def check_against_rimroll(params: Params, n: int = 300, seed: int = 0, rtols=(1e
     want = np.array([(*rolling.rolling_rhs(b, w1, w2, w3, p), kinematics.alpha_rate(b, w3, 0.0, p))
                      for b, w1, w2, w3 in x])
     want_f2 = np.array([rolling.normal_force(b, w1, w3, p) for b, w1, _, w3 in x])
-    report = {}
+    report = {"random_states": n, "near_steady_states": len(near)}
     for name, got, ref in zip(("beta_dot", "omega1_dot", "omega2_dot", "omega3_dot", "alpha_dot", "F2"),
                               [*got_rates.T, got_f2], [*want.T, want_f2]):
         floor = 1e-6 * np.max(np.abs(ref))
