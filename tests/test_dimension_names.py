@@ -16,6 +16,7 @@ import xarray as xr
 from rimroll.study import registry
 from rimroll.study.plan import make_plan
 from rimroll.study.registry import RESERVED_DIM_NAMES, SWEEP_KEYS, Axis
+from rimroll.workflows import heyoka_rolling
 
 
 def _keywords() -> set[str]:
@@ -58,7 +59,8 @@ def test_categorical_axes_are_labelled_and_selectable():
 @pytest.mark.parametrize("name, dim, labels", [
     ("fig11", "scene", ["rolling_only", "slipping", "drilling", "rolling_resistance"]),
     ("work-precision", "scene", ["rolling_only", "slipping", "drilling", "rolling_resistance"]),
-    ("work-precision", "integrator", ["rimroll_dp5", "rimroll_dop853", "scipy_rk45", "scipy_dop853", "scipy_lsoda"]),
+    ("work-precision", "integrator", ["rimroll_dp5", "rimroll_dop853", "scipy_rk45", "scipy_dop853", "scipy_lsoda"]
+     + (["heyoka_taylor"] if heyoka_rolling.available() else [])),  # heyoka: the extra rimroll[bench]
 ])
 def test_categorical_dimensions_have_the_agreed_labels(name, dim, labels):
     axes = {a.name: a for a in make_plan(registry.get(name), quick=True).axes}

@@ -4,9 +4,11 @@ One seeded sample of initial states from the three outcome sections (omega2 = 35
 105 1/s; omega3 = 10 1/s; beta in [0.8, 1.8] rad; omega1 in [-20, 20] 1/s) is run in every
 scene by each method at each tolerance, in the same process at the same moment: rimroll's
 compiled DP5 and DOP853 and scipy's ``solve_ivp`` RK45, DOP853 and LSODA (same right-hand
-side, same event rules: ``solver.analysis.reference``). The reference is rimroll's DOP853 at
-rtol = 1e-12. Recorded per (scene, integrator, rtol): seconds per trajectory (one thread),
-misclassified fraction, |t_end| error (median, max), median energy drift.
+side, same event rules: ``solver.analysis.reference``), and where heyoka is installed (the extra
+rimroll[bench]) heyoka's Taylor integrator in the rolling-only scene (``heyoka_rolling``; NaN in
+the other scenes). The reference is rimroll's DOP853 at rtol = 1e-12. Recorded per (scene,
+integrator, rtol): seconds per trajectory (one thread), misclassified fraction, |t_end| error
+(median, max), median energy drift.
 
 Timings exclude compilation (each kernel is warmed up first). scipy runs use the first
 ``n_scipy`` states of the sample in the rolling-only scene and the first ``n_scipy_hybrid`` in
@@ -26,10 +28,16 @@ from rimroll import solver
 from rimroll.solver.analysis import reference
 from rimroll.study import plotting as P
 from rimroll.study.registry import Axis, Study, Var, register
+from rimroll.workflows import heyoka_rolling
 from rimroll.workflows.sections import scene_axis, scene_index, scene_table
 
-INTEGRATORS = ("rimroll_dp5", "rimroll_dop853", "scipy_rk45", "scipy_dop853", "scipy_lsoda")
-"""Labels of the ``integrator`` coordinate: rimroll's compiled methods, then scipy's solve_ivp."""
+INTEGRATORS = ("rimroll_dp5", "rimroll_dop853", "scipy_rk45", "scipy_dop853", "scipy_lsoda") + (
+    (heyoka_rolling.LABEL,) if heyoka_rolling.available() else ())
+"""Labels of the ``integrator`` coordinate: rimroll's compiled methods, scipy's solve_ivp, then heyoka's
+Taylor integrator where heyoka is installed (the extra rimroll[bench])."""
+HEYOKA_TEXT = (f"; {heyoka_rolling.LABEL} = heyoka's Taylor integrator, batch mode on one thread, tol = rtol "
+               "(rimroll.workflows.heyoka_rolling); it runs the rolling-only scene only, its values in the other "
+               "scenes are NaN: its model is that scene (mu = inf, k_r = k_d = 0)")
 OURS = {"rimroll_dp5": "dp5", "rimroll_dop853": "dop853"}
 SCIPY = {"scipy_rk45": "RK45", "scipy_dop853": "DOP853", "scipy_lsoda": "LSODA"}
 REFERENCE_RTOL = 1e-12
@@ -70,7 +78,8 @@ def _axes(s: dict) -> list[Axis]:
         scene_axis(s),
         Axis("integrator", np.array(INTEGRATORS), "", "integration method: rimroll_dp5 / rimroll_dop853 = rimroll's "
              "compiled Dormand-Prince 5(4) / 8(5,3); scipy_rk45 / scipy_dop853 / scipy_lsoda = scipy.integrate."
-             "solve_ivp with RK45 / DOP853 / LSODA on the same equations and event rules"),
+             "solve_ivp with RK45 / DOP853 / LSODA on the same equations and event rules"
+             + (HEYOKA_TEXT if heyoka_rolling.LABEL in INTEGRATORS else "")),
         Axis("rtol", rtols, "1", "relative tolerance of the run (atol = 1e-2 rtol)"),
     ]
 
@@ -91,6 +100,18 @@ def _ours(states, params, t_max, rtol, method, min_seconds=0.05):
         elapsed = time.perf_counter() - start
         best, spent = min(best, elapsed), spent + elapsed
     return res, best / len(states)
+
+
+def _heyoka(states, params, t_max, rtol, min_seconds=0.05):
+    """heyoka's results and seconds per trajectory, as :func:`_ours` times rimroll (one thread, warm)."""
+    integrator = heyoka_rolling.Integrator(params, rtol)  # compiled or loaded from heyoka's cache: not timed
+    best, spent = np.inf, 0.0
+    while spent < min_seconds or best == np.inf:
+        start = time.perf_counter()
+        res = heyoka_rolling.classify(states, integrator, t_max)
+        elapsed = time.perf_counter() - start
+        best, spent = min(best, elapsed), spent + elapsed
+    return {**res, "energy_drift": heyoka_rolling.energy_drift(states, res, params)}, best / len(states)
 
 
 def _scipy(states, params, t_max, rtol, method):
@@ -134,6 +155,13 @@ def _compute(coords, p: solver.Params, s: dict) -> dict:
                     if n_scipy:
                         scores["seconds_per_trajectory_common"] = _ours(states[:n_scipy], params, t_max, float(r),
                                                                         OURS[name])[1]
+                elif name == heyoka_rolling.LABEL:
+                    if heyoka_rolling.unsupported(params):
+                        continue  # NaN: the reason is in the integrator coordinate's long_name
+                    res, sec = _heyoka(states, params, t_max, float(r))
+                    scores = _scores(res, ref, sec)
+                    if n_scipy:
+                        scores["seconds_per_trajectory_common"] = _heyoka(states[:n_scipy], params, t_max, float(r))[1]
                 elif n_scipy:
                     res, sec = _scipy(states[:n_scipy], params, t_max, float(r), SCIPY[name])
                     scores = _scores(res, {key: v[:n_scipy] for key, v in ref.items()}, sec)
@@ -146,7 +174,7 @@ def _compute(coords, p: solver.Params, s: dict) -> dict:
 
 
 STYLES = {"rimroll_dp5": ("C0", "o-"), "rimroll_dop853": ("C1", "s-"), "scipy_rk45": ("C2", "^--"),
-          "scipy_dop853": ("C3", "v--"), "scipy_lsoda": ("C4", "d--")}
+          "scipy_dop853": ("C3", "v--"), "scipy_lsoda": ("C4", "d--"), heyoka_rolling.LABEL: ("C5", "P-")}
 RTOL_NOTED = ("rimroll_dp5", "scipy_rk45")  # curves whose points carry their log10 rtol
 
 
