@@ -97,11 +97,14 @@ def _match(file_values: np.ndarray, ref_values: np.ndarray) -> tuple[np.ndarray,
         pairs = [(file_labels.index(str(v)), k) for k, v in enumerate(ref_values) if str(v) in file_labels]
         return np.array([i for i, _ in pairs], dtype=int), np.array([k for _, k in pairs], dtype=int)
     file_values, ref_values = file_values.astype(float), ref_values.astype(float)
-    span = max(float(np.ptp(ref_values)), float(np.max(np.abs(ref_values))), 1e-300)
+    finite = ref_values[np.isfinite(ref_values)]
+    span = max(float(np.ptp(finite)), float(np.max(np.abs(finite))), 1e-300) if finite.size else 1.0
     tol = COORD_RTOL * span
     idx_f, idx_r = [], []
     for k, v in enumerate(ref_values):
-        d = np.abs(file_values - v)
+        with np.errstate(invalid="ignore"):  # inf - inf: a mu = inf matches only mu = inf
+            d = np.where(file_values == v, 0.0, np.abs(file_values - v))
+        d = np.where(np.isnan(d), np.inf, d)
         i = int(np.argmin(d)) if d.size else -1
         if i >= 0 and d[i] <= tol:
             idx_f.append(i)

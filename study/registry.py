@@ -51,7 +51,11 @@ class Axis:
 
     ``units`` is a CF/UDUNITS string ("rad", "s-1", "m s-1", "1"). ``aux`` holds auxiliary
     coordinates along this axis, ``{name: (values, units, long_name)}``: e.g. a ``scene`` axis
-    carries the ``mu``, ``k_r`` and ``k_d`` of each scene.
+    carries the ``mu``, ``k_r`` and ``k_d`` of each scene. ``allow_inf``: +inf is a value of the
+    axis (a friction coefficient ``mu``: inf never slips, so ``mu = 1, inf`` puts slipping and
+    rolling only on one axis); NaN and -inf never are. ``comment``: the detail behind a short
+    ``long_name`` (CF comment): xarray's plots label an axis with long_name and units, wrapped at 30
+    characters, so a long_name of at most 24 keeps the label on one line.
     """
 
     name: str
@@ -59,6 +63,8 @@ class Axis:
     units: str
     long_name: str
     aux: dict = dataclasses.field(default_factory=dict)
+    allow_inf: bool = False
+    comment: str = ""
 
     def __post_init__(self):
         values = np.asarray(self.values)
@@ -74,8 +80,10 @@ class Axis:
         if values.dtype.kind == "U":
             self._check_labels(values)
             return
-        if not np.all(np.isfinite(values)):
-            raise ValueError(f"axis {self.name!r} has non-finite values")
+        allowed = np.isfinite(values) | ((values == np.inf) if self.allow_inf else False)
+        if not np.all(allowed):
+            extra = " (+inf is allowed on this axis)" if self.allow_inf else ""
+            raise ValueError(f"axis {self.name!r} has non-finite values{extra}")
         steps = np.diff(values)
         if not (np.all(steps > 0) or np.all(steps < 0)):
             raise ValueError(f"axis {self.name!r} must be strictly monotonic")

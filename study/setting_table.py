@@ -109,11 +109,15 @@ def _number(value) -> bool:
 
 
 def _physical(q: physical.Quantity) -> Setting:
-    return Setting(q.name, q.units, q.doc, q.range, sweep=q.name in _SWEPT_PHYSICAL, long_name=q.long_name,
-                   physical=True)
+    return Setting(q.name, q.units, q.doc + _DOC_MORE.get(q.name, ""), q.range, sweep=q.name in _SWEPT_PHYSICAL,
+                   long_name=q.long_name, physical=True)
 
 
 _SWEPT_PHYSICAL = ("mu", "j", "rho_over_R", "k_r", "k_d")
+_DOC_MORE = {  # what the study layer adds to a physical parameter's doc
+    "mu": "; a swept list may hold inf too: --set mu=1,inf puts slipping and rolling only on one axis (mu is "
+          "the only setting that takes inf)",
+}
 S = Setting
 _ENTRIES = (
     # ---- physical parameters: units, long_name, doc and range from solver.physics.params
