@@ -42,9 +42,9 @@ def _fig9_axes(s: dict) -> list[Axis]:
     # cell centres in (0, 1 - a/R): both ends are excluded by Prop. 7; j in (0, 2/3] ends at 2/3
     x = (np.arange(n_x) + 0.5) / n_x * x_max
     j = (np.arange(n_j) + 1.0) / n_j * J_MAX
-    return [Axis("rho_over_R", x, "1", "ratio rho/R of the ball centre's distance from the rim's "
-                 "middle circle to the rim's major radius"),
-            Axis("j", j, "1", "dimensionless moment of inertia of the ball, J = j m r^2")]
+    return [Axis("rho_over_R", x, "1", "ratio rho/R", comment="ratio rho/R of the ball centre's distance from "
+                 "the rim's middle circle to the rim's major radius"),
+            Axis("j", j, "1", "inertia factor j", comment="dimensionless moment of inertia of the ball, J = j m r^2")]
 
 
 def _fig9_compute(coords, p, s):
@@ -152,7 +152,8 @@ def _types_axes(s: dict) -> list[Axis]:
         raise ValueError(f"subset={s['subset']!r} is not one of {', '.join(SUBSETS)}")
     if int(s["n_samples"]) < 2 or not s["t_max"] > 0:
         raise ValueError(f"n_samples must be >= 2 and t_max > 0; got {s['n_samples']}, {s['t_max']}")
-    return [Axis("sample", np.arange(int(s["n_samples"]), dtype=float), "1", "index of the seeded sample state")]
+    return [Axis("sample", np.arange(int(s["n_samples"]), dtype=float), "1", "sample index",
+                 comment="index of the seeded sample state")]
 
 
 def sample_states(s: dict, p) -> np.ndarray:
@@ -307,7 +308,8 @@ def _inv_axes(s: dict) -> list[Axis]:
     n, n_t = int(s["n_trajectories"]), int(s["n_time"])
     if n < 2 or n_t < 2 or not s["t_max"] > 0:
         raise ValueError(f"n_trajectories and n_time must be >= 2 and t_max > 0; got {n}, {n_t}, {s['t_max']}")
-    return [Axis("trajectory", np.arange(n, dtype=float), "1", "index of the seeded trajectory"),
+    return [Axis("trajectory", np.arange(n, dtype=float), "1", "trajectory index",
+                 comment="index of the seeded trajectory"),
             Axis("time", np.linspace(0.0, s["t_max"], n_t), "s", "time")]
 
 

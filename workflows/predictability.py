@@ -282,10 +282,10 @@ def _prob_axes(s):
     if not all(np.isfinite(v) and v >= 0 for v in spreads):
         raise ValueError(f"sigma_beta, sigma_omega1, sigma_omega2, sigma_omega3 must be finite and >= 0; got {spreads}")
     w = float(s["omega1_max"])
-    return [Axis("beta", np.linspace(s["beta_min"], s["beta_max"], int(s["n_beta"])), "rad",
-                 "nominal initial height angle of the contact point on the rim's cross-section"),
-            Axis("omega1", np.linspace(-w, w, int(s["n_omega1"])), "s-1",
-                 "nominal initial transversal angular velocity")]
+    return [Axis("beta", np.linspace(s["beta_min"], s["beta_max"], int(s["n_beta"])), "rad", "nominal height angle",
+                 comment="nominal " + sections.BETA_COMMENT),
+            Axis("omega1", np.linspace(-w, w, int(s["n_omega1"])), "s-1", "nominal omega1",
+                 comment="nominal " + sections.OMEGA1_COMMENT)]
 
 
 def sigma_of(s) -> np.ndarray:

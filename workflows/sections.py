@@ -57,13 +57,17 @@ def scene_index(label) -> int:
     return SCENES.index(str(label))
 
 
+BETA_COMMENT = "initial height angle of the contact point on the rim's cross-section"
+OMEGA1_COMMENT = "initial transversal angular velocity of the ball"
+
+
 def section_axes(s: dict) -> list[Axis]:
     """The axes of an outcome section: the four named scenes, beta [rad] and omega1 [1/s]."""
     scene = scene_axis(s)
-    beta = Axis("beta", np.linspace(s["beta_min"], s["beta_max"], int(s["n_beta"])), "rad",
-                "initial height angle of the contact point on the rim's cross-section")
+    beta = Axis("beta", np.linspace(s["beta_min"], s["beta_max"], int(s["n_beta"])), "rad", "initial height angle",
+                comment=BETA_COMMENT)
     w = float(s["omega1_max"])
-    omega1 = Axis("omega1", np.linspace(-w, w, int(s["n_omega1"])), "s-1", "initial transversal angular velocity")
+    omega1 = Axis("omega1", np.linspace(-w, w, int(s["n_omega1"])), "s-1", "initial omega1", comment=OMEGA1_COMMENT)
     return [scene, beta, omega1]
 
 

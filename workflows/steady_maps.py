@@ -34,10 +34,10 @@ def _axes(s: dict) -> list[Axis]:
                          f"{s['n_beta0']}, {s['n_omega30']}, {s['omega30_max']}")
     w = s["omega30_max"]
     return [
-        Axis("beta0", np.linspace(-np.pi, np.pi, s["n_beta0"], endpoint=False), "rad",
-             "height angle of the steady motion on the rim's minor circle"),
-        Axis("omega30", np.linspace(-w, w, s["n_omega30"]), "s-1",
-             "circular angular velocity of the steady motion"),
+        Axis("beta0", np.linspace(-np.pi, np.pi, s["n_beta0"], endpoint=False), "rad", "steady height angle",
+             comment="height angle of the steady motion on the rim's minor circle"),
+        Axis("omega30", np.linspace(-w, w, s["n_omega30"]), "s-1", "steady omega3",
+             comment="circular angular velocity of the steady motion"),
     ]
 
 

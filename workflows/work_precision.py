@@ -71,7 +71,7 @@ def _axes(s: dict) -> list[Axis]:
         Axis("integrator", np.array(INTEGRATORS), "", "integration method: rimroll_dp5 / rimroll_dop853 = rimroll's "
              "compiled Dormand-Prince 5(4) / 8(5,3); scipy_rk45 / scipy_dop853 / scipy_lsoda = scipy.integrate."
              "solve_ivp with RK45 / DOP853 / LSODA on the same equations and event rules"),
-        Axis("rtol", rtols, "1", "relative tolerance of the run (atol = 1e-2 rtol)"),
+        Axis("rtol", rtols, "1", "relative tolerance", comment="relative tolerance of the run (atol = 1e-2 rtol)"),
     ]
 
 
