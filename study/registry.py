@@ -124,7 +124,9 @@ class Var:
     standard_name: str | None = None  # CF standard name, where CF defines one (e.g. status_flag)
     comment: str | None = None  # the detail behind a short long_name (CF comment)
     tolerance: tuple | None = None  # (atol, rtol) of `study verify` for a continuous variable (None: the default)
-    compared: bool = True  # False: never compared with a reference (integrator work, ...)
+    compared: bool = True  # False: never compared with a reference (integrator work, timings)
+    pointwise: bool = True  # False: a point's value depends on the whole grid (a box, a sample), so `study
+    # verify` compares it only on the reference's own grid
 
     def __post_init__(self):
         if not _NAME.match(self.name):
@@ -167,12 +169,16 @@ class ReferenceSpec:
     """How the stored reference slices of a study are made (``study.reference``): the sub-grid of
     the default grid (``points``: grid axis -> number of values picked from the default axis, ends
     included; the other slice is the whole ``--quick`` grid), the reference's precision settings
-    (``precise``: ``--set`` items, e.g. ``("rtol=1e-12", "method=dop853")``) and what the files record
-    as ``reference_method`` when the study has no ``method`` setting."""
+    (``precise``: ``--set`` items, e.g. ``("rtol=1e-12", "method=dop853")``; none: the study's own,
+    a regression reference), what the files record as ``reference_method`` when the study has no
+    ``method`` setting, and ``sets``: ``--set`` items of the default slice alone (a cube's slice on a
+    few of its settings, e.g. ``("mu=1,2", "k_d=0")``; a value held there is compared at that value
+    of a file that sweeps it)."""
 
     points: dict
     precise: tuple = ()
     method: str = "closed form (no integration)"
+    sets: tuple = ()
 
 
 @dataclasses.dataclass(frozen=True)
