@@ -103,6 +103,110 @@ def label_parts(ax, beta0, omega30, mask, text: str, min_fraction: float = 0.002
     return points
 
 
+# ---------------------------------------------------------------- labels of regions: inside when they fit
+def _text_size(ax, text: str, fontsize: float) -> tuple[float, float]:
+    """(width, height) of a bold label in axes fractions (an estimate from the axes' size before layout)."""
+    pixels = ax.figure.dpi / 72.0  # per point
+    return ((0.62 * fontsize * len(text) + 6) * pixels / ax.bbox.width, (1.3 * fontsize + 6) * pixels / ax.bbox.height)
+
+
+def _cells_in(x, y, box_data) -> tuple[np.ndarray, np.ndarray]:
+    """Rows (y) and columns (x) of the grid points inside a data box (x0, x1, y0, y1)."""
+    x0, x1, y0, y1 = box_data
+    return np.flatnonzero((y >= y0) & (y <= y1)), np.flatnonzero((x >= x0) & (x <= x1))
+
+
+def place_labels(ax, x, y, pieces, occupied, fontsize: float = 15, walls=((), ())) -> list:
+    """Write each ``(text, mask)`` of ``pieces`` (masks over (y, x) grid points) inside its piece where
+    the text fits there, else next to it in a free place with a thin leader into the piece. A free
+    place lies inside the axes, on no grid point of ``occupied``, across none of the lines
+    ``walls`` = (x values, y values) and on no other label. Call after the axes' limits are final.
+    Returns the Text objects."""
+    to_axes = ax.transData + ax.transAxes.inverted()
+    placed, texts = [], []
+    style = dict(ha="center", va="center", fontweight="bold", zorder=7)
+
+    def box_of(centre, size):
+        return np.array([centre[0] - size[0] / 2, centre[0] + size[0] / 2, centre[1] - size[1] / 2,
+                         centre[1] + size[1] / 2])
+
+    def data_box(box):
+        (x0, y0), (x1, y1) = to_axes.inverted().transform([(box[0], box[2]), (box[1], box[3])])
+        return min(x0, x1), max(x0, x1), min(y0, y1), max(y0, y1)
+
+    def clear(box, mask, inside):
+        if inside and not (box[0] >= 0 and box[1] <= 1 and box[2] >= 0 and box[3] <= 1):
+            return False
+        if any(b[0] < box[1] and box[0] < b[1] and b[2] < box[3] and box[2] < b[3] for b in placed):
+            return False
+        x0, x1, y0, y1 = data_box(box)
+        if any(x0 < v < x1 for v in walls[0]) or any(y0 < v < y1 for v in walls[1]):
+            return False
+        rows, cols = _cells_in(x, y, (x0, x1, y0, y1))
+        return not rows.size or not cols.size or not mask[np.ix_(rows, cols)].any()
+
+    for text, piece in pieces:
+        point = to_axes.transform(inner_point(x, y, piece))
+        size = _text_size(ax, text, fontsize)
+        if clear(box_of(point, size), ~piece, inside=True):
+            texts.append(ax.text(*to_axes.inverted().transform(point), text, fontsize=fontsize,
+                                 bbox=dict(fc="white", ec="none", alpha=0.6, pad=0.5), **style))
+            placed.append(box_of(point, size))
+            continue
+        small = (size[0] * 0.8, size[1] * 0.8)
+        spots = [point + r * np.array([np.cos(a), np.sin(a)]) for r in (0.07, 0.1, 0.14, 0.19, 0.25)
+                 for a in np.linspace(0, 2 * np.pi, 16, endpoint=False)]
+        spot = next((c for c in spots if clear(box_of(c, small), occupied, inside=True)), None)
+        if spot is None:  # nowhere free: inside after all, smaller
+            texts.append(ax.text(*to_axes.inverted().transform(point), text, fontsize=0.7 * fontsize, **style))
+            continue
+        texts.append(ax.annotate(text, to_axes.inverted().transform(point), xytext=tuple(spot),
+                                 textcoords="axes fraction", fontsize=0.8 * fontsize,
+                                 arrowprops=dict(arrowstyle="-", lw=0.9, color="k", shrinkA=0, shrinkB=0),
+                                 bbox=dict(fc="white", ec="none", alpha=0.8, pad=0.3), **style))
+        placed.append(box_of(spot, small))
+    return texts
+
+
+# ---------------------------------------------------------------- Fig. 8: the realisable regions
+REGION_COLOURS = {1: "#9ecae1", 2: "#fdd0a2", 3: "#c7e9c0"}
+"""Fill of the realisable regions A, B, C (codes of ``solver.steady.REGION_*``) in every region map."""
+REGION_LINE_COLOURS = {1: "#3182bd", 2: "#e6550d", 3: "#31a354"}
+"""The same regions as lines and markers (areas against a swept setting)."""
+
+
+def region_pieces(b, w, region, w20, letters, min_fraction: float = 0.001) -> list:
+    """``(text, mask)`` of every connected piece of each (region, sign of omega20): "A+", "B−", ...
+    Pieces smaller than ``min_fraction`` of the grid are left out, but the largest of each pair
+    (region, sign) that occurs is always kept; region A holds both signs (paper Sect. 3)."""
+    from rimroll.solver.analysis import steady
+
+    out = []
+    for code in (steady.REGION_A, steady.REGION_B, steady.REGION_C):
+        for sign, text in ((1, "+"), (-1, "\u2212")):
+            pieces = components((region == code) & (np.sign(w20) == sign), min_fraction=0.0)
+            keep = pieces[:1] + [m for m in pieces[1:] if m.sum() >= min_fraction * m.size]
+            out += [(letters[code][0] + text, m) for m in keep]
+    return out
+
+
+def region_map(ax, b, w, region, w20, letters, fontsize: float = 15) -> list:
+    """Fig. 8 on ``ax``: the realisable regions (``region`` codes over (omega30, beta0)), each (region,
+    sign of omega20) piece labelled, omega20 = 0 dotted inside the regions, the singular lines.
+    ``b``, ``w``: the grid [rad, 1/s] (``plane``); call after the axes' limits are set. Returns the labels."""
+    from rimroll.solver.analysis import steady
+
+    for code, colour in REGION_COLOURS.items():
+        ax.contourf(b, w, (region == code).astype(float), levels=[0.5, 1.5], colors=[colour])
+        ax.contour(b, w, (region == code).astype(float), levels=[0.5], colors="0.35", linewidths=0.8)
+    inside = region != steady.REGION_NONE
+    if (np.nanmin(np.where(inside, w20, np.inf)) < 0) and (np.nanmax(np.where(inside, w20, -np.inf)) > 0):
+        ax.contour(b, w, np.where(inside, w20, np.nan), levels=[0.0], colors="k", linestyles=":", linewidths=1.8)
+    singular_lines(ax, circles=False)
+    pieces = region_pieces(b, w, region, w20, letters)
+    return place_labels(ax, b, w, pieces, inside, fontsize=fontsize, walls=((-np.pi / 2, np.pi / 2), (0.0,)))
+
+
 # ---------------------------------------------------------------- outcomes: one palette, one set of labels
 OUTCOME_TEXT = {  # reader-facing words for the outcome codes' flag meanings
     "fall_in": "falls in (score)",

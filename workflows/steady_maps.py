@@ -219,9 +219,6 @@ def _fig8_compute(coords, p, s):
             "omega20": steady.omega20(*coords, p)}
 
 
-REGION_COLOURS = {steady.REGION_A: "#9ecae1", steady.REGION_B: "#fdd0a2", steady.REGION_C: "#c7e9c0"}
-
-
 def _fig8_plot(ds):
     p = params_of(ds)
     v_throw = float(setting_of(ds, "v_throw"))
@@ -229,35 +226,15 @@ def _fig8_plot(ds):
     b, w, region = P.plane(ds, "region")
     _, _, w20 = P.plane(ds, "omega20")
     letters = dict(zip(steady.REGION_FLAG_VALUES, ds["region"].attrs["flag_meanings"].split()))
-    for code, colour in REGION_COLOURS.items():
-        ax.contourf(b, w, (region == code).astype(float), levels=[0.5, 1.5], colors=[colour])
-        ax.contour(b, w, (region == code).astype(float), levels=[0.5], colors="0.35", linewidths=0.8)
-    inside = region != steady.REGION_NONE
-    for (x, y), text in region_labels(b, w, region, w20, letters):
-        ax.text(x, y, text, ha="center", va="center", fontsize=15, fontweight="bold", zorder=7,
-                bbox=dict(fc="white", ec="none", alpha=0.6, pad=0.5))
-    ax.contour(b, w, np.where(inside, w20, np.nan), levels=[0.0], colors="k", linestyles=":", linewidths=1.8)
-    P.singular_lines(ax, circles=False)
     P.beta_omega_axes(ax, ds, rf"Realisable steady motions: $\mu$={_mu_text(p.mu)}, $v_{{throw}}$={v_throw:g} m/s; "
                               r"$\pm$: sign of $\omega_{20}$, dotted: $\omega_{20}=0$")
+    P.region_map(ax, b, w, region, w20, letters)
     return fig
 
 
 def _mu_text(mu: float) -> str:
     """mu for a title: a number, or the infinity sign (rolling only)."""
     return r"$\infty$" if np.isinf(mu) else f"{mu:g}"
-
-
-def region_labels(b, w, region, w20, letters) -> list:
-    """One label per (region, sign of omega20) that occurs: "A+", "B−", ... at a point deep
-    inside the largest connected piece of that region with that sign (other pieces unlabelled)."""
-    out = []
-    for code in (steady.REGION_A, steady.REGION_B, steady.REGION_C):
-        for sign, text in ((1, "+"), (-1, "−")):
-            pieces = P.components((region == code) & (np.sign(w20) == sign), min_fraction=0.0)
-            if pieces:
-                out.append((P.inner_point(b, w, pieces[0]), letters[code][0] + text))
-    return out
 
 
 _study("fig8", "Physically realisable steady motions (paper Fig. 8)",
