@@ -34,6 +34,20 @@ def plane(ds, name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return b, ds["omega30"].values, v
 
 
+def refined_plane(ds, fn, points: int = 1200) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(beta0, omega30, values) of a closed-form map ``fn(beta0, omega30)`` on a grid finer than the
+    file's (about ``points`` per axis, the file's domain), shaped like :func:`plane`'s: a contour that
+    encloses a few grid cells of the file (a small lobe near a singular point) is drawn as a curve,
+    not as a speck. For maps whose values are closed forms of (beta0, omega30) only (``solver.steady``)."""
+    b, w = ds["beta0"].values, ds["omega30"].values
+    b_hi = np.pi if np.isclose(b[0], -np.pi) and b[-1] < np.pi else b.max()
+    bf = np.linspace(b.min(), b_hi, max(points, b.size))
+    wf = np.linspace(w.min(), w.max(), max(points, w.size))
+    B, W = np.meshgrid(bf, wf)
+    with np.errstate(all="ignore"):
+        return bf, wf, np.asarray(fn(B, W), dtype=float)
+
+
 def beta_omega_axes(ax, ds, title: str) -> None:
     """beta0 on x, omega30 on y, each over the computed domain only (a restricted grid is not
     padded with an uncomputed area that would read as a region); ticks at multiples of pi/2
@@ -57,6 +71,15 @@ def singular_lines(ax, circles: bool = True) -> None:
     ax.axhline(0.0, color="k", lw=2.2, zorder=5)
     if circles:
         ax.plot([-np.pi / 2, np.pi / 2], [0, 0], "o", ms=9, mfc="white", mec="k", mew=1.8, zorder=6)
+
+
+def singular_polylines(ax, n: int = 400) -> list:
+    """The singular lines of :func:`singular_lines` as sampled polylines (data coordinates) across the
+    axes' limits, for label placement to keep off."""
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    ys, xs = np.linspace(y0, y1, n), np.linspace(x0, x1, n)
+    return [np.column_stack([np.full(n, b), ys]) for b in (-np.pi / 2, np.pi / 2)] + [
+        np.column_stack([xs, np.zeros(n)])]
 
 
 def components(mask: np.ndarray, min_fraction: float = 0.002, cells=None):
@@ -324,16 +347,42 @@ def grid_limits(values) -> tuple[float, float]:
 
 
 # ---------------------------------------------------------------- contour labels clear of markers
+def _beside(cand, order, own, blocking, size) -> np.ndarray | None:
+    """Centre (axes fractions) of a label of ``size`` next to its line: at the first point of ``cand``
+    (in the order ``order``) where one of the two spots off the line along its normal, half the
+    label's diagonal away, holds no point of ``blocking`` (every line, this one included) and lies
+    inside the axes; None if there is no such spot."""
+    pad = 0.004
+    for point in cand[order]:
+        d = np.hypot(*(own - point).T)
+        near = own[(d > 0) & (d < 0.03)]
+        tangent = (near[np.argmax(np.hypot(*(near - point).T))] - point) if near.size else np.array([1.0, 0.0])
+        tangent = tangent / (np.hypot(*tangent) or 1.0)
+        normal = np.array([-tangent[1], tangent[0]])
+        for side in (1, -1):
+            spot = point + side * (0.5 * np.hypot(*size) + 0.006) * normal
+            lo, hi = spot - np.asarray(size) / 2 - pad, spot + np.asarray(size) / 2 + pad
+            if np.any(lo < 0) or np.any(hi > 1):
+                continue
+            if not np.any(np.all((blocking >= lo) & (blocking <= hi), axis=1)):
+                return spot
+    return None
+
+
 def place_contour_labels(ax, cs, fmt, avoid=(), fontsize: float = 7.5, margin: float = 0.05,
-                         clear: float = 0.05, inline: bool = True) -> list:
+                         clear: float = 0.05, inline: bool = True, beside: bool = False, walls=(),
+                         crowded: str = "leader") -> list:
     """Label each level of the contour set ``cs`` once, at the point of its line farthest from
     everything else: the points ``avoid`` (data coordinates, e.g. a marker), the other levels'
     lines and the labels already placed; never within ``margin`` (axes fraction) of an edge.
 
     Call after the axes' limits are final. A level whose every point lies within ``clear`` (axes
-    fraction) of a point to avoid or of a placed label is labelled outside, with a thin leader.
+    fraction) of a point to avoid or of a placed label is labelled outside, with a thin leader
+    (``crowded="leader"``), or not at all (``crowded="skip"``: the legend names the levels).
     ``inline``: break the line under the label and give the label a light box; otherwise a
     white halo around the letters only (for lines that border a shading: no gap in it).
+    ``beside``: the label is written next to its line, upright, where no line runs through it (the
+    line stays whole), nor any of the polylines ``walls`` (data coordinates, e.g. singular lines).
     Returns the label Text objects.
     """
     from matplotlib import patheffects
@@ -346,6 +395,7 @@ def place_contour_labels(ax, cs, fmt, avoid=(), fontsize: float = 7.5, margin: f
         pts = [s for s in segs if len(s)]
         lines.append(to_axes.transform(np.concatenate(pts)) if pts else np.empty((0, 2)))
     fixed = [to_axes.transform(a) for a in avoid if a.size]
+    blocking = [to_axes.transform(np.asarray(w, dtype=float).reshape(-1, 2)) for w in walls] or [np.empty((0, 2))]
     chosen = []
     texts = []
     for k, level in enumerate(cs.levels):
@@ -365,7 +415,18 @@ def place_contour_labels(ax, cs, fmt, avoid=(), fontsize: float = 7.5, margin: f
         hard = dist(fixed + chosen)
         soft = np.minimum(hard, dist([lines[i] for i in range(len(lines)) if i != k and len(lines[i])]))
         ok = hard >= clear
-        if ok.any():
+        text = fmt % level if isinstance(fmt, str) else fmt(level)
+        spot = None if not (ok.any() and beside) else _beside(
+            cand[ok], np.argsort(-soft[ok]), lines[k], np.concatenate([*lines, *blocking]),
+            _text_size(ax, text, fontsize * 0.8))
+        if spot is not None:
+            colours = cs.get_edgecolor()
+            texts.append(ax.text(*spot, text, transform=ax.transAxes, fontsize=fontsize, ha="center", va="center",
+                                 color=colours[k] if len(colours) > k else "k", path_effects=halo, zorder=8))
+            chosen.append(spot[None, :])
+            half = np.asarray(_text_size(ax, text, fontsize * 0.8)) / 2  # the next labels keep off this one
+            blocking.append(spot + np.array([[0, 0], [-1, -1], [-1, 1], [1, -1], [1, 1]]) * half)
+        elif ok.any() and not beside:
             best = cand[ok][int(np.argmax(soft[ok]))]
             xy = to_axes.inverted().transform(best)
             before = len(cs.labelTexts)
@@ -375,20 +436,39 @@ def place_contour_labels(ax, cs, fmt, avoid=(), fontsize: float = 7.5, margin: f
                 new = cs.labelTexts[-1:]
             for t in new:
                 if inline:
+                    t.set_color("k")  # on its light box, whatever the line's colour
                     t.set_bbox(dict(fc="white", ec="none", alpha=0.75, pad=0.6))
                 else:
                     t.set_path_effects(halo)
                 texts.append(t)
             chosen.append(best[None, :])
-        else:  # crowded: outside the crowd, to the right, with a leader line
-            anchor = cand[int(np.argmax(cand[:, 0]))]
-            n_out = sum(1 for t in texts if getattr(t, "arrow_patch", None) is not None)
-            spot = np.array([min(anchor[0] + 0.08, 1 - 3 * margin), min(anchor[1] + 0.05 + 0.05 * n_out, 0.95)])
-            text = fmt % level if isinstance(fmt, str) else fmt(level)
+        elif crowded == "skip":
+            continue
+        else:  # crowded: in the nearest free place, with a leader to the line's point farthest from the crowd
+            anchor = cand[int(np.argmax(hard))]
+            size = _text_size(ax, text, fontsize * 0.8)
+            spot = _free_spot(anchor, size, np.concatenate([*lines, *blocking, *fixed, *chosen]))
+            if spot is None:
+                n_out = sum(1 for t in texts if getattr(t, "arrow_patch", None) is not None)
+                spot = np.array([min(anchor[0] + 0.08, 1 - 3 * margin), min(anchor[1] + 0.05 + 0.05 * n_out, 0.95)])
             t = ax.annotate(text, to_axes.inverted().transform(anchor), xytext=tuple(spot),
-                            textcoords="axes fraction", fontsize=fontsize, ha="left", va="center",
-                            arrowprops=dict(arrowstyle="-", lw=0.6, color="k"),
+                            textcoords="axes fraction", fontsize=fontsize, ha="center", va="center",
+                            arrowprops=dict(arrowstyle="-", lw=0.6, color="k", shrinkA=0, shrinkB=0),
                             bbox=dict(fc="white", ec="none", alpha=0.75, pad=0.6), zorder=8)
             texts.append(t)
             chosen.append(spot[None, :])
+            blocking.append(spot + np.array([[0, 0], [-1, -1], [-1, 1], [1, -1], [1, 1]]) * np.asarray(size) / 2)
     return texts
+
+
+def _free_spot(anchor, size, blocking, radii=(0.06, 0.09, 0.12, 0.16, 0.21)) -> np.ndarray | None:
+    """The nearest centre (axes fractions) around ``anchor`` of a label of ``size`` that holds no point
+    of ``blocking`` and lies inside the axes; None if there is none."""
+    half = np.asarray(size) / 2 + 0.004
+    for r in radii:
+        for a in np.linspace(np.pi / 4, np.pi / 4 + 2 * np.pi, 16, endpoint=False):
+            spot = anchor + r * np.array([np.cos(a), np.sin(a)])
+            lo, hi = spot - half, spot + half
+            if np.all(lo >= 0) and np.all(hi <= 1) and not np.any(np.all((blocking >= lo) & (blocking <= hi), axis=1)):
+                return spot
+    return None

@@ -187,17 +187,20 @@ def _fig7_compute(coords, p, s):
 
 def _fig7_plot(ds):
     v_throw = float(setting_of(ds, "v_throw"))
+    p = params_of(ds)
     fig, ax = P.new_figure()
-    b, w, v = P.plane(ds, "throw_speed")
+    # (59) is a closed form of (beta0, omega30): its contours are drawn from a finer grid than the
+    # file's, so that the small 1 m/s lobes by the singular points are curves, not specks
+    b, w, v = P.refined_plane(ds, lambda b0, w30: steady.throw_speed(b0, w30, p))
     ax.contourf(b, w, np.nan_to_num(v, nan=1e6, posinf=1e6), levels=[-1.0, v_throw], colors=["0.78"])
     cs = ax.contour(b, w, v, levels=list(V_LEVELS), colors=V_COLOURS, linewidths=1.4)
     P.singular_lines(ax)
     P.beta_omega_axes(ax, ds, rf"Kinetic energy limit (59): contours of $v_{{throw}}$; "
                               rf"shaded: $v_{{throw}} \leq$ {v_throw:g} m/s")
-    # one label per speed, clear of the edges, the other lines and the singular points; no
-    # break in the line (it may border the shading); the legend names every line, even a tiny one
-    P.place_contour_labels(ax, cs, fmt=lambda x: f"{x:g} m/s", fontsize=8, inline=False, margin=0.06,
-                           avoid=[(-np.pi / 2, 0.0), (np.pi / 2, 0.0)])
+    # one label per speed, beside its line (the line stays whole: it may border the shading), clear
+    # of the edges, the other lines and the singular points; the legend names every line, even a tiny one
+    P.place_contour_labels(ax, cs, fmt=lambda x: f"{x:g} m/s", fontsize=8, margin=0.06, beside=True,
+                           avoid=[(-np.pi / 2, 0.0), (np.pi / 2, 0.0)], walls=P.singular_polylines(ax))
     drawn = [lv for lv, segs in zip(cs.levels, cs.allsegs) if any(len(s) for s in segs)]
     handles = [Line2D([], [], color=c, lw=1.4, label=f"{lv:g} m/s") for lv, c in zip(V_LEVELS, V_COLOURS)
                if lv in drawn]
