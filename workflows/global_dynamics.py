@@ -62,15 +62,18 @@ def _fig9_plot(ds):
     tr = ds["trace_M"].transpose("j", "rho_over_R").values
     x_max = 1.0 - float(setting_of(ds, "a")) / float(setting_of(ds, "R"))
     fig, ax = P.new_figure(7.5, 6.4)
-    ax.contourf(x, j, np.abs(tr), levels=[0.0, 2.0], colors=["0.72"])  # = stable, drawn smoothly
-    ax.contour(x, j, np.abs(tr), levels=[2.0], colors="k", linewidths=1.2)
+    # the grid holds cell centres: its values are carried to the domain's edges (rho/R = 0 and 1 - a/R,
+    # j = 0), so that the shading reaches the axes and a strip along them does not read as unstable
+    xl, jl = P.grid_limits(x), P.grid_limits(j)
+    full = xl[0] <= 0.05 * x_max and xl[1] >= 0.95 * x_max and jl[0] <= 0.05 * J_MAX and jl[1] >= 0.95 * J_MAX
+    xs, js, trs = _to_edges(x, j, np.abs(tr), (0.0, x_max), (0.0, J_MAX)) if full else (x, j, np.abs(tr))
+    ax.contourf(xs, js, trs, levels=[0.0, 2.0], colors=["0.72"])  # = stable, drawn smoothly
+    ax.contour(xs, js, trs, levels=[2.0], colors="k", linewidths=1.2)
     if min(x.size, j.size) >= 5:  # on a grid of a few points every part touches the edge: the legend says it
         P.label_parts(ax, x, j, stable == 1, "S", min_fraction=0.004, fontsize=16)
         P.label_parts(ax, x, j, stable == 0, "U", min_fraction=0.004, fontsize=16)
     # the computed domain; when it is the whole physical range, the paper's view with the
     # outside of the range striped, else the computed domain only (nothing uncomputed drawn)
-    xl, jl = P.grid_limits(x), P.grid_limits(j)
-    full = xl[0] <= 0.05 * x_max and xl[1] >= 0.95 * x_max and jl[0] <= 0.05 * J_MAX and jl[1] >= 0.95 * J_MAX
     y_top = 0.75
     if full:
         ax.add_patch(_hatched((x_max, 0.0), 1.0 - x_max, y_top))
@@ -79,10 +82,13 @@ def _fig9_plot(ds):
         ax.axhline(J_MAX, color="k", lw=1.0)
     std = solver.Params()
     std_shown = full or (x.min() <= std.rho / std.R <= x.max() and j.min() <= std.j <= j.max())
-    ax.plot([std.rho / std.R], [std.j], "o", ms=11, mfc="none", mec="tab:red", mew=2.2, zorder=8)
+    # the standard ball is a thin shell, j = 2/3: on the edge of the physical range, drawn filled above
+    # the hatching so that neither hides the other
+    ax.plot([std.rho / std.R], [std.j], "o", ms=10, mfc="white", mec="tab:red", mew=2.4, zorder=9)
+    ax.plot([std.rho / std.R], [std.j], "o", ms=3.5, color="tab:red", zorder=10)
     if std_shown:
-        ax.annotate("standard ball\n(Table 1)", (std.rho / std.R, std.j), xytext=(-14, -34),
-                    textcoords="offset points", ha="right", va="top", fontsize=10, color="tab:red",
+        ax.annotate("standard ball (Table 1):\na thin shell, j = 2/3", (std.rho / std.R, std.j), xytext=(24, -40),
+                    textcoords="offset points", ha="left", va="top", fontsize=10, color="tab:red",
                     bbox=dict(fc="white", ec="none", alpha=0.8),
                     arrowprops=dict(arrowstyle="-", color="tab:red", lw=1.0))
     if full:
@@ -97,12 +103,26 @@ def _fig9_plot(ds):
                  r"U unstable", fontsize=11)
     handles = [Patch(fc="0.72", label=r"S: $|\mathrm{tr}\,M| \leq 2$, quasi-periodic"),
                Patch(fc="white", ec="0.5", label=r"U: $|\mu_1| < 1 < |\mu_2|$"),
-               Line2D([], [], ls="none", marker="o", ms=9, mfc="none", mec="tab:red", mew=2,
+               Line2D([], [], ls="none", marker="o", ms=9, mfc="white", mec="tab:red", mew=2,
                       label=rf"standard ball $\rho/R$={std.rho / std.R:.3f}, $j$={std.j:.3f}")][: 3 if std_shown else 2]
     if full:
         handles.insert(2, Patch(fc="white", ec="0.3", hatch="///", label=r"outside $0<\rho/R<1-a/R$, $0<j\leq 2/3$"))
     fig.legend(handles=handles, loc="outside lower center", ncol=2, fontsize=9, frameon=False)
     return fig
+
+
+def _to_edges(x, y, values, x_edges, y_edges):
+    """The grid (x, y) and ``values`` (y, x) extended by the nearest values to the domain's edges
+    ``x_edges``, ``y_edges`` where the grid's first or last point lies inside them (cell centres)."""
+    if x_edges[0] < x[0]:
+        x, values = np.concatenate([[x_edges[0]], x]), np.concatenate([values[:, :1], values], axis=1)
+    if x_edges[1] > x[-1]:
+        x, values = np.concatenate([x, [x_edges[1]]]), np.concatenate([values, values[:, -1:]], axis=1)
+    if y_edges[0] < y[0]:
+        y, values = np.concatenate([[y_edges[0]], y]), np.concatenate([values[:1], values], axis=0)
+    if y_edges[1] > y[-1]:
+        y, values = np.concatenate([y, [y_edges[1]]]), np.concatenate([values, values[-1:]], axis=0)
+    return x, y, values
 
 
 def _hatched(xy, width, height):
