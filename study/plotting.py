@@ -297,6 +297,51 @@ OUTCOME_PALETTE = _outcome_palette()
 """The palette of every outcome figure (fig11-13, outcome-cube)."""
 
 
+STAR = dict(marker="*", ls="", ms=11, mfc="none", mec="k", mew=1.3, zorder=5)
+"""The steady motion (48) in an outcome map: hollow, so the cells show through."""
+
+
+def outcome_map(ax, w1, beta, codes, b0=None, star_size=None) -> set:
+    """An outcome section on ``ax``: the codes (beta, omega1) in the outcome palette, the axes over the
+    grid's cells, the steady motion at (0, ``b0``) as a star when it lies inside; returns the codes drawn."""
+    cmap, norm = OUTCOME_PALETTE.cmap_norm()
+    ax.pcolormesh(w1, beta, codes, cmap=cmap, norm=norm, shading="nearest", rasterized=True)
+    ax.set_xlim(*grid_limits(w1))
+    ax.set_ylim(*grid_limits(beta))
+    if b0 is not None and beta.min() <= b0 <= beta.max() and w1.min() <= 0.0 <= w1.max():
+        ax.plot([0.0], [b0], **(STAR if star_size is None else dict(STAR, ms=star_size, mew=1.0)))
+    return set(np.unique(codes).tolist())
+
+
+TIME_LEVELS = (5.0, 20.0)  # [s] contours of the time on the rim in dissipative panels (white, labelled)
+LONG_TIME = 10.0  # [s] a dotted area: on the rim at least this long (the paper's dotted regions, Fig. 11)
+TIME_STYLE = dict(colors="white", linewidths=0.9, linestyles="-")
+
+
+def time_on_rim(ax, w1, beta, t_end, t_max: float, b0=None, labels: bool = True) -> dict:
+    """How long a dissipative scene keeps the ball on the rim, on an outcome map: white contours of
+    ``t_end`` (beta, omega1) [s] at :data:`TIME_LEVELS` below ``t_max`` (labelled clear of the star at
+    (0, ``b0``); a level crowding it is named by the legend only), and the states on the rim for
+    :data:`LONG_TIME` or longer dotted, as the paper dots them. Returns legend handles by key."""
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    out = {}
+    levels = [lv for lv in TIME_LEVELS if lv < t_max and np.nanmin(t_end) < lv < np.nanmax(t_end)]
+    if levels:
+        cs = ax.contour(w1, beta, t_end, levels=levels, zorder=4.5, **TIME_STYLE)
+        if labels:
+            place_contour_labels(ax, cs, fmt="%g s", clear=0.09, avoid=[(0.0, b0)] if b0 is not None else [],
+                                 crowded="skip")
+        out["time"] = Line2D([], [], color="0.6", lw=1.6, label=r"time on the rim, white lines: "
+                             + ", ".join(f"{lv:g}" for lv in TIME_LEVELS) + " s")
+    if np.nanmax(t_end) >= LONG_TIME:
+        ax.contourf(w1, beta, np.nan_to_num(t_end, nan=0.0), levels=[LONG_TIME, np.nanmax(t_end) + 1.0],
+                    colors="none", hatches=[".."], zorder=4.2)
+        out["long"] = Patch(fc="none", ec="k", lw=0.0, hatch="..", label=f"on the rim {LONG_TIME:g} s or longer")
+    return out
+
+
 # ---------------------------------------------------------------- scenes of the outcome sections
 SCENE_KEYS = tuple(s.name for s in scenes.NAMED)
 """Labels of the ``scene`` dimension (``solver.engine.scenes.NAMED``); files written before the labels

@@ -71,6 +71,21 @@ def section_axes(s: dict) -> list[Axis]:
     return [scene, beta, omega1]
 
 
+def steady_beta0(omega2: float, omega3: float, p: solver.Params, lo: float, hi: float) -> float | None:
+    """beta0 in [lo, hi] [rad] of the steady motion (48) with these omega20, omega30 [1/s]; None if
+    none: the star of an outcome map (it lies on omega1 = 0)."""
+    from scipy.optimize import brentq
+
+    from rimroll.solver.analysis import steady
+
+    def f(b):
+        return steady.omega20(b, omega3, p) - omega2
+    grid = np.linspace(lo, min(hi, np.pi / 2 - 1e-6), 400)
+    vals = f(grid)
+    sign = np.nonzero(np.sign(vals[:-1]) != np.sign(vals[1:]))[0]
+    return float(brentq(f, grid[sign[0]], grid[sign[0] + 1])) if sign.size else None
+
+
 def scene_params(p: solver.Params, s: dict, label) -> tuple[solver.Params, float]:
     """The parameters of the named scene ``label`` (the run's physical ones with the scene's mu,
     k_r, k_d) and its t_max [s], from the settings ``s``."""
