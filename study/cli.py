@@ -56,8 +56,9 @@ def _parser() -> argparse.ArgumentParser:
     plot.add_argument("target", help="a study name (meaning <out>/NAME.nc) or a .nc file")
     plot.add_argument("--out", default="results", help="directory holding NAME.nc (default: results)")
     plot.add_argument("--select", action="append", default=[], metavar="DIM=VALUE",
-                      help="draw the slice nearest to VALUE along a swept axis DIM of a cube (repeatable), "
-                           "e.g. --select j=0.5; the PNG is named after the slice")
+                      help="draw the cube at the value nearest to VALUE of a swept axis DIM (repeatable, or "
+                           "DIM=VALUE,DIM=VALUE), e.g. --select j=0.5,mu=1; held on every swept axis, a slice "
+                           "is drawn as the section's map; the PNG is named after the selection")
     info = sub.add_parser("info", help="what a study computes, its settings, grid and run time (NAME); "
                                        "dimensions, variables and provenance of a results file (FILE)")
     info.add_argument("file", metavar="NAME|FILE")
@@ -131,7 +132,9 @@ def _draw(study, nc: pathlib.Path, select: dict | None = None) -> pathlib.Path |
             raise UserError(f"cannot plot {nc}: it lacks the variable(s) {', '.join(missing)} of study "
                             f"{study.name}; recompute it with study run {study.name} --force")
         if select:
-            ds = ds.sel(select, method="nearest")
+            from rimroll.study.cubeplots import select as at
+
+            ds = at(ds, select)
             png = nc.with_name(nc.stem + "".join(f"_{k}={float(ds[k]):g}" for k in select) + ".png")
         fig = study.plot(ds)
     return io.write_figure(fig, png)
