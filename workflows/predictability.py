@@ -21,11 +21,14 @@ probability variable and colour without an edit here.
 from __future__ import annotations
 
 import numpy as np
+from matplotlib.figure import Figure
+from matplotlib.patches import Rectangle
 from matplotlib.ticker import FixedLocator, FuncFormatter, NullLocator
 
 from rimroll import solver
 from rimroll.solver.analysis import predictability as pred
 from rimroll.solver.engine import outcomes
+from rimroll.study import cubeplots as C
 from rimroll.study import plotting as P
 from rimroll.study.dataset import setting_of
 from rimroll.study.registry import Axis, Study, Var, output_var, register
@@ -61,7 +64,8 @@ PRED_SETTINGS = {
     "n_sample": 2000,  # points drawn from the grid's certain part for the eps < 1 test
     "seed": 0,
 }
-PRED_QUICK = {**sections.QUICK, "n_sample": 200, "n_coarse": 1}
+PRED_QUICK = {**sections.QUICK, "n_sample": 200, "n_coarse": 1, "box": 4}
+"""The quick grid, 24 x 36, holds whole boxes of 4 x 4 (5 x 5 left strips without a box)."""
 
 
 def eps_values(n_fine: int, n_coarse: int) -> np.ndarray:
@@ -183,6 +187,7 @@ def _pred_plot(ds):
     styles = ("o-", "s--", "^-.", "v:")
     w1, beta = ds["omega1"].values, ds["beta"].values
     emax = np.log(max(2, len(OUTCOME_NAMES)))
+    partial = False
     for r, om in enumerate(sections):
         sec = ds.sel(omega2=om) if "omega2" in ds.dims else ds
         ax = axes[r, 0]
@@ -210,11 +215,15 @@ def _pred_plot(ds):
         ax.set_ylabel(r"uncertain fraction $f(\varepsilon)$")
         ax.set_title(rf"$\omega_2$={om:g} 1/s: $f(\varepsilon)\sim\varepsilon^\alpha$", fontsize=10)
         ax.grid(alpha=0.3, which="both")
-        ax.legend(fontsize=7.5, loc="upper left")
+        ax.legend(fontsize=7.5, loc="best")  # the curves rise to the right: the legend finds the empty corner
         for col, k in ((1, 0), (2, 1)):
             ax = axes[r, col]
             sc = sec.isel(scene=k)
             ent = sc["box_entropy"].transpose("beta", "omega1").values
+            if np.isnan(ent).any():  # rows or columns beyond the last whole box: hatched, not blank
+                ax.add_patch(Rectangle((0, 0), 1, 1, transform=ax.transAxes, fc="white", ec="0.6", hatch="///",
+                                       lw=0, zorder=0))
+                partial = True
             mesh = ax.pcolormesh(w1, beta, ent, cmap="magma_r", vmin=0, vmax=emax, shading="nearest",
                                  rasterized=True)
             ax.set_title(rf"box entropy, {scenes[k]}: $S_b$={float(sc['S_b']):.4f}, "
@@ -224,7 +233,8 @@ def _pred_plot(ds):
         fig.colorbar(mesh, ax=axes[r, 1:], label="box entropy [nats]", shrink=0.9)
     box = int(setting_of(ds, "box"))
     fig.suptitle(f"{ds.attrs['title']}\nuncertain fraction f (whole eps read from the grid, eps < 1 simulated on a "
-                 f"stratified sample; lines: fitted slopes) and entropy of {box} x {box} boxes", fontsize=11)
+                 f"stratified sample; lines: fitted slopes) and entropy of {box} x {box} boxes"
+                 + ("; hatched: beyond the last whole box" if partial else ""), fontsize=11)
     return fig
 
 
@@ -329,9 +339,17 @@ def _first_outer(da):
 
 
 def _prob_plot(ds):
-    fig, _ = P.new_figure(16.0, 5.2)
-    fig.clear()
-    axes = fig.subplots(1, 3, sharey=True)
+    dims = C.swept(ds)
+    fig = Figure(figsize=(16.0, 5.2 + (3.9 if dims else 0.0)), layout="constrained")
+    top = fig.subfigures(2, 1, height_ratios=[5.2, 3.9])[0] if dims else fig
+    if dims:  # every swept axis: the mean probability of each outcome over the section against it
+        bottom = fig.subfigs[1]
+        panels = list(np.atleast_1d(bottom.subplots(1, len(dims), sharey=True)))
+        series = [(PALETTE.label(code), ds[f"p_{name}"].mean(("beta", "omega1")), PALETTE.colour(code))
+                  for code, name in OUTCOME_NAMES.items()]
+        handles = C.sweep_panels(panels, ds, series, "mean probability over the section", ylim=(-0.02, 1.02))
+        bottom.legend(handles=handles, loc="outside right upper", fontsize=8)
+    axes = top.subplots(1, 3, sharey=True)
     w1, beta = ds["omega1"].values, ds["beta"].values
     codes = _first_outer(ds["outcome"]).values
     handles = _outcome_map(axes[0], w1, beta, codes)
@@ -360,7 +378,8 @@ def _prob_plot(ds):
     fig.suptitle(rf"Make probability at $\omega_2$={omega2:g} 1/s: "
                  rf"$\sigma$ = {level:g} x ({s['sigma_beta']:g} rad, {s['sigma_omega1']:g}, {s['sigma_omega2']:g}, "
                  rf"{s['sigma_omega3']:g} 1/s), {int(setting_of(ds, 'n_samples'))} samples per state"
-                 + (f"; first of the sweep: {', '.join(outer)}" if outer else ""), fontsize=11)
+                 + (f"\nmaps: the first value of each swept axis, {', '.join(outer)} (study plot FILE --select ... "
+                    "draws another); below: every swept axis" if outer else ""), fontsize=11)
     return fig
 
 
