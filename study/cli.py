@@ -97,6 +97,9 @@ def _trace_parser(sub) -> None:
     t.add_argument("--rtol", type=float, default=1e-10, help="relative tolerance (default 1e-10)")
     t.add_argument("--atol", type=float, default=1e-12, help="absolute tolerance (default 1e-12)")
     t.add_argument("--samples", type=int, default=2000, help="time samples (default 2000, plus phase ends)")
+    t.add_argument("--periods", type=int, default=0, metavar="N",
+                   help="a periodic state: follow the orbit N more periods past the second omega1 zero that "
+                        "decides it, to watch it repeat (default 0: end where simulate ends)")
     t.add_argument("--out", default="results", help="output directory (default: results)")
     t.add_argument("--name", default="trace", help="file name without suffix (default: trace)")
     t.add_argument("--force", action="store_true", help="replace an existing file of that name")
