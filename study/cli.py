@@ -266,7 +266,9 @@ def _cmd_info(args) -> int:
     print("coordinates:")
     for name, c in ds.coords.items():
         units = f" [{c.attrs['units']}]" if "units" in c.attrs else ""
-        if c.dtype.kind in "iuf":
+        if c.dtype.kind in "iuf" and name not in ds.dims and 1 < c.size <= 12:  # one value per scene: each
+            values = ", ".join(f"{v:g}" for v in c.values.ravel()) + f" (per {', '.join(c.dims)})"
+        elif c.dtype.kind in "iuf":
             values = f"{float(c.min()):.4g} .. {float(c.max()):.4g}"
         else:  # labels (scene, integrator)
             values = ", ".join(str(v) for v in c.values.ravel()[:12]) + (", ..." if c.size > 12 else "")
@@ -282,7 +284,9 @@ def _cmd_info(args) -> int:
         for name in str(ds.attrs["swept"]).split():
             values = ", ".join(f"{v:g}" for v in ds[name].values) if name in ds.coords else "?"
             print(f"swept: {name} = {values}")
-    params = [f"{k[6:]}={v}" for k, v in ds.attrs.items() if k.startswith("param_")]
+    # a parameter that is a coordinate along a dimension (a scene's mu, k_r, k_d) has its values above
+    params = [f"{k[6:]}={v}" for k, v in ds.attrs.items() if k.startswith("param_")
+              and not (k[6:] in ds.coords and ds[k[6:]].ndim)]
     settings = [f"{k[8:]}={v}" for k, v in ds.attrs.items() if k.startswith("setting_")]
     print("parameters: " + " ".join(params))
     print("settings: " + " ".join(settings))
