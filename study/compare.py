@@ -9,7 +9,8 @@ non-numerical ``setting_*`` such as omega2, t_max) must be equal, else there are
 points. Categorical variables (``flag_values``) are compared
 for identity, at all common points and at those *away from boundaries* (all 4-neighbours of the
 point in the reference carry the same value, in every computed categorical variable of the
-reference). Derived variables (``boundary_type``, which marks boundaries itself; ``S_b``) and a
+reference; along a dimension of :data:`DISCRETE_DIMS`, such as a sample of unrelated states, there
+is no boundary). Derived variables (``boundary_type``, which marks boundaries itself; ``S_b``) and a
 study's whole-grid ones (``Var.pointwise`` False: a box's entropy) are compared only when the
 file's grid is the reference's: they depend on the neighbours on their own grid;
 continuous variables as a scaled error ``|x - x_ref| / (atol + rtol |x_ref|)`` at the points
@@ -39,6 +40,8 @@ DEFAULT_TOLERANCE = (1e-9, 1e-9)
 the outputs of ``simulate`` declare theirs in ``solver.engine.outputs``)."""
 MIN_AGREEMENT_AWAY = 1.0  # categorical: fraction identical away from boundaries needed to pass
 MIN_COVERAGE = 0.5  # common points / points of the reference slice needed to pass
+DISCRETE_DIMS = ("scene", "integrator", "sample", "trajectory")
+"""Dimensions whose neighbours are unrelated (labels, seeded samples): no boundary lies between them."""
 
 
 @dataclasses.dataclass
@@ -134,8 +137,8 @@ def _away_from_boundaries(ref: xr.Dataset, names: list[str]) -> np.ndarray:
     for name in names:
         v = ref[name].transpose(*dims).values
         for ax in range(v.ndim):
-            if dims[ax] == "scene" or v.shape[ax] < 2:
-                continue  # scenes are not a continuum
+            if dims[ax] in DISCRETE_DIMS or v.shape[ax] < 2:
+                continue  # scenes, samples, trajectories are not a continuum: no boundary between neighbours
             same = v[(slice(None),) * ax + (slice(1, None),)] == v[(slice(None),) * ax + (slice(None, -1),)]
             lo = [slice(None)] * v.ndim
             hi = [slice(None)] * v.ndim
@@ -179,18 +182,23 @@ def _align(ds: xr.Dataset, ref: xr.Dataset) -> tuple[xr.Dataset, xr.Dataset, str
     coordinate) is cut at that value (a cube's reference slice on a few settings; a file that holds
     k_r = 0 against a slice that sweeps k_r); a dimension of length 1 is dropped."""
     ds = ds.squeeze([d for d in ds.dims if d not in ref.dims and ds.sizes[d] == 1], drop=True)
-    for swept, held, name in ((ds, ref, "file"), (ref, ds, "reference")):
-        other = "reference" if name == "file" else "file"
-        for d in [d for d in swept.dims if d not in held.dims]:
-            value = _scalar(held, d)
-            index, _ = _match(swept[d].values, np.array([value])) if value is not None else (np.empty(0), None)
-            if not index.size:
-                says = f"holds {d} = {value:g}" if value is not None else f"has no {d}"
-                return ds, ref, (f"dimensions differ: the {name} sweeps {d}, the {other} {says} "
-                                 f"(file {dict(ds.sizes)}, reference {dict(ref.sizes)})")
-            swept = swept.isel({d: int(index[0])}, drop=True)
-        ds, ref = (swept, held) if name == "file" else (held, swept)
-    return ds, ref, ""
+    ds, why = _cut(ds, ref, "file", "reference")
+    if why:
+        return ds, ref, why
+    ref, why = _cut(ref, ds, "reference", "file")
+    return ds, ref, why
+
+
+def _cut(swept: xr.Dataset, held: xr.Dataset, name: str, other: str) -> tuple[xr.Dataset, str]:
+    """``swept`` at the value ``held`` holds of each axis only ``swept`` has, and "" (else why not)."""
+    for d in [d for d in swept.dims if d not in held.dims]:
+        value = _scalar(held, d)
+        index, _ = _match(swept[d].values, np.array([value])) if value is not None else (np.empty(0), None)
+        if not index.size:
+            says = f"holds {d} = {value:g}" if value is not None else f"has no {d}"
+            return swept, f"dimensions differ: the {name} sweeps {d}, the {other} {says}"
+        swept = swept.isel({d: int(index[0])}, drop=True)
+    return swept, ""
 
 
 def compare(ds: xr.Dataset, ref: xr.Dataset, tolerances: dict | None = None) -> Report:

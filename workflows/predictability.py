@@ -31,7 +31,7 @@ from rimroll.solver.engine import outcomes
 from rimroll.study import cubeplots as C
 from rimroll.study import plotting as P
 from rimroll.study.dataset import setting_of
-from rimroll.study.registry import Axis, Study, Var, output_var, register
+from rimroll.study.registry import Axis, ReferenceSpec, Study, Var, output_var, register
 from rimroll.workflows import sections
 
 # ================================================================ outcome names and colours
@@ -117,10 +117,12 @@ def _pred_compute(coords, p, s):
 PRED_VARIABLES = [
     _outcome_var(),
     Var("box_entropy", "1", "Shannon entropy [nats] of the outcome fractions in the box (box x box grid points) "
-        "holding this point; NaN outside whole boxes"),
+        "holding this point; NaN outside whole boxes", pointwise=False),
     Var("uncertain", "1", "bit i set: the outcome changes when beta or omega1 moves by +-eps[i] grid steps "
-        "(eps[i] = 2**(i - n_fine)); bits of eps < 1 are known where sample_weight > 0", dtype="int32"),
-    Var("sample_weight", "1", "grid points this point stands for in the eps < 1 test (0: not simulated)"),
+        "(eps[i] = 2**(i - n_fine)); bits of eps < 1 are known where sample_weight > 0", dtype="int32",
+        pointwise=False),
+    Var("sample_weight", "1", "grid points this point stands for in the eps < 1 test (0: not simulated)",
+        pointwise=False),
     output_var("status", long_name="integration status of the nominal state"),
 ]
 
@@ -263,6 +265,10 @@ register(Study(
     cost=2.5e-4, compiles=True,
     ignores={k: "each of the four scenes sets its own mu, k_r and k_d; change mu_slip or k_dissipation"
              for k in ("mu", "k_r", "k_d")},
+    # a regression reference at the study's own settings: box entropies and eps-uncertain flags count
+    # outcome changes within a grid step, so a tighter rtol moves them only where the outcomes differ;
+    # the default slice is a 24 x 36 sub-grid of every section and scene
+    reference=ReferenceSpec({"beta": 24, "omega1": 36}, method="solver.simulate at the study's rtol and method"),
 ))
 
 
@@ -397,4 +403,7 @@ register(Study(
     compute=_prob_compute,
     plot=_prob_plot,
     chunks={"beta": 12},
+    # a regression reference at the study's own settings: a probability is a count of n_samples
+    # seeded draws, each an outcome; a 12 x 18 sub-grid of the default section
+    reference=ReferenceSpec({"beta": 12, "omega1": 18}, method="solver.simulate at the study's rtol and method"),
 ))
