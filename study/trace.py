@@ -264,7 +264,7 @@ def figure(ds) -> Figure:
     if np.isfinite(a["param_mu"]):
         twin = left[2].twinx()
         twin.plot(t, ds["friction_use"].clip(0, 1.2), color="tab:red", lw=0.8, alpha=0.7)
-        twin.set_ylabel(r"$|F_t|/(\mu F_2)$", color="tab:red")
+        twin.set_ylabel(r"$|F_t|/(\mu F_2)$ [-]", color="tab:red")
         twin.set_ylim(0, 1.25)
     e = ds["energy"].values
     left[3].plot(t, e - e[0], color="k", lw=1.1)

@@ -167,7 +167,7 @@ def _outcome_plot(ds):
     outcome = ds["outcome"].load()
     codes = [int(c) for c in np.unique(outcome.values)]  # the outcomes that occur: one curve each
     series = [(PALETTE.label(c), (outcome == c).mean(("beta", "omega1")), PALETTE.colour(c)) for c in codes]
-    handles = C.sweep_panels(panels, ds, series, r"fraction of the initial states ($\beta$, $\omega_1$)",
+    handles = C.sweep_panels(panels, ds, series, r"fraction of the initial states ($\beta$, $\omega_1$) [-]",
                              ylim=(-0.02, 1.02))
     extras = {}
     for ax, pick in zip(maps, picks):

@@ -268,7 +268,7 @@ def _types_plot(ds):
                 ha="right" if inside else "left", color="white" if inside else "k")
     ax.set_yticks(ypos, [f"{code} {nm.replace('_', ' ')}" for code, nm in zip(codes, names)])
     ax.set_xlim(0, 1)
-    ax.set_xlabel(f"fraction of the {n} sampled states")
+    ax.set_xlabel(f"fraction of the {n} sampled states [-]")
     t_max = float(setting_of(ds, "t_max"))
     import textwrap
 
@@ -393,8 +393,8 @@ def _inv_plot(ds):
     t = ds["time"].values
     rtol = float(setting_of(ds, "rtol"))
     tiny = 1e-17
-    for ax, name, label in zip(axes, ("rel_change_E", "rel_change_P_I", "rel_change_P_II"),
-                               (r"$|\Delta E|/|E_0|$", r"$|\Delta P_I|/|P_0|$", r"$|\Delta P_{II}|/|P_0|$")):
+    labels = (r"$|\Delta E|/|E_0|$ [-]", r"$|\Delta P_I|/|P_0|$ [-]", r"$|\Delta P_{II}|/|P_0|$ [-]")
+    for ax, name, label in zip(axes, ("rel_change_E", "rel_change_P_I", "rel_change_P_II"), labels):
         for k in ds["trajectory"].values:
             v = np.abs(ds[name].sel(trajectory=k).values)
             ax.semilogy(t[1:], np.maximum(v[1:], tiny), lw=1.0, label=state_label(ds.sel(trajectory=k)))

@@ -214,7 +214,7 @@ def _pred_plot(ds):
         ax.xaxis.set_major_formatter(FuncFormatter(lambda e, _: f"{e:g}" if e >= 1 else f"1/{1 / e:g}"))
         ax.xaxis.set_minor_locator(NullLocator())
         ax.set_xlabel(r"perturbation $\varepsilon$ [grid steps of $\beta$, $\omega_1$]")
-        ax.set_ylabel(r"uncertain fraction $f(\varepsilon)$")
+        ax.set_ylabel(r"uncertain fraction $f(\varepsilon)$ [-]")
         ax.set_title(rf"$\omega_2$={om:g} 1/s: $f(\varepsilon)\sim\varepsilon^\alpha$", fontsize=10)
         ax.grid(alpha=0.3, which="both")
         ax.legend(fontsize=7.5, loc="best")  # the curves rise to the right: the legend finds the empty corner
@@ -353,7 +353,7 @@ def _prob_plot(ds):
         panels = list(np.atleast_1d(bottom.subplots(1, len(dims), sharey=True)))
         series = [(PALETTE.label(code), ds[f"p_{name}"].mean(("beta", "omega1")), PALETTE.colour(code))
                   for code, name in OUTCOME_NAMES.items()]
-        handles = C.sweep_panels(panels, ds, series, "mean probability over the section", ylim=(-0.02, 1.02))
+        handles = C.sweep_panels(panels, ds, series, "mean probability over the section [-]", ylim=(-0.02, 1.02))
         bottom.legend(handles=handles, loc="outside right upper", fontsize=8)
     axes = top.subplots(1, 3, sharey=True)
     w1, beta = ds["omega1"].values, ds["beta"].values

@@ -238,14 +238,14 @@ def _plot(ds) -> Figure:
                 bottom.semilogx(rtol[okm], m[okm], style, color=colour, label=label, ms=4)
         top.set_title(P.scene_text(ds["scene"].values[k]), fontsize=10)
         top.grid(True, which="both", alpha=0.3)
-        top.set_xlabel("seconds per trajectory (one thread)")
-        bottom.set_xlabel("rtol (atol = 1e-2 rtol)")
+        top.set_xlabel("seconds per trajectory (one thread) [s]")
+        bottom.set_xlabel("rtol [-] (atol = 1e-2 rtol)")
         bottom.invert_xaxis()
         worst = np.nanmax(ds["misclassified_fraction"].values) if np.isfinite(ds["misclassified_fraction"]).any() else 0
         bottom.set_ylim(-0.002, max(0.05, 1.1 * float(worst)))
         bottom.grid(True, which="both", alpha=0.3)
     axes[0, 0].set_ylabel(r"median $|t_{end} - t_{end}^{ref}|$ [s]" "\n(numbers: $\\log_{10}$ rtol)")
-    axes[1, 0].set_ylabel("misclassified fraction of the states")
+    axes[1, 0].set_ylabel("misclassified fraction of the states [-]")
     handles, labels = [], []
     for ax in axes.flat:
         for h, lbl in zip(*ax.get_legend_handles_labels()):
