@@ -108,8 +108,9 @@ def _realisable_slice(ds):
 
 
 def _area(name):
+    # a sum over the whole (beta0, omega30) grid: compared with a reference on its own grid only
     return Var(f"area_{name}", "rad s-1", f"area of realisable region {name} of Fig. 8 in the "
-               "(beta0, omega30) plane", outer=True)
+               "(beta0, omega30) plane", outer=True, pointwise=False)
 
 
 register(Study(
