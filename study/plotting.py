@@ -438,7 +438,8 @@ def place_contour_labels(ax, cs, fmt, avoid=(), fontsize: float = 7.5, margin: f
     lines = []
     for segs in cs.allsegs:
         pts = [s for s in segs if len(s)]
-        lines.append(to_axes.transform(np.concatenate(pts)) if pts else np.empty((0, 2)))
+        line = to_axes.transform(np.concatenate(pts)) if pts else np.empty((0, 2))
+        lines.append(line[:: max(1, len(line) // 800)])  # at most ~800 points a level: distances are pairwise
     fixed = [to_axes.transform(a) for a in avoid if a.size]
     blocking = [to_axes.transform(np.asarray(w, dtype=float).reshape(-1, 2)) for w in walls] or [np.empty((0, 2))]
     chosen = []
