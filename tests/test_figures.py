@@ -500,3 +500,21 @@ def test_xarray_plot_of_a_section_keeps_its_axis_labels_on_the_figure(fig12):
             assert inside.x0 <= box.x0 and box.x1 <= inside.x1 and inside.y0 <= box.y0 and box.y1 <= inside.y1
     finally:
         plt.close(fig)
+
+
+def test_axis_labels_fit_one_line_of_xarrays_plots():
+    """xarray labels a plot's axis with long_name and units, wrapped at 30 characters: every numeric
+    grid axis of every study, and every swept setting the study layer declares, fits one line (the
+    detail is in the coordinate's comment). The physical parameters' long_names are solver's."""
+    from rimroll.study import registry
+    from rimroll.study.plan import make_plan
+
+    for name in registry.names():
+        for axis in make_plan(registry.get(name), quick=True).grid:
+            if not axis.categorical:
+                assert len(f"{axis.long_name} [{axis.units}]") <= 30, (name, axis.name, axis.long_name)
+    from rimroll.study.setting_table import SWEEP_KEYS, TABLE
+
+    for key in SWEEP_KEYS:
+        if not TABLE[key].physical:
+            assert len(f"{TABLE[key].axis_long_name} [{TABLE[key].units}]") <= 30, key

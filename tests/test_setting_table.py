@@ -238,21 +238,3 @@ def test_study_functions_are_short_and_take_few_parameters():
                 a = node.args
                 count = len(a.posonlyargs) + len(a.args) + len(a.kwonlyargs) + bool(a.vararg) + bool(a.kwarg)
                 assert node.end_lineno - node.lineno + 1 <= 120 and count <= 12, (path.name, node.name)
-
-
-def test_axis_labels_fit_one_line_of_xarrays_plots():
-    """xarray labels a plot's axis with long_name and units, wrapped at 30 characters: every numeric
-    grid axis of every study, and every swept setting the study layer declares, fits one line (the
-    detail is in the coordinate's comment). The physical parameters' long_names are solver's."""
-    from rimroll.study import registry
-    from rimroll.study.plan import make_plan
-
-    for name in registry.names():
-        for axis in make_plan(registry.get(name), quick=True).grid:
-            if not axis.categorical:
-                assert len(f"{axis.long_name} [{axis.units}]") <= 30, (name, axis.name, axis.long_name)
-    from rimroll.study.setting_table import SWEEP_KEYS, TABLE
-
-    for key in SWEEP_KEYS:
-        if not TABLE[key].physical:
-            assert len(f"{TABLE[key].axis_long_name} [{TABLE[key].units}]") <= 30, key
