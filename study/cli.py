@@ -56,8 +56,9 @@ def _parser() -> argparse.ArgumentParser:
     plot.add_argument("target", help="a study name (meaning <out>/NAME.nc) or a .nc file")
     plot.add_argument("--out", default="results", help="directory holding NAME.nc (default: results)")
     plot.add_argument("--select", action="append", default=[], metavar="DIM=VALUE",
-                      help="draw the slice nearest to VALUE along a swept axis DIM of a cube (repeatable), "
-                           "e.g. --select j=0.5; the PNG is named after the slice")
+                      help="draw the cube at the value nearest to VALUE of a swept axis DIM (repeatable, or "
+                           "DIM=VALUE,DIM=VALUE), e.g. --select j=0.5,mu=1; held on every swept axis, a slice "
+                           "is drawn as the section's map; the PNG is named after the selection")
     info = sub.add_parser("info", help="what a study computes, its settings, grid and run time (NAME); "
                                        "dimensions, variables and provenance of a results file (FILE)")
     info.add_argument("file", metavar="NAME|FILE")
@@ -96,6 +97,9 @@ def _trace_parser(sub) -> None:
     t.add_argument("--rtol", type=float, default=1e-10, help="relative tolerance (default 1e-10)")
     t.add_argument("--atol", type=float, default=1e-12, help="absolute tolerance (default 1e-12)")
     t.add_argument("--samples", type=int, default=2000, help="time samples (default 2000, plus phase ends)")
+    t.add_argument("--periods", type=int, default=0, metavar="N",
+                   help="a periodic state: follow the orbit N more periods past the second omega1 zero that "
+                        "decides it, to watch it repeat (default 0: end where simulate ends)")
     t.add_argument("--out", default="results", help="output directory (default: results)")
     t.add_argument("--name", default="trace", help="file name without suffix (default: trace)")
     t.add_argument("--force", action="store_true", help="replace an existing file of that name")
@@ -131,7 +135,9 @@ def _draw(study, nc: pathlib.Path, select: dict | None = None) -> pathlib.Path |
             raise UserError(f"cannot plot {nc}: it lacks the variable(s) {', '.join(missing)} of study "
                             f"{study.name}; recompute it with study run {study.name} --force")
         if select:
-            ds = ds.sel(select, method="nearest")
+            from rimroll.study.cubeplots import select as at
+
+            ds = at(ds, select)
             png = nc.with_name(nc.stem + "".join(f"_{k}={float(ds[k]):g}" for k in select) + ".png")
         fig = study.plot(ds)
     return io.write_figure(fig, png)
@@ -260,7 +266,9 @@ def _cmd_info(args) -> int:
     print("coordinates:")
     for name, c in ds.coords.items():
         units = f" [{c.attrs['units']}]" if "units" in c.attrs else ""
-        if c.dtype.kind in "iuf":
+        if c.dtype.kind in "iuf" and name not in ds.dims and 1 < c.size <= 12:  # one value per scene: each
+            values = ", ".join(f"{v:g}" for v in c.values.ravel()) + f" (per {', '.join(c.dims)})"
+        elif c.dtype.kind in "iuf":
             values = f"{float(c.min()):.4g} .. {float(c.max()):.4g}"
         else:  # labels (scene, integrator)
             values = ", ".join(str(v) for v in c.values.ravel()[:12]) + (", ..." if c.size > 12 else "")
@@ -276,7 +284,9 @@ def _cmd_info(args) -> int:
         for name in str(ds.attrs["swept"]).split():
             values = ", ".join(f"{v:g}" for v in ds[name].values) if name in ds.coords else "?"
             print(f"swept: {name} = {values}")
-    params = [f"{k[6:]}={v}" for k, v in ds.attrs.items() if k.startswith("param_")]
+    # a parameter that is a coordinate along a dimension (a scene's mu, k_r, k_d) has its values above
+    params = [f"{k[6:]}={v}" for k, v in ds.attrs.items() if k.startswith("param_")
+              and not (k[6:] in ds.coords and ds[k[6:]].ndim)]
     settings = [f"{k[8:]}={v}" for k, v in ds.attrs.items() if k.startswith("setting_")]
     print("parameters: " + " ".join(params))
     print("settings: " + " ".join(settings))

@@ -1,22 +1,27 @@
 """Compare a result with a stored reference slice on their common coordinates.
 
 Common points: for every dimension of the reference, the file's coordinate values that match a
-reference value to within ``COORD_RTOL`` of the axis' span (nearest match); auxiliary
-coordinates along a dimension (a scene's mu, k_r, k_d, t_max) must match too. Settings that
-change the physics (``param_*`` and the non-numerical ``setting_*`` such as omega2, t_max) must
-be equal, else there are no common points. Categorical variables (``flag_values``) are compared
+reference value to within ``COORD_RTOL`` of the axis' span (nearest match; +inf, a swept mu,
+matches only +inf); auxiliary coordinates along a dimension (a scene's mu, k_r, k_d, t_max) must
+match too. A setting one of the two sweeps and the other holds at one value (a cube's slice on a
+few settings) is compared at that value. Settings that change the physics (``param_*`` and the
+non-numerical ``setting_*`` such as omega2, t_max) must be equal, else there are no common
+points. Categorical variables (``flag_values``) are compared
 for identity, at all common points and at those *away from boundaries* (all 4-neighbours of the
 point in the reference carry the same value, in every computed categorical variable of the
-reference; derived ones such as ``boundary_type`` mark boundaries themselves, and are compared
-only when the file's grid is the reference's: they depend on the neighbours on their own grid);
+reference; along a dimension of :data:`DISCRETE_DIMS`, such as a sample of unrelated states, there
+is no boundary). Derived variables (``boundary_type``, which marks boundaries itself; ``S_b``) and a
+study's whole-grid ones (``Var.pointwise`` False: a box's entropy) are compared only when the
+file's grid is the reference's: they depend on the neighbours on their own grid;
 continuous variables as a scaled error ``|x - x_ref| / (atol + rtol |x_ref|)`` at the points
 away from boundaries where every categorical variable agrees (elsewhere they describe different
 motions), with NaN == NaN and inf == inf of the same sign counted as equal.
 
 A result passes only if it holds every variable of the reference (but those its study never
-compares, such as ``n_steps``), and if its common points cover at least :data:`MIN_COVERAGE` of
-the reference's points: a coarse grid that shares a few corners with the slice has checked almost
-nothing.
+compares: ``Var.compared`` False, such as ``n_steps`` and timings, or a derived variable with the
+attribute ``rimroll_compared = 0``; the report names them), and if its common points cover at
+least :data:`MIN_COVERAGE` of the reference's points: a coarse grid that shares a few corners
+with the slice has checked almost nothing.
 """
 
 from __future__ import annotations
@@ -35,6 +40,8 @@ DEFAULT_TOLERANCE = (1e-9, 1e-9)
 the outputs of ``simulate`` declare theirs in ``solver.engine.outputs``)."""
 MIN_AGREEMENT_AWAY = 1.0  # categorical: fraction identical away from boundaries needed to pass
 MIN_COVERAGE = 0.5  # common points / points of the reference slice needed to pass
+DISCRETE_DIMS = ("scene", "integrator", "sample", "trajectory")
+"""Dimensions whose neighbours are unrelated (labels, seeded samples): no boundary lies between them."""
 
 
 @dataclasses.dataclass
@@ -59,6 +66,7 @@ class Report:
     variables: list = dataclasses.field(default_factory=list)
     n_reference: int = 0  # points of the reference slice
     missing: list = dataclasses.field(default_factory=list)  # reference variables absent from the file
+    skipped: list = dataclasses.field(default_factory=list)  # never compared: integrator work, timings
 
     @property
     def coverage(self) -> float:
@@ -97,11 +105,14 @@ def _match(file_values: np.ndarray, ref_values: np.ndarray) -> tuple[np.ndarray,
         pairs = [(file_labels.index(str(v)), k) for k, v in enumerate(ref_values) if str(v) in file_labels]
         return np.array([i for i, _ in pairs], dtype=int), np.array([k for _, k in pairs], dtype=int)
     file_values, ref_values = file_values.astype(float), ref_values.astype(float)
-    span = max(float(np.ptp(ref_values)), float(np.max(np.abs(ref_values))), 1e-300)
+    finite = ref_values[np.isfinite(ref_values)]
+    span = max(float(np.ptp(finite)), float(np.max(np.abs(finite))), 1e-300) if finite.size else 1.0
     tol = COORD_RTOL * span
     idx_f, idx_r = [], []
     for k, v in enumerate(ref_values):
-        d = np.abs(file_values - v)
+        with np.errstate(invalid="ignore"):  # inf - inf: a mu = inf matches only mu = inf
+            d = np.where(file_values == v, 0.0, np.abs(file_values - v))
+        d = np.where(np.isnan(d), np.inf, d)
         i = int(np.argmin(d)) if d.size else -1
         if i >= 0 and d[i] <= tol:
             idx_f.append(i)
@@ -126,8 +137,8 @@ def _away_from_boundaries(ref: xr.Dataset, names: list[str]) -> np.ndarray:
     for name in names:
         v = ref[name].transpose(*dims).values
         for ax in range(v.ndim):
-            if dims[ax] == "scene" or v.shape[ax] < 2:
-                continue  # scenes are not a continuum
+            if dims[ax] in DISCRETE_DIMS or v.shape[ax] < 2:
+                continue  # scenes, samples, trajectories are not a continuum: no boundary between neighbours
             same = v[(slice(None),) * ax + (slice(1, None),)] == v[(slice(None),) * ax + (slice(None, -1),)]
             lo = [slice(None)] * v.ndim
             hi = [slice(None)] * v.ndim
@@ -137,34 +148,73 @@ def _away_from_boundaries(ref: xr.Dataset, names: list[str]) -> np.ndarray:
     return away
 
 
-def declared(study: str) -> tuple[dict, set]:
-    """The tolerances the variables of ``study`` declare (``Var.tolerance``: name -> (atol, rtol)) and
-    the names of those never compared (``Var.compared``: integrator work); empty for an unknown study."""
+def declared(study: str) -> tuple[dict, set, set]:
+    """The tolerances the variables of ``study`` declare (``Var.tolerance``: name -> (atol, rtol)), the
+    names of those never compared (``Var.compared``: integrator work, timings) and of those that
+    depend on the whole grid (``Var.pointwise``: compared on the reference's own grid only); empty
+    for an unknown study."""
     from rimroll.study import registry
 
     try:
         variables = registry.get(study).variables
     except registry.UserError:
-        return {}, set()
+        return {}, set(), set()
     return ({v.name: v.tolerance for v in variables if v.tolerance is not None},
-            {v.name for v in variables if not v.compared})
+            {v.name for v in variables if not v.compared}, {v.name for v in variables if not v.pointwise})
+
+
+def _scalar(ds: xr.Dataset, name: str) -> float | None:
+    """The one value of setting ``name`` in a file that does not sweep it: a 0-d coordinate, or its
+    ``setting_``/``param_`` attribute; None if the file says nothing (or nothing numeric)."""
+    if name in ds.coords and ds[name].ndim == 0:
+        value = ds[name].values[()]
+    else:
+        value = ds.attrs.get(f"setting_{name}", ds.attrs.get(f"param_{name}"))
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return None
+
+
+def _align(ds: xr.Dataset, ref: xr.Dataset) -> tuple[xr.Dataset, xr.Dataset, str]:
+    """``ds`` and ``ref`` on the same dimensions, and "" (else the reason why they cannot be): an
+    axis that one of them sweeps and the other holds at one value (a setting attribute or a 0-d
+    coordinate) is cut at that value (a cube's reference slice on a few settings; a file that holds
+    k_r = 0 against a slice that sweeps k_r); a dimension of length 1 is dropped."""
+    ds = ds.squeeze([d for d in ds.dims if d not in ref.dims and ds.sizes[d] == 1], drop=True)
+    ds, why = _cut(ds, ref, "file", "reference")
+    if why:
+        return ds, ref, why
+    ref, why = _cut(ref, ds, "reference", "file")
+    return ds, ref, why
+
+
+def _cut(swept: xr.Dataset, held: xr.Dataset, name: str, other: str) -> tuple[xr.Dataset, str]:
+    """``swept`` at the value ``held`` holds of each axis only ``swept`` has, and "" (else why not)."""
+    for d in [d for d in swept.dims if d not in held.dims]:
+        value = _scalar(held, d)
+        index, _ = _match(swept[d].values, np.array([value])) if value is not None else (np.empty(0), None)
+        if not index.size:
+            says = f"holds {d} = {value:g}" if value is not None else f"has no {d}"
+            return swept, f"dimensions differ: the {name} sweeps {d}, the {other} {says}"
+        swept = swept.isel({d: int(index[0])}, drop=True)
+    return swept, ""
 
 
 def compare(ds: xr.Dataset, ref: xr.Dataset, tolerances: dict | None = None) -> Report:
     """Agreement of ``ds`` with the reference slice ``ref`` (see the module docstring); ``tolerances``
     (name -> (atol, rtol)) override those the study declares."""
     study = str(ref.attrs.get("study"))
-    tol, not_compared = declared(study)
+    tol, not_compared, whole_grid = declared(study)
     tol.update(tolerances or {})
     mismatch = _setting_mismatch(ds, ref)
     if mismatch:
         return Report(study, 0, "settings differ, so no point is common: " + "; ".join(mismatch))
+    n_reference = int(np.prod(list(ref.sizes.values())))
+    ds, ref, why = _align(ds, ref)
+    if why:
+        return Report(study, 0, why, n_reference=n_reference)
     dims = [d for d in ref.dims]
-    extra = [d for d in ds.dims if d not in ref.dims and ds.sizes[d] > 1]
-    missing = [d for d in dims if d not in ds.dims]
-    if extra or missing:
-        return Report(study, 0, f"dimensions differ: file {dict(ds.sizes)}, reference {dict(ref.sizes)}")
-    ds = ds.squeeze([d for d in ds.dims if d not in ref.dims], drop=True)
     sel_f, sel_r = {}, {}
     for d in dims:
         i_f, i_r = _match(ds[d].values, ref[d].values)
@@ -178,11 +228,12 @@ def compare(ds: xr.Dataset, ref: xr.Dataset, tolerances: dict | None = None) -> 
         sel_f[d], sel_r[d] = i_f, i_r
     a = ds.isel(sel_f)
     b = ref.isel(sel_r)
+    not_compared |= {n for n in ref.data_vars if str(ref[n].attrs.get("rimroll_compared", 1)) == "0"}
     names = [n for n in ref.data_vars if n in ds.data_vars and n not in not_compared]
     if not all(len(sel_f[d]) == ds.sizes[d] == ref.sizes[d] for d in dims):
-        # a derived categorical variable (boundary_type) describes the neighbours on its own grid: a
-        # finer grid has other neighbours, so only the same grid compares it
-        names = [n for n in names if not ("flag_values" in ref[n].attrs and ref[n].attrs.get("rimroll_derived"))]
+        # a derived variable (boundary_type, S_b) and a study's whole-grid one (a box's entropy) describe
+        # the neighbours on their own grid: another grid has other neighbours, so only the same grid compares them
+        names = [n for n in names if not (ref[n].attrs.get("rimroll_derived") or n in whole_grid)]
     categorical = [n for n in names if "flag_values" in ref[n].attrs]
     continuous = [n for n in names if n not in categorical]
     away_full = _away_from_boundaries(ref, [n for n in ref.data_vars if "flag_values" in ref[n].attrs
@@ -190,9 +241,9 @@ def compare(ds: xr.Dataset, ref: xr.Dataset, tolerances: dict | None = None) -> 
     cat_dims = list(ref[categorical[0]].dims) if categorical else dims
     away = away_full[np.ix_(*[sel_r[d] for d in cat_dims])] if categorical else np.ones(
         tuple(len(sel_r[d]) for d in cat_dims), dtype=bool)
-    report = Report(study, int(np.prod([len(sel_r[d]) for d in dims])),
-                    n_reference=int(np.prod([ref.sizes[d] for d in dims])),
-                    missing=[n for n in ref.data_vars if n not in ds.data_vars and n not in not_compared])
+    report = Report(study, int(np.prod([len(sel_r[d]) for d in dims])), n_reference=n_reference,
+                    missing=[n for n in ref.data_vars if n not in ds.data_vars and n not in not_compared],
+                    skipped=sorted(n for n in not_compared if n in ref.data_vars))
     agree_all = np.ones_like(away)
     for n in categorical:
         x, y = a[n].transpose(*cat_dims).values, b[n].transpose(*cat_dims).values
@@ -204,7 +255,9 @@ def compare(ds: xr.Dataset, ref: xr.Dataset, tolerances: dict | None = None) -> 
             n_away=int(away.sum()), ok=not away.any() or frac_away >= MIN_AGREEMENT_AWAY))
     mask = away & agree_all
     for n in continuous:
-        x, y = a[n].transpose(*cat_dims).values.astype(float), b[n].transpose(*cat_dims).values.astype(float)
+        order = [d for d in cat_dims if d in a[n].dims]  # an outer variable (an area) lacks the grid's axes
+        x = a[n].transpose(*order, ...).values.astype(float)
+        y = b[n].transpose(*order, ...).values.astype(float)
         atol, rtol = tol.get(n, DEFAULT_TOLERANCE)
         with np.errstate(invalid="ignore", divide="ignore"):
             equal = (x == y) | (np.isnan(x) & np.isnan(y))
@@ -235,6 +288,9 @@ def format_report(report: Report, file: str, ref_path: str) -> list[str]:
                          f"= {v.worst_scaled:.3g} x tolerance (atol {v.tolerance[0]:g}, rtol {v.tolerance[1]:g})")
     compared = ", ".join(v.name for v in report.variables) or "nothing"
     lines.append(f"compared: {compared}")
+    if report.skipped:
+        lines.append(f"not compared (not reproducible from run to run: integrator work, timings): "
+                     f"{', '.join(report.skipped)}")
     if report.missing:
         lines.append(f"  FAIL missing from the file: {', '.join(report.missing)}")
     mark = "ok  " if report.coverage >= MIN_COVERAGE else "FAIL"

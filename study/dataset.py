@@ -84,8 +84,9 @@ def _attr_value(value):
 
 
 def _axis_attrs(a: Axis) -> dict:
-    """CF attributes of an axis' coordinate: units (none for string labels) and long_name."""
-    return {"units": a.units, "long_name": a.long_name} if a.units else {"long_name": a.long_name}
+    """CF attributes of an axis' coordinate: units (none for string labels), long_name and comment."""
+    attrs = {"units": a.units, "long_name": a.long_name} if a.units else {"long_name": a.long_name}
+    return {**attrs, "comment": a.comment} if a.comment else attrs
 
 
 def coords_of(axes: list[Axis]) -> dict:

@@ -102,6 +102,10 @@ def describe(name: str) -> list[str]:
     if about:
         lines.append(f"  {about}")
     lines.append("variables: " + ", ".join(f"{v.name} [{v.units}]" for v in study.variables))
+    derived = [(name if isinstance(name, str) else ", ".join(name), units) for name, units, _ in study.derived_docs]
+    if derived:
+        lines.append("derived from the whole grid once it is computed: "
+                     + ", ".join(f"{name} [{units}]" for name, units in derived))
     lines.append("settings (default, --quick, units; change with --set KEY=VALUE):")
     lines += settings_lines(study)
     sweepable = ", ".join(study.sweepable) or "none"

@@ -83,7 +83,7 @@ def slice_plan(name: str, grid: str = "default", precise: bool = True) -> Plan:
     extra = spec_of(name).precise if precise else ()
     if grid == "quick":
         return make_plan(registry.get(name), quick=True, sets=extra)
-    return make_plan(registry.get(name), sets=[*sub_grid_sets(name), *extra])
+    return make_plan(registry.get(name), sets=[*sub_grid_sets(name), *spec_of(name).sets, *extra])
 
 
 def packaged_dir() -> pathlib.Path:
@@ -151,14 +151,17 @@ def _provenance(spec: registry.ReferenceSpec, grid: str, plan: Plan, command: st
     if grid == "quick":
         how = " ".join(filter(None, ["--quick", sets])) + " on the whole --quick grid"
     else:
-        how = sets + " on the sub-grid " + ", ".join(f"{k}: {n} of the default values (ends included)"
-                                                     for k, n in spec.points.items())
+        how = " ".join(filter(None, [sets, shlex.join(f"--set={x}" for x in spec.sets)])) + " on the sub-grid " + \
+            ", ".join(f"{k}: {n} of the default values (ends included)" for k, n in spec.points.items())
     return {
         "reference_command": command,
         "reference_settings": how,
         "reference_rtol": str(s.get("rtol", "n/a")),
         "reference_atol": str(s.get("atol", "n/a")),
         "reference_method": str(s.get("method", spec.method)),
+        "reference_precision": "the reference's own (rtol, method above)" if spec.precise else
+                               "the study's own settings: a regression reference (a run at the defaults "
+                               "reproduces it)",
         "reference_purpose": "stored reference slice of rimroll: regression tests and `study verify`",
     }
 

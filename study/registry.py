@@ -51,7 +51,11 @@ class Axis:
 
     ``units`` is a CF/UDUNITS string ("rad", "s-1", "m s-1", "1"). ``aux`` holds auxiliary
     coordinates along this axis, ``{name: (values, units, long_name)}``: e.g. a ``scene`` axis
-    carries the ``mu``, ``k_r`` and ``k_d`` of each scene.
+    carries the ``mu``, ``k_r`` and ``k_d`` of each scene. ``allow_inf``: +inf is a value of the
+    axis (a friction coefficient ``mu``: inf never slips, so ``mu = 1, inf`` puts slipping and
+    rolling only on one axis); NaN and -inf never are. ``comment``: the detail behind a short
+    ``long_name`` (CF comment): xarray's plots label an axis with long_name and units, wrapped at 30
+    characters, so a long_name of at most 24 keeps the label on one line.
     """
 
     name: str
@@ -59,6 +63,8 @@ class Axis:
     units: str
     long_name: str
     aux: dict = dataclasses.field(default_factory=dict)
+    allow_inf: bool = False
+    comment: str = ""
 
     def __post_init__(self):
         values = np.asarray(self.values)
@@ -74,8 +80,10 @@ class Axis:
         if values.dtype.kind == "U":
             self._check_labels(values)
             return
-        if not np.all(np.isfinite(values)):
-            raise ValueError(f"axis {self.name!r} has non-finite values")
+        allowed = np.isfinite(values) | ((values == np.inf) if self.allow_inf else False)
+        if not np.all(allowed):
+            extra = " (+inf is allowed on this axis)" if self.allow_inf else ""
+            raise ValueError(f"axis {self.name!r} has non-finite values{extra}")
         steps = np.diff(values)
         if not (np.all(steps > 0) or np.all(steps < 0)):
             raise ValueError(f"axis {self.name!r} must be strictly monotonic")
@@ -116,7 +124,9 @@ class Var:
     standard_name: str | None = None  # CF standard name, where CF defines one (e.g. status_flag)
     comment: str | None = None  # the detail behind a short long_name (CF comment)
     tolerance: tuple | None = None  # (atol, rtol) of `study verify` for a continuous variable (None: the default)
-    compared: bool = True  # False: never compared with a reference (integrator work, ...)
+    compared: bool = True  # False: never compared with a reference (integrator work, timings)
+    pointwise: bool = True  # False: a point's value depends on the whole grid (a box, a sample), so `study
+    # verify` compares it only on the reference's own grid
 
     def __post_init__(self):
         if not _NAME.match(self.name):
@@ -159,12 +169,16 @@ class ReferenceSpec:
     """How the stored reference slices of a study are made (``study.reference``): the sub-grid of
     the default grid (``points``: grid axis -> number of values picked from the default axis, ends
     included; the other slice is the whole ``--quick`` grid), the reference's precision settings
-    (``precise``: ``--set`` items, e.g. ``("rtol=1e-12", "method=dop853")``) and what the files record
-    as ``reference_method`` when the study has no ``method`` setting."""
+    (``precise``: ``--set`` items, e.g. ``("rtol=1e-12", "method=dop853")``; none: the study's own,
+    a regression reference), what the files record as ``reference_method`` when the study has no
+    ``method`` setting, and ``sets``: ``--set`` items of the default slice alone (a cube's slice on a
+    few of its settings, e.g. ``("mu=1,2", "k_d=0")``; a value held there is compared at that value
+    of a file that sweeps it)."""
 
     points: dict
     precise: tuple = ()
     method: str = "closed form (no integration)"
+    sets: tuple = ()
 
 
 @dataclasses.dataclass(frozen=True)

@@ -109,21 +109,26 @@ def _number(value) -> bool:
 
 
 def _physical(q: physical.Quantity) -> Setting:
-    return Setting(q.name, q.units, q.doc, q.range, sweep=q.name in _SWEPT_PHYSICAL, long_name=q.long_name,
-                   physical=True)
+    return Setting(q.name, q.units, q.doc + _DOC_MORE.get(q.name, ""), q.range, sweep=q.name in _SWEPT_PHYSICAL,
+                   long_name=q.long_name, physical=True)
 
 
 _SWEPT_PHYSICAL = ("mu", "j", "rho_over_R", "k_r", "k_d")
+_DOC_MORE = {  # what the study layer adds to a physical parameter's doc
+    "mu": "; a swept list may hold inf too: --set mu=1,inf puts slipping and rolling only on one axis (mu is "
+          "the only setting that takes inf)",
+}
 S = Setting
 _ENTRIES = (
     # ---- physical parameters: units, long_name, doc and range from solver.physics.params
     *(_physical(q) for q in physical.QUANTITIES.values()),
     # ---- initial state and steady motions
     # (the swept ones are not capped at 1e12: a test drives simulate to non-finite lanes with omega2=1e308)
+    # (a swept setting's long_name labels its axis in plots: at most 24 characters, one line in xarray's)
     S("v_throw", "m s-1", "throw speed whose kinetic energy bounds the steady motion (59)",
-      Range(0.0, math.inf, high_open=True), sweep=True),
-    S("omega2", "s-1", "initial orthogonal angular velocity", FINITE, sweep=True),
-    S("omega3", "s-1", "initial circular angular velocity", FINITE, sweep=True),
+      Range(0.0, math.inf, high_open=True), sweep=True, long_name="throw speed"),
+    S("omega2", "s-1", "initial orthogonal angular velocity", FINITE, sweep=True, long_name="initial omega2"),
+    S("omega3", "s-1", "initial circular angular velocity", FINITE, sweep=True, long_name="initial omega3"),
     S("omega30", "s-1", "circular angular velocity of the steady motion", NUMBER),
     S("omega30_max", "s-1", "grid: omega30 in [-omega30_max, omega30_max]", NUMBER),
     S("omega1_max", "s-1", "grid/sample: omega1 in [-omega1_max, omega1_max]", NUMBER),
@@ -169,8 +174,7 @@ _ENTRIES = (
     S("n_coarse", "", "eps of whole grid steps: 1 ... 2^n_coarse (read from the grid)", COUNT0),
     S("n_sample", "", "states away from the grid's boundaries simulated for eps < 1", COUNT0),
     S("sigma", "1", "noise level: multiplies sigma_beta ... sigma_omega3", Range(0.0, math.inf, high_open=True),
-      sweep=True,
-      long_name="noise level: the spread of the arriving state in units of the study's sigma_* settings"),
+      sweep=True, long_name="noise level"),
     S("sigma_beta", "rad", "standard deviation of the arriving beta at sigma = 1", NONNEGATIVE),
     S("sigma_omega1", "s-1", "standard deviation of the arriving omega1 at sigma = 1", NONNEGATIVE),
     S("sigma_omega2", "s-1", "standard deviation of the arriving omega2 at sigma = 1", NONNEGATIVE),

@@ -204,8 +204,10 @@ def _outer_axes(settings: dict, order: list[str]) -> list[Axis]:
                 params_from({**base, key: v})  # Params' checks of the whole set (rho < R, r > 0)
         setting = lookup(key)
         units, long_name = setting.units, setting.axis_long_name
+        allow_inf = setting.range is not None and setting.range.contains(math.inf)  # mu only (setting table)
         try:
-            axes.append(Axis(key, np.array(values), units, long_name))
+            axes.append(Axis(key, np.array(values), units, long_name, allow_inf=allow_inf,
+                             comment=setting.doc if setting.doc != long_name else ""))
         except ValueError as exc:
             raise UserError(f"--set {key}: {exc}") from None
     return axes

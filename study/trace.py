@@ -157,6 +157,48 @@ def from_map(path, at_text: str, sets: dict) -> tuple[np.ndarray, solver.Params,
     return state, params, t_max, prov
 
 
+# ------------------------------------------------------------------ following a periodic orbit
+MAX_PERIODS = 1000
+
+
+def follow(res: dict, params: solver.Params, periods: int, rtol: float, atol: float, n: int) -> dict:
+    """``res`` (a trace that ended periodic: its second transversal omega1 zero) continued for
+    ``periods`` more periods, half a period at a time: each piece is a new trace from the state
+    half a half period before the end so far (where omega1 is far from 0), which stops at its
+    second omega1 zero, half a period past that end; what lies beyond the end is appended, with
+    the time, the angle round the rim and the centre's x, y carried on. The continuation's stops
+    are marked as omega1 zeros; ``half_periods`` lists the half period each piece measured (the
+    orbit repeats if they agree with the first), ``t_followed`` [s] is its end. The outcome,
+    t_end and reason stay those of the first trace (what ``simulate`` decides)."""
+    out = {k: v for k, v in res.items() if isinstance(v, np.ndarray) and v.shape == res["t"].shape}
+    events_t, events_k = [res["event_t"]], [res["event_kind"]]
+    half = float(res["half_period"])
+    halves = []
+    for _ in range(2 * periods):
+        end = out["t"][-1]
+        i = int(np.argmin(np.abs(out["t"] - (end - 0.5 * half))))
+        start = np.array([out[k][i] for k in STATE_NAMES])
+        piece = tr.trace(start, params, t_max=3.0 * half + 1.0, rtol=rtol, atol=atol, n=max(n // (2 * periods), 100))
+        if piece["reason"] != "periodic":
+            break
+        halves.append(float(piece["half_period"]))
+        d = np.hypot(piece["x"], piece["y"])
+        piece["alpha"] = piece["alpha"] + out["alpha"][i]
+        piece["x"], piece["y"] = d * np.cos(piece["alpha"]), d * np.sin(piece["alpha"])
+        piece["t"] = piece["t"] + out["t"][i]
+        after = piece["t"] > end * (1 + 1e-12)
+        out = {k: np.concatenate([v, piece[k][after]]) for k, v in out.items()}
+        # the piece's own events past the end; its stop is an omega1 zero (recorded as such), not a new decision
+        late = piece["event_t"] + piece["t"][0] > end * (1 + 1e-9)
+        late &= ~np.isin(piece["event_kind"], ("start", "periodic"))
+        events_t.append(piece["event_t"][late] + piece["t"][0])
+        events_k.append(piece["event_kind"][late])
+    merged = {**res, **out, "event_t": np.concatenate(events_t), "event_kind": np.concatenate(events_k)}
+    merged["half_periods"] = np.array(halves)
+    merged["t_followed"] = float(merged["t"][-1])
+    return merged
+
+
 # ------------------------------------------------------------------ the file
 def dataset(res: dict, state, params: solver.Params, t_max: float, rtol: float, atol: float, command: str,
             extra: dict | None = None) -> xr.Dataset:
@@ -183,6 +225,10 @@ def dataset(res: dict, state, params: solver.Params, t_max: float, rtol: float, 
                   "outcome": outcome, "outcome_meaning": meaning, "t_end": float(res["t_end"]),
                   "reason": str(res["reason"]), "half_period": float(res["half_period"]),
                   "slip_phases": int(res["slip_phases"])})
+    if "half_periods" in res:
+        halves = res["half_periods"]
+        attrs.update({"periods_followed": int(halves.size // 2), "t_followed": float(res["t_followed"]),
+                      "half_periods_followed": halves if halves.size else np.array([np.nan])})
     attrs.update(extra or {})
     attrs.update(provenance(command, now))
     return xr.Dataset(data, coords={"time": time}, attrs=attrs)
@@ -218,7 +264,7 @@ def figure(ds) -> Figure:
     if np.isfinite(a["param_mu"]):
         twin = left[2].twinx()
         twin.plot(t, ds["friction_use"].clip(0, 1.2), color="tab:red", lw=0.8, alpha=0.7)
-        twin.set_ylabel(r"$|F_t|/(\mu F_2)$", color="tab:red")
+        twin.set_ylabel(r"$|F_t|/(\mu F_2)$ [-]", color="tab:red")
         twin.set_ylim(0, 1.25)
     e = ds["energy"].values
     left[3].plot(t, e - e[0], color="k", lw=1.1)
@@ -250,6 +296,8 @@ def figure(ds) -> Figure:
     label = P.OUTCOME_PALETTE.label(int(a["outcome"]))
     why = {"fall": "left the rim, F2 = 0", "periodic": "second transversal zero of omega1",
            "t_max": "reached t_max"}.get(str(a["reason"]), str(a["reason"]).replace("_", " "))
+    if "t_followed" in a:
+        why += f"; followed {int(a['periods_followed'])} more periods, to t = {float(a['t_followed']):.4g} s"
     fig.suptitle(f"{label} at t_end = {a['t_end']:.6g} s ({why})\n"
                  rf"from ($\beta$, $\omega_1$, $\omega_2$, $\omega_3$) = ({state}); {scene}", fontsize=11)
     return fig
@@ -315,13 +363,22 @@ def run(args, command: str) -> int:
             raise UserError(f"{option} {value!r}: {problem}")
     if args.samples < 2:
         raise UserError(f"--samples must be >= 2; got {args.samples}")
+    if not 0 <= args.periods <= MAX_PERIODS:
+        raise UserError(f"--periods must be an integer 0 <= N <= {MAX_PERIODS}; got {args.periods}")
     nc = pathlib.Path(args.out) / f"{args.name}.nc"
     if nc.exists() and not args.force:
         raise UserError(f"{nc} exists; use --force to replace it or --name to write another")
     res = tr.trace(state, params, t_max=t_max, rtol=args.rtol, atol=args.atol, n=args.samples)
+    if args.periods and res["reason"] == "periodic":
+        res = follow(res, params, args.periods, args.rtol, args.atol, args.samples)
     ds = dataset(res, state, params, t_max, args.rtol, args.atol, command, extra)
     io.write_dataset(ds, nc, (ds.sizes["time"],))
     png = io.write_figure(figure(io.open_result(nc)), nc.with_suffix(".png"))
     label = solver.OUTCOME_MEANINGS.get(res["outcome"], str(res["outcome"])).split(":")[0]
-    print(f"wrote {nc} and {png}: {label} at t_end = {res['t_end']:.6g} s ({res['reason']})")
+    more = ""
+    if "half_periods" in res:
+        more = f"; followed {res['half_periods'].size // 2} more periods to t = {res['t_followed']:.6g} s"
+    elif res["reason"] == "periodic":
+        more = "; --periods N follows the orbit N more periods"
+    print(f"wrote {nc} and {png}: {label} at t_end = {res['t_end']:.6g} s ({res['reason']}){more}")
     return 0

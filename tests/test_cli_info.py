@@ -75,3 +75,25 @@ def test_info_does_not_offer_parameters_that_run_refuses(capsys, tmp_path):
     assert any(re.match(r"\s+mu_slip\s+1\s", line) for line in lines)
     assert main(["run", "fig11", "--quick", "--set", "mu=2", "--out", str(tmp_path)]) == 2
     assert "mu" in capsys.readouterr().err
+
+
+def test_info_of_a_study_names_what_it_derives_and_no_issue_numbers(capsys):
+    assert main(["info", "fig11"]) == 0
+    out = capsys.readouterr().out
+    derived = [line for line in out.splitlines() if line.startswith("derived from the whole grid")]
+    assert derived and "boundary_type [1]" in derived[0] and "former_periodic [1]" in derived[0]
+    for name in registry.names():  # a description cites the paper or the docs, never the tracker
+        assert main(["info", name]) == 0
+        assert not re.search(r"\(issue \d+\)", capsys.readouterr().out), name
+
+
+def test_info_of_an_outcome_file_gives_each_scenes_parameters(tmp_path, capsys):
+    assert main(["run", "fig12", "--quick", "--set", "n_beta=4", "--set", "n_omega1=4", "--out", str(tmp_path),
+                 "--no-progress"]) == 0
+    capsys.readouterr()
+    assert main(["info", str(tmp_path / "fig12.nc")]) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"^  mu \[1\] .*: inf, 1, 1, 1 \(per scene\)", out, re.M)
+    assert re.search(r"^  k_r \[s-1\] .*: 0, 0, 0, 0\.02 \(per scene\)", out, re.M)
+    (params,) = [line for line in out.splitlines() if line.startswith("parameters:")]
+    assert not re.search(r"\b(mu|k_r|k_d)=", params)  # no one global value of what each scene sets

@@ -7,6 +7,8 @@ other, one label per realisable region and sign.
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 import xarray as xr
@@ -16,6 +18,7 @@ from matplotlib.colors import to_rgba
 
 from rimroll import solver
 from rimroll.solver.analysis import boundaries
+from rimroll.study import cubeplots as C
 from rimroll.study import plotting as P
 from rimroll.study.cli import main
 from rimroll.study.registry import get
@@ -37,6 +40,63 @@ def fig12(tmp_path_factory):
 def _rendered(fig):
     FigureCanvasAgg(fig).draw()
     return fig
+
+
+def _axes_of(fig) -> list:
+    """The visible axes of a figure, its subfigures' and their insets."""
+    found = [a for a in fig.get_children() if hasattr(a, "get_xlabel")]
+    for sub in getattr(fig, "subfigs", []):
+        found += _axes_of(sub)
+    found += [c for a in list(found) for c in a.child_axes]
+    return [a for a in found if a.get_visible()]
+
+
+def _texts(fig) -> list:
+    """Every visible, non-empty text of a drawn figure: suptitles, titles, axis labels, the tick
+    labels in view, texts, annotations and contour labels of every axes (insets and subfigures
+    included), legend entries."""
+    figs = [fig, *getattr(fig, "subfigs", [])]
+    out = [f._suptitle for f in figs if f._suptitle is not None] + [t for f in figs for t in f.texts]
+    out += [t for f in figs for leg in f.legends for t in leg.get_texts()]
+    for ax in _axes_of(fig):
+        out += [ax.title, ax._left_title, ax._right_title, ax.xaxis.label, ax.yaxis.label, *ax.texts]
+        for axis, limits in ((ax.xaxis, ax.get_xlim()), (ax.yaxis, ax.get_ylim())):
+            scale = axis.get_transform()  # the tick labels drawn are those of ticks within the limits
+            lo, hi = sorted(np.ravel(scale.transform(np.reshape(limits, (-1, 1)))))
+            for loc, label in zip(axis.get_ticklocs(), axis.get_ticklabels()):
+                v = float(np.ravel(scale.transform([[loc]]))[0])
+                if lo - 1e-9 * (hi - lo) <= v <= hi + 1e-9 * (hi - lo):
+                    out.append(label)
+        if ax.get_legend() is not None:
+            out += list(ax.get_legend().get_texts())
+    unique = {id(t): t for t in out}  # a suptitle is also among the figure's texts
+    return [t for t in unique.values() if t.get_visible() and t.get_text().strip()]
+
+
+def _overlaps(fig) -> list:
+    """Pairs of texts of ``fig`` whose drawn bounding boxes overlap (by more than a pixel)."""
+    renderer = fig.canvas.get_renderer()
+    boxes = [(t, t.get_window_extent(renderer)) for t in _texts(fig)]
+    boxes = [(t, b) for t, b in boxes if b.width > 0 and b.height > 0]
+    bad = []
+    for i, (t, a) in enumerate(boxes):
+        for u, b in boxes[i + 1:]:
+            if a.x0 + 1 < b.x1 and b.x0 + 1 < a.x1 and a.y0 + 1 < b.y1 and b.y0 + 1 < a.y1:
+                bad.append((t.get_text(), u.get_text()))
+    return bad
+
+
+UNITS = re.compile(r"\[[^\]]+\]")
+
+
+def _labels_without_units(fig) -> list:
+    """x and y labels of the figure's data axes (colorbars aside) that give no units in brackets."""
+    out = []
+    for ax in _axes_of(fig):
+        if hasattr(ax, "_colorbar"):
+            continue
+        out += [label for label in (ax.get_xlabel(), ax.get_ylabel()) if label.strip() and not UNITS.search(label)]
+    return out
 
 
 # ------------------------------------------------------------------ one palette
@@ -144,13 +204,34 @@ def test_outcome_plot_reads_string_scene_labels(fig12):
 
 
 # ------------------------------------------------------------------ steady maps and cubes
-def test_fig8_one_label_per_region_and_sign(tmp_path):
-    ds = _run(tmp_path, "fig8", "mu=inf", "v_throw=7")
-    fig = get("fig8").plot(ds)
-    texts = [t.get_text() for t in fig.axes[0].texts]
-    region_texts = [t for t in texts if len(t) == 2 and t[0] in "ABC"]
-    assert region_texts and len(region_texts) == len(set(region_texts))
-    assert all(t[1] in "+\u2212" for t in region_texts)
+@pytest.mark.parametrize("sets", [(), ("mu=inf", "v_throw=7")])
+def test_fig8_labels_every_piece_of_each_region_and_sign(tmp_path, sets):
+    """Each (region, sign of omega20) that occurs has a label pointing into a cell of its own; region
+    A holds both signs (paper Sect. 3), and A's other-sign sliver is labelled too."""
+    ds = _run(tmp_path, "fig8", *sets)
+    fig = _rendered(get("fig8").plot(ds))
+    ax = fig.axes[0]
+    region = ds["region"].transpose("omega30", "beta0").values
+    sign = np.sign(ds["omega20"].transpose("omega30", "beta0").values)
+    letters = {"A": 1, "B": 2, "C": 3}
+    labelled = set()
+    for t in ax.texts:
+        text = t.get_text()
+        if len(text) != 2 or text[0] not in letters:
+            continue
+        x, y = t.xy if hasattr(t, "xy") else t.get_position()  # an annotation points into its piece
+        i = int(np.argmin(np.abs(ds["omega30"].values - y)))
+        j = int(np.argmin(np.abs(ds["beta0"].values - x)))
+        want = (letters[text[0]], 1 if text[1] == "+" else -1)
+        near = [(region[a, b], sign[a, b]) for a in range(max(i - 1, 0), i + 2) for b in range(max(j - 1, 0), j + 2)
+                if a < region.shape[0] and b < region.shape[1]]
+        assert want in near, (text, x, y)
+        labelled.add(text)
+    occurring = {f"{k}{'+' if s > 0 else chr(0x2212)}" for k, code in letters.items() for s in (1, -1)
+                 if ((region == code) & (sign == s)).any()}
+    assert labelled == occurring
+    assert {"A+", "A\u2212"} <= labelled
+    assert not _overlaps(fig)
 
 
 def test_restricted_grids_show_the_computed_domain_only(tmp_path):
@@ -187,19 +268,26 @@ def test_invariants_and_solution_types_speak_plainly(tmp_path):
     assert "subset" not in ax.get_title() and "seed 0" in ax.get_title()
 
 
-def test_realisable_cube_mu_in_order_and_select(tmp_path):
+def test_realisable_cube_shows_every_swept_axis_and_a_slice_as_fig8(tmp_path):
     ds = _run(tmp_path, "realisable-cube", "mu=2,1,0.5", "v_throw=3,7", "j=0.5,0.6667", "rho_over_R=0.5778",
               "n_beta0=24", "n_omega30=16")
     fig = get("realisable-cube").plot(ds)
-    lines = fig.axes[0].get_lines()
-    mus = [float(line.get_label().split("=")[1]) for line in lines]
-    assert mus == sorted(mus)  # drawn and listed in order of mu
-    lum = [np.dot(to_rgba(line.get_color())[:3], (0.299, 0.587, 0.114)) for line in lines]
-    assert lum == sorted(lum)  # a sequential colormap: lightness grows with mu
-    assert fig.axes[0].get_legend() is not None
+    xlabels = {ax.get_xlabel() for ax in fig.axes}
+    assert {C.axis_label(ds, d) for d in ("mu", "v_throw", "j")} <= xlabels  # every swept axis has a panel
+    assert {"region A", "region B", "region C"} <= set(P.legend_texts(fig))
+    (panel,) = [ax for ax in fig.axes if ax.get_xlabel() == C.axis_label(ds, "mu")]
+    ticks = sorted(zip(panel.get_xticks(), (t.get_text() for t in panel.get_xticklabels())))
+    assert [t for _, t in ticks] == ["0.5", "1", "2"]  # swept as 2, 1, 0.5: drawn in order of mu
     nc = tmp_path / "realisable-cube.nc"
     assert main(["plot", str(nc), "--select", "j=0.5"]) == 0
     assert (tmp_path / "realisable-cube_j=0.5.png").is_file()
+    # held on every swept axis: one section, drawn as Fig. 8 (regions over (beta0, omega30), labelled)
+    assert main(["plot", str(nc), "--select", "mu=1,v_throw=7,j=0.6667"]) == 0
+    one = C.select(ds, {"mu": 1.0, "v_throw": 7.0, "j": 0.6667})
+    fig = _rendered(get("realisable-cube").plot(one))
+    (ax,) = fig.axes
+    assert ax.get_xlabel() == r"height angle $\beta_0$ [rad]" and "omega" in ax.get_ylabel().lower()
+    assert any(t.get_text() in ("A+", "A\u2212") for t in ax.texts)
 
 
 def test_select_names_a_bad_dimension(tmp_path, capsys):
@@ -254,3 +342,179 @@ def test_cells_on_the_rim_are_marked_above_the_cells_and_both_islands_outlined(f
     flags = ds["former_periodic"].values[0]
     assert (flags & 1).any() and (flags & 2).any()
     assert {ISLAND_STYLES["rolling_only"]["label"], ISLAND_STYLES["slipping"]["label"]} <= set(texts)
+
+
+# ------------------------------------------------------------------ what can be checked without eyes
+@pytest.fixture(scope="module")
+def sweep(tmp_path_factory):
+    """The README's first-hour sweep: outcomes over mu at k_r = k_d = 0, omega2 = 65 1/s."""
+    return _run(tmp_path_factory.mktemp("sweep"), "outcome-cube", "mu=0.25,0.5,1,2", "k_r=0", "k_d=0", "omega2=65")
+
+
+def test_the_first_hour_sweep_shows_mu(sweep):
+    """Against mu, not k_r and k_d (which the sweep holds at 0): one curve per outcome over the four
+    values of mu, and the outcome map of each value below."""
+    fig = _rendered(get("outcome-cube").plot(sweep))
+    (panel,) = [ax for ax in fig.axes if ax.get_xlabel() == C.axis_label(sweep, "mu")]
+    assert [t.get_text() for t in panel.get_xticklabels()] == ["0.25", "0.5", "1", "2"]
+    lines = [line for line in panel.get_lines() if len(line.get_xdata()) == 4]
+    codes = np.unique(sweep["outcome"].values)
+    assert len(lines) == codes.size
+    for line in lines:
+        np.testing.assert_array_equal(line.get_xdata(), [0.25, 0.5, 1.0, 2.0])
+    maps = [ax for ax in fig.axes if "omega_1" in ax.get_xlabel()]
+    assert sorted(ax.get_title() for ax in maps) == sorted(C.quantity_text(sweep, "mu", m) for m in (0.25, 0.5, 1, 2))
+    assert "k_r" in fig.texts[0].get_text() if fig.texts else "k_r" in fig._suptitle.get_text()
+    assert not _labels_without_units(fig) and not _overlaps(fig)
+
+
+def test_a_cube_slice_is_drawn_as_its_section_map(sweep, tmp_path):
+    """study plot --select of every swept axis: the outcome map over (omega1, beta) as in Figs. 11-13."""
+    one = C.select(sweep, {"mu": 1.0})
+    fig = _rendered(get("outcome-cube").plot(one))
+    (ax,) = fig.axes
+    assert "omega_1" in ax.get_xlabel() and "beta" in ax.get_ylabel()
+    (mesh,) = [c for c in ax.collections if c.__class__.__name__ == "QuadMesh"]
+    assert mesh.get_array().shape == (sweep.sizes["beta"], sweep.sizes["omega1"])
+    assert any(line.get_marker() == "*" for line in ax.get_lines())  # the steady motion
+    assert not _labels_without_units(fig) and not _overlaps(fig)
+
+
+def test_a_swept_mu_may_hold_inf(tmp_path, capsys):
+    """Rolling only and slipping on one axis; inf is allowed for mu only (the setting table's rule)."""
+    from rimroll.study.setting_table import SWEEP_KEYS, lookup
+
+    ds = _run(tmp_path, "outcome-cube", "mu=1,inf", "k_r=0", "k_d=0", "omega2=65,105", "n_beta=6", "n_omega1=6")
+    assert ds["mu"].values.tolist() == [1.0, np.inf]
+    alone = _run(tmp_path / "alone", "outcome-cube", "mu=inf", "k_r=0", "k_d=0", "omega2=65,105", "n_beta=6",
+                 "n_omega1=6")
+    np.testing.assert_array_equal(ds["outcome"].sel(mu=np.inf).values, alone["outcome"].values)
+    fig = _rendered(get("outcome-cube").plot(ds))
+    (panel,) = [ax for ax in fig.axes if ax.get_xlabel() == C.axis_label(ds, "mu")]
+    assert [t.get_text() for t in panel.get_xticklabels()] == ["1", "\u221e"]
+    assert C.axis_label(ds, "omega2") in {ax.get_xlabel() for ax in fig.axes}  # every swept axis
+    assert main(["plot", str(tmp_path / "outcome-cube.nc"), "--select", "mu=inf,omega2=65"]) == 0
+    assert (tmp_path / "outcome-cube_mu=inf_omega2=65.png").is_file()
+    assert [k for k in SWEEP_KEYS if lookup(k).range is not None and lookup(k).range.contains(np.inf)] == ["mu"]
+    assert "inf" in lookup("mu").doc and "only setting that takes inf" in lookup("mu").doc
+    assert main(["run", "realisable-cube", "--quick", "--set", "j=0.5,inf", "--out", str(tmp_path)]) == 2
+    assert "j" in capsys.readouterr().err
+
+
+def test_select_takes_several_pairs_in_one_word(tmp_path):
+    from rimroll.study import keyvalue
+
+    assert keyvalue.split("j=0.5,mu=1", "--select") == [("j", "0.5"), ("mu", "1")]
+    _run(tmp_path, "realisable-cube", "mu=0.5,1", "v_throw=3,7", "j=0.5,0.6667", "n_beta0=24", "n_omega30=16")
+    assert main(["plot", str(tmp_path / "realisable-cube.nc"), "--select", "j=0.5,mu=1"]) == 0
+    assert (tmp_path / "realisable-cube_j=0.5_mu=1.png").is_file()
+
+
+@pytest.mark.parametrize("name, sets", [
+    ("fig7", ()), ("fig8", ()), ("fig9", ()), ("fig13", ()),
+    ("realisable-cube", ("n_beta0=24", "n_omega30=16")),
+    ("solution-types", ("n_samples=8",)), ("invariants", ("n_time=21",)),
+    ("predictability", ("omega2=65", "n_sample=20")),
+    ("make-probability", ("n_beta=6", "n_omega1=8", "n_samples=4", "sigma=0.5,1", "mu=1,inf")),
+    ("work-precision", ("n_states=16", "n_scipy=2", "n_scipy_hybrid=1", "n_rtol=2", "rtol_max=1e-6")),
+])
+def test_figures_label_their_axes_with_units_and_no_text_covers_another(tmp_path, name, sets):
+    """Every data axis says its units; every swept axis of a cube has a panel; no two texts (titles,
+    labels, tick labels, region and contour labels, legend entries, inset labels) overlap on the
+    drawn figure."""
+    ds = _run(tmp_path, name, *sets)
+    fig = _rendered(get(name).plot(ds))
+    assert not _labels_without_units(fig), name
+    assert not _overlaps(fig), name
+    xlabels = {ax.get_xlabel() for ax in _axes_of(fig)}
+    assert all(C.axis_label(ds, d) in xlabels for d in C.swept(ds)), (name, C.swept(ds), xlabels)
+
+
+def test_fig12_texts_and_labels(fig12):
+    fig = _rendered(get("fig12").plot(fig12))
+    assert not _labels_without_units(fig) and not _overlaps(fig)
+
+
+def test_fig9_shading_reaches_the_axes(tmp_path):
+    """The grid's cells start at rho/R = 0.012, j = 0.02: the stable shading is carried to 0."""
+    ds = _run(tmp_path, "fig9")
+    ax = get("fig9").plot(ds).axes[0]
+    fill = [c for c in ax.collections if getattr(c, "filled", False)][0]
+    vertices = np.concatenate([p.vertices for p in fill.get_paths() if len(p.vertices)])
+    assert vertices[:, 0].min() == pytest.approx(0.0) and vertices[:, 1].min() == pytest.approx(0.0)
+    ball = [line for line in ax.get_lines() if line.get_marker() == "o" and line.get_markerfacecolor() != "none"]
+    assert ball and all(line.get_zorder() > 3 for line in ball)  # above the hatching (zorder 3)
+
+
+def test_fig12_separatrix_then_deadlock_is_drawn_unlike_a_deadlock(fig12):
+    from rimroll.workflows.outcome_grids import BOUNDARY_STYLES
+
+    ds = fig12.copy(deep=True)
+    lab = ds["boundary_type"].values
+    periodic = ds["outcome"].values == 2
+    edge = np.argwhere(periodic[0] & ~np.roll(periodic[0], 1, axis=0))  # periodic cells with a non-periodic one below
+    i, j = edge[0]
+    lab[0, i, j] = lab[0, i - 1, j] = boundaries.SEPARATRIX_AND_DEADLOCK
+    fig = _rendered(get("fig12").plot(ds))
+    colls = {c.get_gid(): c for c in fig.axes[0].collections if (c.get_gid() or "").startswith("boundary_")}
+    both = colls[f"boundary_{boundaries.SEPARATRIX_AND_DEADLOCK}"]
+    offset, dashes = both.get_linestyle()[0]
+    assert dashes is not None  # dashed ...
+    assert to_rgba(both.get_gapcolor()[0]) == to_rgba(BOUNDARY_STYLES[boundaries.SEPARATRIX_AND_DEADLOCK]["gapcolor"])
+    if f"boundary_{boundaries.DEADLOCK}" in colls:  # ... where a deadlock is a solid line
+        assert colls[f"boundary_{boundaries.DEADLOCK}"].get_linestyle()[0][1] is None
+
+
+def test_dissipative_panels_dot_a_long_time_on_the_rim_and_dash_the_islands(fig12):
+    from rimroll.workflows.outcome_grids import ISLAND_STYLES
+
+    assert all(style["ls"] not in (":", "dotted") for style in ISLAND_STYLES.values())
+    fig = get("fig12").plot(fig12)
+    long = fig12["t_end"].isel(scene=3).values >= P.LONG_TIME
+    hatched = [c for c in fig.axes[3].collections if ".." in (getattr(c, "hatches", None) or ())]
+    assert bool(hatched) == bool(long.any())
+    assert any(f"{P.LONG_TIME:g} s or longer" in t for t in P.legend_texts(fig)) == bool(long.any())
+
+
+def test_zoom_insets_label_their_axes_with_units(tmp_path):
+    fig = _rendered(get("fig13").plot(_run(tmp_path, "fig13")))
+    insets = [c for ax in fig.axes for c in ax.child_axes]
+    assert insets
+    for inset in insets:
+        assert UNITS.search(inset.get_xlabel()) and UNITS.search(inset.get_ylabel())
+
+
+def test_xarray_plot_of_a_section_keeps_its_axis_labels_on_the_figure(fig12):
+    """Coordinates' long_names are short enough for xarray's own plot (it wraps at 30 characters)."""
+    import matplotlib.pyplot as plt
+
+    fig = plt.figure()
+    try:
+        fig12["outcome"].sel(scene="slipping").plot()
+        fig.canvas.draw()
+        ax = fig.axes[0]
+        inside = fig.bbox
+        for label in (ax.xaxis.label, ax.yaxis.label):
+            box = label.get_window_extent()
+            assert "\n" not in label.get_text(), label.get_text()
+            assert inside.x0 <= box.x0 and box.x1 <= inside.x1 and inside.y0 <= box.y0 and box.y1 <= inside.y1
+    finally:
+        plt.close(fig)
+
+
+def test_axis_labels_fit_one_line_of_xarrays_plots():
+    """xarray labels a plot's axis with long_name and units, wrapped at 30 characters: every numeric
+    grid axis of every study, and every swept setting the study layer declares, fits one line (the
+    detail is in the coordinate's comment). The physical parameters' long_names are solver's."""
+    from rimroll.study import registry
+    from rimroll.study.plan import make_plan
+
+    for name in registry.names():
+        for axis in make_plan(registry.get(name), quick=True).grid:
+            if not axis.categorical:
+                assert len(f"{axis.long_name} [{axis.units}]") <= 30, (name, axis.name, axis.long_name)
+    from rimroll.study.setting_table import SWEEP_KEYS, TABLE
+
+    for key in SWEEP_KEYS:
+        if not TABLE[key].physical:
+            assert len(f"{TABLE[key].axis_long_name} [{TABLE[key].units}]") <= 30, key

@@ -154,7 +154,9 @@ def test_solution_types_quick_run(results):
         types = ds["type"].values
         counts = np.bincount(types, minlength=len(st.TYPE_FLAG_VALUES))
         assert counts.sum() == 40
-        assert counts[st.PERIODIC] >= 36  # periodic solutions fill most of phase space (Sect. 4.4)
+        # the quick run's mixed sample shows the types side by side (a box's states: 40 periodic of 40)
+        assert (counts > 0).sum() >= 5 and counts[st.PERIODIC] < 40
+        assert counts[st.UNDETERMINED] <= 2
         periodic = types == st.PERIODIC
         assert np.all(ds["half_period"].values[periodic] > 0)
         assert np.all(np.isnan(ds["half_period"].values[~periodic]))

@@ -95,3 +95,25 @@ def test_trace_user_errors_are_one_line(argv, words, capsys, tmp_path):
     assert main([*argv, "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("study: error:") and words in err and "\n" not in err
+
+
+def test_periods_follow_a_periodic_orbit_repeating(tmp_path, capsys):
+    """--periods N continues past the second omega1 zero that decides periodic rolling: the state
+    repeats after each period, every piece measures the same half period, and the outcome and t_end
+    stay simulate's."""
+    assert main(["trace", "--state", "1.2,0.5,65,10", "--set", "mu=inf", "--periods", "2", "--out", str(tmp_path),
+                 "--samples", "800"]) == 0
+    assert "followed 2 more periods" in capsys.readouterr().out
+    ds = xr.open_dataset(tmp_path / "trace.nc")
+    half = ds.attrs["half_period"]
+    assert ds.attrs["reason"] == "periodic" and ds.attrs["periods_followed"] == 2
+    np.testing.assert_allclose(ds.attrs["half_periods_followed"], half, rtol=1e-8)
+    t = ds["time"].values
+    assert t[-1] == pytest.approx(ds.attrs["t_followed"]) == pytest.approx(ds.attrs["t_end"] + 4 * half, rel=1e-8)
+    assert np.all(np.diff(t) > 0)
+    for name in ("beta", "omega1", "omega2", "omega3", "F2"):
+        v = ds[name].values
+        for t0 in (0.05, 0.2):  # one period on, and two, the state is the same
+            for k in (1, 2):
+                assert np.interp(t0 + 2 * k * half, t, v) == pytest.approx(np.interp(t0, t, v), rel=1e-4, abs=1e-4)
+    assert main(["trace", "--state", "1.2,0.5,65,10", "--periods", "-1", "--out", str(tmp_path), "--force"]) == 2

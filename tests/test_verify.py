@@ -121,3 +121,57 @@ def test_boundary_types_are_compared_on_the_reference_grid_only():
     report = compare.compare(fine, ref)
     assert report.ok and "boundary_type" not in {v.name for v in report.variables}
     assert "outcome" in {v.name for v in report.variables}
+
+
+def test_cubes_verify_against_slices_on_a_few_settings(tmp_path, capsys):
+    """A cube's default slice holds some settings at one value (outcome-cube: k_d = 0, omega2 = 65):
+    a file that sweeps them is compared at that value; a file that holds at one value what a slice
+    sweeps (the README's sweep: k_r = 0) is compared there, and its coverage says how much of the
+    slice it checked. Never exit 2 for a study's own file."""
+    sets = ["--set", "mu=1,2", "--set", "k_r=0,0.02", "--set", "k_d=0,0.01", "--set", "omega2=65"]
+    assert main(["run", "outcome-cube", *sets, "--out", str(tmp_path / "cube"), "--no-progress"]) == 0
+    capsys.readouterr()
+    assert main(["verify", str(tmp_path / "cube" / "outcome-cube.nc")]) == 0
+    out = capsys.readouterr().out
+    assert f"vs reference {reference.reference_path('outcome-cube')} " in out
+    assert "coverage: 960 of the reference's 960 points" in out
+    assert main(["run", "outcome-cube", "--quick", "--set", "mu=0.5,1", "--set", "k_r=0", "--set", "k_d=0",
+                 "--set", "omega2=65", "--out", str(tmp_path / "sweep"), "--no-progress"]) == 0
+    capsys.readouterr()
+    assert main(["verify", str(tmp_path / "sweep" / "outcome-cube.nc")]) == 1
+    out = capsys.readouterr().out
+    assert "ok   outcome" in out and "FAIL coverage: 432 of the reference's 3456 points" in out
+
+
+def test_timings_are_named_and_not_compared(tmp_path, capsys):
+    """work-precision's output is timing and what it buys: the errors are compared, the seconds not."""
+    ref = reference.reference_path("work-precision", grid="quick")
+    with xr.open_dataset(ref) as ds:
+        other = ds.load()
+    other["seconds_per_trajectory"] *= 3.0  # another machine, another day
+    other["speed_ratio_rk45_dp5"] *= 0.5
+    path = tmp_path / "work-precision.nc"
+    other.to_netcdf(path)
+    assert main(["verify", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "not compared" in out and "seconds_per_trajectory" in out and "speed_ratio_rk45_dp5" in out
+    assert "ok   misclassified_fraction" in out and "ok   t_end_error_median" in out
+    other["misclassified_fraction"] += 0.01
+    other.to_netcdf(path)
+    assert main(["verify", str(path)]) == 1
+
+
+def test_the_quick_slices_show_what_the_quick_runs_should(capsys):
+    """What issue-level promises the --quick runs keep, read from their stored slices: several types of
+    Theorem 1, a misclassification row that is not all zeros on enough states, box entropies with no
+    blank strip."""
+    with xr.open_dataset(reference.reference_path("solution-types", grid="quick")) as ds:
+        assert np.unique(ds["type"].values).size >= 5
+    with xr.open_dataset(reference.reference_path("work-precision", grid="quick")) as ds:
+        assert (ds["misclassified_fraction"] > 0).any()
+        n = ds["n_trajectories"].max("rtol")
+        assert int(n.sel(integrator="rimroll_dp5").min()) == 120
+        assert int(n.sel(integrator="scipy_rk45", scene="rolling_only")) == 8
+        assert int(n.sel(integrator="scipy_rk45").min()) == 3
+    with xr.open_dataset(reference.reference_path("predictability", grid="quick")) as ds:
+        assert not np.isnan(ds["box_entropy"].values).any()

@@ -1,4 +1,4 @@
-"""Parametric cubes: what the paper held fixed, swept (issue 5).
+"""Parametric cubes: what the paper held fixed, swept.
 
 - ``realisable-cube``: the realisable steady motions of Fig. 8 over
   mu x v_throw x j x rho_over_R x beta0 x omega30, from ``solver.steady.realisable_region``;
@@ -8,19 +8,26 @@
   mu x k_r x k_d x omega2 x beta x omega1, from ``solver.simulate``: outcome, t_end, revolutions.
 
 Both are ordinary studies whose ``sweepable`` settings hold tuples by default; ``--set KEY=...``
-changes the values (or a scalar removes the axis). One chunk = one outer point (whole grid).
+changes the values (or a scalar removes the axis; ``--set mu=1,inf`` puts slipping and rolling
+only on one axis). One chunk = one outer point (whole grid). Their figures show every swept
+axis (``study.cubeplots``): the areas or the outcome fractions against each, and the section's
+map of each slice when there are few; ``study plot FILE --select`` of every swept axis draws the
+map of that slice alone, as Fig. 8 (realisable regions) or Figs. 11-13 (outcomes) draw theirs.
 """
 
 from __future__ import annotations
 
 import numpy as np
+from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
 from rimroll import solver
 from rimroll.solver.analysis import steady
+from rimroll.study import cubeplots as C
 from rimroll.study import plotting as P
-from rimroll.study.dataset import setting_of
-from rimroll.study.registry import Axis, Study, Var, output_var, register
+from rimroll.study.dataset import params_of, setting_of
+from rimroll.study.registry import Axis, ReferenceSpec, Study, Var, output_var, register
+from rimroll.workflows.sections import BETA_COMMENT, OMEGA1_COMMENT, steady_beta0
 
 STANDARD = solver.Params()
 STANDARD_RHO_OVER_R = STANDARD.rho / STANDARD.R  # 0.5778: the ball of Table 1
@@ -31,30 +38,15 @@ def _cell_sizes(values: np.ndarray) -> np.ndarray:
     return np.abs(np.gradient(values)) if values.size > 1 else np.ones(1)
 
 
-def _at_standard(da, keep):
-    """Select the standard ball (j, rho/R of Table 1; nearest) along swept axes not in ``keep``."""
-    for dim, value in (("j", STANDARD.j), ("rho_over_R", STANDARD_RHO_OVER_R)):
-        if dim in da.dims and dim not in keep:
-            da = da.sel({dim: value}, method="nearest")
-    return da
-
-
-def _ensure_dim(da, ds, name):
-    """``da`` with a length-1 dimension ``name`` when the run held that setting scalar."""
-    if name in da.dims:
-        return da
-    return da.expand_dims({name: [float(setting_of(ds, name))]})
-
-
 # ================================================================ realisable-cube
 def _realisable_axes(s: dict) -> list[Axis]:
     if s["n_beta0"] < 2 or s["n_omega30"] < 2 or not s["omega30_max"] > 0:
         raise ValueError("n_beta0 and n_omega30 must be >= 2 and omega30_max > 0")
     w = s["omega30_max"]
-    return [Axis("beta0", np.linspace(-np.pi, np.pi, s["n_beta0"], endpoint=False), "rad",
-                 "height angle of the steady motion on the rim's minor circle"),
-            Axis("omega30", np.linspace(-w, w, s["n_omega30"]), "s-1",
-                 "circular angular velocity of the steady motion")]
+    return [Axis("beta0", np.linspace(-np.pi, np.pi, s["n_beta0"], endpoint=False), "rad", "steady height angle",
+                 comment="height angle of the steady motion on the rim's minor circle"),
+            Axis("omega30", np.linspace(-w, w, s["n_omega30"]), "s-1", "steady omega3",
+                 comment="circular angular velocity of the steady motion")]
 
 
 def _realisable_compute(coords, p, s):
@@ -66,48 +58,59 @@ def _realisable_compute(coords, p, s):
     return {"region": region, **areas}
 
 
-def mu_colours(mus) -> dict:
-    """A colour per friction coefficient, in order of mu along a sequential colormap (viridis)."""
-    from matplotlib import colormaps
-
-    order = np.sort(np.unique(np.asarray(mus, dtype=float)))
-    cmap = colormaps["viridis"]
-    pos = np.linspace(0.0, 0.85, order.size) if order.size > 1 else np.array([0.4])
-    return {float(m): cmap(x) for m, x in zip(order, pos)}
+REALISABLE_SWEEPS = ("mu", "v_throw", "j", "rho_over_R")
+OUTCOME_SWEEPS = ("mu", "k_r", "k_d", "omega2", "omega3", "j", "rho_over_R")
 
 
 def _realisable_plot(ds):
-    fig, axes = P.new_figure(13.5, 4.6)
-    fig.clear()
-    panels = fig.subplots(1, 3, sharey=False)
-    colours = mu_colours(_ensure_dim(ds["area_A"], ds, "mu")["mu"].values)
-    for ax, name in zip(panels, "ABC"):
-        area = _ensure_dim(_ensure_dim(_at_standard(ds[f"area_{name}"], ()), ds, "v_throw"), ds, "mu")
-        area = area.transpose("mu", "v_throw", ...).load()
-        v = area["v_throw"].values
-        for i in np.argsort(area["mu"].values):
-            mu = float(area["mu"].values[i])
-            values = area.isel(mu=i).values.reshape(v.size, -1)[:, 0]
-            ax.plot(v, values, "o-", color=colours[mu], lw=1.5, ms=4, label=rf"$\mu$={mu:g}")
-        ax.set_xlabel(r"$v_{throw}$ [m/s]")
-        ax.set_ylabel(f"area of region {name} [rad/s]")
-        ax.set_title(f"region {name}")
-        ax.grid(alpha=0.3)
-    panels[0].legend(loc="upper left", fontsize=9, title="friction", title_fontsize=9)
-    ball = _at_standard(ds["area_A"], ())
-    j = float(ball["j"]) if "j" in ball.coords else float(ds.attrs["param_j"])
-    x = float(ball["rho_over_R"]) if "rho_over_R" in ball.coords else ds.attrs["param_rho"] / ds.attrs["param_R"]
-    picked = [d for d in ("j", "rho_over_R") if d in ds["area_A"].dims]
-    how = (" (the cube's nearest to the standard ball; choose with study plot FILE --select j=...)"
-           if picked else "")
-    fig.suptitle(rf"Realisable steady motions (Fig. 8) vs throw speed at j={j:.3g}, $\rho/R$={x:.3g}{how}",
-                 fontsize=11)
+    """Areas of A, B, C against every swept axis, with the region map of each of a few slices; a
+    slice held on every swept axis (``study plot FILE --select ...``): its region map, as Fig. 8."""
+    if not C.swept(ds):
+        return _realisable_slice(ds)
+    picks = C.slices(ds, C.swept(ds))
+    picks = picks if len(picks) <= C.MAX_MAPS else []
+    fig, panels, maps = C.layout(ds, len(picks))
+    series = [(f"region {name}", ds[f"area_{name}"], P.REGION_LINE_COLOURS[code])
+              for name, code in (("A", steady.REGION_A), ("B", steady.REGION_B), ("C", steady.REGION_C))]
+    handles = C.sweep_panels(panels, ds, series, r"area in the ($\beta_0$, $\omega_{30}$) plane [rad/s]")
+    for ax, pick in zip(maps, picks):
+        _region_panel(ax, ds.isel(pick), small=True)
+        ax.set_title(C.slice_text(ds, pick), fontsize=9)
+    fig.legend(handles=handles, loc="outside lower center", ncol=3, fontsize=9, frameon=False)
+    held = C.held_text(ds, REALISABLE_SWEEPS)
+    fig.suptitle("Realisable steady motions (Fig. 8): areas of regions A, B, C" + (f"\nat {held}" if held else "")
+                 + ("; below: the map of each slice" if picks else f"\n{C.select_hint(ds)}"), fontsize=11)
+    return fig
+
+
+def _region_panel(ax, sel, small: bool = False) -> None:
+    """The Fig. 8 map of one slice of the cube (omega20 from (48) with the slice's parameters)."""
+    p = params_of(sel)
+    b, w, region = P.plane(sel, "region")
+    B, W = np.meshgrid(b, w)
+    w20 = steady.omega20(B, W, p)
+    letters = dict(zip(steady.REGION_FLAG_VALUES, sel["region"].attrs["flag_meanings"].split()))
+    P.beta_omega_axes(ax, sel, "")
+    P.region_map(ax, b, w, region, w20, letters, fontsize=9 if small else 15)
+    if small:
+        ax.xaxis.label.set_fontsize(8)
+        ax.yaxis.label.set_fontsize(8)
+        ax.tick_params(labelsize=7)
+
+
+def _realisable_slice(ds):
+    fig, ax = P.new_figure()
+    _region_panel(ax, ds)
+    areas = ", ".join(f"{name} {float(ds[f'area_{name}']):.3g}" for name in "ABC")
+    ax.set_title(f"Realisable steady motions (Fig. 8) at {C.held_text(ds, REALISABLE_SWEEPS)}\n"
+                 rf"$\pm$: sign of $\omega_{{20}}$, dotted: $\omega_{{20}}=0$; areas [rad/s]: {areas}", fontsize=10)
     return fig
 
 
 def _area(name):
+    # a sum over the whole (beta0, omega30) grid: compared with a reference on its own grid only
     return Var(f"area_{name}", "rad s-1", f"area of realisable region {name} of Fig. 8 in the "
-               "(beta0, omega30) plane", outer=True)
+               "(beta0, omega30) plane", outer=True, pointwise=False)
 
 
 register(Study(
@@ -118,7 +121,7 @@ register(Study(
               "n_beta0": 721, "n_omega30": 560, "omega30_max": 70.0},
     quick={"mu": (0.5, 1.0), "v_throw": (3.0, 7.0, 10.0), "j": (0.5, 2.0 / 3.0),
            "rho_over_R": (0.45, STANDARD_RHO_OVER_R), "n_beta0": 121, "n_omega30": 80},
-    sweepable=("mu", "v_throw", "j", "rho_over_R"),
+    sweepable=REALISABLE_SWEEPS,
     cost=1e-6,  # seconds per grid point on one core, warm (--quick on 2 shared cores, 2026-11)
     axes=_realisable_axes,
     variables=[Var("region", "1", "region of the realisable steady motion (Fig. 8): stable (54), rolling "
@@ -127,6 +130,11 @@ register(Study(
                _area("A"), _area("B"), _area("C")],
     compute=_realisable_compute,
     plot=_realisable_plot,
+    # closed forms: the slices are exact; the default one holds mu = 0.5, 2 and v_throw = 3, 10 at the
+    # standard ball, on a 121 x 80 sub-grid of (beta0, omega30)
+    reference=ReferenceSpec({"beta0": 121, "omega30": 80},
+                            sets=("mu=0.5,2", "v_throw=3,10", "j=0.6666666666666666",
+                                  f"rho_over_R={STANDARD_RHO_OVER_R!r}")),
 ))
 
 
@@ -137,49 +145,73 @@ PALETTE = P.OUTCOME_PALETTE  # the one outcome palette (same colours and words a
 def _outcome_axes(s: dict) -> list[Axis]:
     if s["n_beta"] < 2 or s["n_omega1"] < 2:
         raise ValueError(f"n_beta and n_omega1 must be >= 2; got {s['n_beta']}, {s['n_omega1']}")
-    return [Axis("beta", np.linspace(0.8, 1.8, s["n_beta"]), "rad", "initial height angle on the rim"),
-            Axis("omega1", np.linspace(-20.0, 20.0, s["n_omega1"]), "s-1", "initial angular velocity omega1")]
+    return [Axis("beta", np.linspace(0.8, 1.8, s["n_beta"]), "rad", "initial height angle", comment=BETA_COMMENT),
+            Axis("omega1", np.linspace(-20.0, 20.0, s["n_omega1"]), "s-1", "initial omega1", comment=OMEGA1_COMMENT)]
 
 
 def _outcome_compute(coords, p, s):
     beta, omega1 = coords
     states = np.stack([beta, omega1, np.full_like(beta, s["omega2"]), np.full_like(beta, s["omega3"])], axis=-1)
-    res = solver.simulate(states, p, t_max=s["t_max"], rtol=s["rtol"], atol=s["atol"], workers=1,
-                          backend=s["backend"])
+    res = solver.simulate(states, p, t_max=s["t_max"], rtol=s["rtol"], atol=s["atol"], method=s["method"],
+                          workers=1, backend=s["backend"])
     return {name: res[name] for name in ("outcome", "t_end", "revolutions", "status")}
 
 
 def _outcome_plot(ds):
-    fig, _ = P.new_figure(12.5, 4.8)
-    fig.clear()
-    panels = fig.subplots(1, 2, sharey=True)
-    outcome = ds["outcome"]
-    for name in ("k_r", "k_d", "mu"):
-        outcome = _ensure_dim(outcome, ds, name)
-    grid = [d for d in outcome.dims if d not in ("mu", "k_r", "k_d")]  # omega2, beta, omega1, ...
+    """Outcome fractions over the section against every swept axis, with the outcome map of each
+    of a few slices; a slice held on every swept axis: its outcome map, as Figs. 11-13."""
+    if not C.swept(ds):
+        return _outcome_slice(ds)
+    picks = C.slices(ds, C.swept(ds))
+    picks = picks if len(picks) <= C.MAX_MAPS else []
+    fig, panels, maps = C.layout(ds, len(picks))
+    outcome = ds["outcome"].load()
     codes = [int(c) for c in np.unique(outcome.values)]  # the outcomes that occur: one curve each
-    handles = []
-    for ax, (along, other) in zip(panels, (("k_r", "k_d"), ("k_d", "k_r"))):
-        cut = outcome.isel({other: 0})
-        x = cut[along].values
-        for i, mu in enumerate(cut["mu"].values):
-            style = ("-", "--", ":", "-.")[i % 4]
-            for code in codes:
-                frac = (cut.isel(mu=i) == code).mean(grid).transpose(along).values
-                ax.plot(x, frac, style, color=PALETTE.colour(code), marker="o", ms=4, lw=1.5)
-                if along == "k_r" and i == 0:
-                    handles.append(Line2D([], [], color=PALETTE.colour(code), lw=1.5, label=PALETTE.label(code)))
-            if along == "k_r":
-                handles.append(Line2D([], [], color="k", ls=style, label=rf"$\mu$={mu:g}"))
-        other_txt = {"k_r": r"$k_r$", "k_d": r"$k_d$"}[other]
-        ax.set_xlabel({"k_r": r"rolling resistance $k_r$ [1/s]", "k_d": r"drilling resistance $k_d$ [1/s]"}[along]
-                      + f" (at {other_txt} = {float(cut[other]):g} 1/s)")
-        ax.set_ylim(-0.02, 1.02)
-        ax.grid(alpha=0.3)
-    panels[0].set_ylabel("fraction of initial states")
-    fig.legend(handles=handles, loc="outside right upper", fontsize=9)
-    fig.suptitle(r"Outcome fractions over the ($\beta$, $\omega_1$) section"
-                 + (r" and $\omega_2$" if "omega2" in grid else "") + ": dissipation (83) vs outcome")
+    series = [(PALETTE.label(c), (outcome == c).mean(("beta", "omega1")), PALETTE.colour(c)) for c in codes]
+    handles = C.sweep_panels(panels, ds, series, r"fraction of the initial states ($\beta$, $\omega_1$) [-]",
+                             ylim=(-0.02, 1.02))
+    extras = {}
+    for ax, pick in zip(maps, picks):
+        extras.update(_section_panel(ax, ds.isel(pick), small=True))
+        ax.set_title(C.slice_text(ds, pick), fontsize=9)
+    handles += [extras[k] for k in ("star", "time", "long") if k in extras]
+    fig.legend(handles=handles, loc="outside lower center", ncol=3, fontsize=9, frameon=False)
+    held = C.held_text(ds, OUTCOME_SWEEPS)
+    fig.suptitle("Outcomes of rolling initial states over the section (Figs. 11-13)" + (f"\nat {held}" if held else "")
+                 + ("; below: the map of each slice" if picks else f"\n{C.select_hint(ds)}"), fontsize=11)
+    return fig
+
+
+def _section_panel(ax, sel, small: bool = False) -> bool:
+    """The outcome map of one slice over (omega1, beta) with its steady motion (48) as a star and, when
+    dissipative, its time on the rim; returns the legend handles of what it drew beside the outcomes."""
+    p = params_of(sel)
+    w1, beta = sel["omega1"].values, sel["beta"].values
+    omega2, omega3 = float(setting_of(sel, "omega2")), float(setting_of(sel, "omega3"))
+    b0 = steady_beta0(omega2, omega3, p, beta.min(), beta.max())
+    P.outcome_map(ax, w1, beta, sel["outcome"].transpose("beta", "omega1").values, b0,
+                  star_size=7 if small else None)
+    extras = {}
+    if float(setting_of(sel, "k_r")) != 0 or float(setting_of(sel, "k_d")) != 0:
+        extras = P.time_on_rim(ax, w1, beta, sel["t_end"].transpose("beta", "omega1").values,
+                               float(setting_of(sel, "t_max")), b0, labels=not small)
+    ax.set_xlabel(r"initial $\omega_1$ [1/s]", fontsize=8 if small else 10)
+    ax.set_ylabel(r"initial $\beta$ [rad]", fontsize=8 if small else 10)
+    if small:
+        ax.tick_params(labelsize=7)
+    if b0 is not None and beta.min() <= b0 <= beta.max():
+        extras["star"] = Line2D([], [], **dict(P.STAR, label="steady motion (48)"))
+    return extras
+
+
+def _outcome_slice(ds):
+    fig = Figure(figsize=(8.5, 6.4), layout="constrained")
+    ax = fig.add_subplot()
+    extras = _section_panel(ax, ds)
+    codes = np.unique(ds["outcome"].values)
+    handles = PALETTE.handles(codes) + [extras[k] for k in ("star", "time", "long") if k in extras]
+    fig.legend(handles=handles, loc="outside lower center", ncol=3, fontsize=9, frameon=False)
+    ax.set_title(f"Outcome of a ball on the rim (as Figs. 11-13)\nat {C.held_text(ds, OUTCOME_SWEEPS)}", fontsize=10)
     return fig
 
 
@@ -188,13 +220,16 @@ register(Study(
     title="Outcomes of rolling initial states (Figs. 11-13, reduced grid) over mu x k_r x k_d x omega2",
     settings={"mu": (0.5, 1.0, 2.0), "k_r": (0.0, 0.01, 0.02), "k_d": (0.0, 0.01, 0.02),
               "omega2": (35.0, 65.0, 105.0), "omega3": 10.0, "n_beta": 36, "n_omega1": 60,
-              "t_max": 20.0, "rtol": 1e-6, "atol": 1e-9, "backend": "cpu"},
+              "t_max": 20.0, "rtol": 1e-6, "atol": 1e-9, "method": "dp5", "backend": "cpu"},
     quick={"mu": (0.5, 1.0), "k_r": (0.0, 0.02), "k_d": (0.0, 0.02), "omega2": (65.0, 105.0),
            "n_beta": 12, "n_omega1": 18},
-    sweepable=("mu", "k_r", "k_d", "omega2", "omega3", "j", "rho_over_R"),
+    sweepable=OUTCOME_SWEEPS,
     cost=2e-4, compiles=True,  # seconds per grid point on one core, warm (--quick on 2 shared cores, 2026-11)
     axes=_outcome_axes,
     variables=[output_var(name) for name in ("outcome", "t_end", "revolutions", "status")],
     compute=_outcome_compute,
     plot=_outcome_plot,
+    # the default slice: mu = 1, 2 and k_r = 0, 0.02 at k_d = 0, omega2 = 65 1/s, on a 12 x 20 sub-grid
+    reference=ReferenceSpec({"beta": 12, "omega1": 20}, precise=("rtol=1e-12", "atol=1e-14", "method=dop853"),
+                            sets=("mu=1,2", "k_r=0,0.02", "k_d=0", "omega2=65")),
 ))

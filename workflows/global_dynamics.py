@@ -42,9 +42,9 @@ def _fig9_axes(s: dict) -> list[Axis]:
     # cell centres in (0, 1 - a/R): both ends are excluded by Prop. 7; j in (0, 2/3] ends at 2/3
     x = (np.arange(n_x) + 0.5) / n_x * x_max
     j = (np.arange(n_j) + 1.0) / n_j * J_MAX
-    return [Axis("rho_over_R", x, "1", "ratio rho/R of the ball centre's distance from the rim's "
-                 "middle circle to the rim's major radius"),
-            Axis("j", j, "1", "dimensionless moment of inertia of the ball, J = j m r^2")]
+    return [Axis("rho_over_R", x, "1", "ratio rho/R", comment="ratio rho/R of the ball centre's distance from "
+                 "the rim's middle circle to the rim's major radius"),
+            Axis("j", j, "1", "inertia factor j", comment="dimensionless moment of inertia of the ball, J = j m r^2")]
 
 
 def _fig9_compute(coords, p, s):
@@ -62,15 +62,18 @@ def _fig9_plot(ds):
     tr = ds["trace_M"].transpose("j", "rho_over_R").values
     x_max = 1.0 - float(setting_of(ds, "a")) / float(setting_of(ds, "R"))
     fig, ax = P.new_figure(7.5, 6.4)
-    ax.contourf(x, j, np.abs(tr), levels=[0.0, 2.0], colors=["0.72"])  # = stable, drawn smoothly
-    ax.contour(x, j, np.abs(tr), levels=[2.0], colors="k", linewidths=1.2)
+    # the grid holds cell centres: its values are carried to the domain's edges (rho/R = 0 and 1 - a/R,
+    # j = 0), so that the shading reaches the axes and a strip along them does not read as unstable
+    xl, jl = P.grid_limits(x), P.grid_limits(j)
+    full = xl[0] <= 0.05 * x_max and xl[1] >= 0.95 * x_max and jl[0] <= 0.05 * J_MAX and jl[1] >= 0.95 * J_MAX
+    xs, js, trs = _to_edges(x, j, np.abs(tr), (0.0, x_max), (0.0, J_MAX)) if full else (x, j, np.abs(tr))
+    ax.contourf(xs, js, trs, levels=[0.0, 2.0], colors=["0.72"])  # = stable, drawn smoothly
+    ax.contour(xs, js, trs, levels=[2.0], colors="k", linewidths=1.2)
     if min(x.size, j.size) >= 5:  # on a grid of a few points every part touches the edge: the legend says it
         P.label_parts(ax, x, j, stable == 1, "S", min_fraction=0.004, fontsize=16)
         P.label_parts(ax, x, j, stable == 0, "U", min_fraction=0.004, fontsize=16)
     # the computed domain; when it is the whole physical range, the paper's view with the
     # outside of the range striped, else the computed domain only (nothing uncomputed drawn)
-    xl, jl = P.grid_limits(x), P.grid_limits(j)
-    full = xl[0] <= 0.05 * x_max and xl[1] >= 0.95 * x_max and jl[0] <= 0.05 * J_MAX and jl[1] >= 0.95 * J_MAX
     y_top = 0.75
     if full:
         ax.add_patch(_hatched((x_max, 0.0), 1.0 - x_max, y_top))
@@ -79,10 +82,13 @@ def _fig9_plot(ds):
         ax.axhline(J_MAX, color="k", lw=1.0)
     std = solver.Params()
     std_shown = full or (x.min() <= std.rho / std.R <= x.max() and j.min() <= std.j <= j.max())
-    ax.plot([std.rho / std.R], [std.j], "o", ms=11, mfc="none", mec="tab:red", mew=2.2, zorder=8)
+    # the standard ball is a thin shell, j = 2/3: on the edge of the physical range, drawn filled above
+    # the hatching so that neither hides the other
+    ax.plot([std.rho / std.R], [std.j], "o", ms=10, mfc="white", mec="tab:red", mew=2.4, zorder=9)
+    ax.plot([std.rho / std.R], [std.j], "o", ms=3.5, color="tab:red", zorder=10)
     if std_shown:
-        ax.annotate("standard ball\n(Table 1)", (std.rho / std.R, std.j), xytext=(-14, -34),
-                    textcoords="offset points", ha="right", va="top", fontsize=10, color="tab:red",
+        ax.annotate("standard ball (Table 1):\na thin shell, j = 2/3", (std.rho / std.R, std.j), xytext=(24, -40),
+                    textcoords="offset points", ha="left", va="top", fontsize=10, color="tab:red",
                     bbox=dict(fc="white", ec="none", alpha=0.8),
                     arrowprops=dict(arrowstyle="-", color="tab:red", lw=1.0))
     if full:
@@ -97,12 +103,26 @@ def _fig9_plot(ds):
                  r"U unstable", fontsize=11)
     handles = [Patch(fc="0.72", label=r"S: $|\mathrm{tr}\,M| \leq 2$, quasi-periodic"),
                Patch(fc="white", ec="0.5", label=r"U: $|\mu_1| < 1 < |\mu_2|$"),
-               Line2D([], [], ls="none", marker="o", ms=9, mfc="none", mec="tab:red", mew=2,
+               Line2D([], [], ls="none", marker="o", ms=9, mfc="white", mec="tab:red", mew=2,
                       label=rf"standard ball $\rho/R$={std.rho / std.R:.3f}, $j$={std.j:.3f}")][: 3 if std_shown else 2]
     if full:
         handles.insert(2, Patch(fc="white", ec="0.3", hatch="///", label=r"outside $0<\rho/R<1-a/R$, $0<j\leq 2/3$"))
     fig.legend(handles=handles, loc="outside lower center", ncol=2, fontsize=9, frameon=False)
     return fig
+
+
+def _to_edges(x, y, values, x_edges, y_edges):
+    """The grid (x, y) and ``values`` (y, x) extended by the nearest values to the domain's edges
+    ``x_edges``, ``y_edges`` where the grid's first or last point lies inside them (cell centres)."""
+    if x_edges[0] < x[0]:
+        x, values = np.concatenate([[x_edges[0]], x]), np.concatenate([values[:, :1], values], axis=1)
+    if x_edges[1] > x[-1]:
+        x, values = np.concatenate([x, [x_edges[1]]]), np.concatenate([values, values[:, -1:]], axis=1)
+    if y_edges[0] < y[0]:
+        y, values = np.concatenate([[y_edges[0]], y]), np.concatenate([values[:1], values], axis=0)
+    if y_edges[1] > y[-1]:
+        y, values = np.concatenate([y, [y_edges[1]]]), np.concatenate([values, values[-1:]], axis=0)
+    return x, y, values
 
 
 def _hatched(xy, width, height):
@@ -138,6 +158,7 @@ register(Study(
 
 # ================================================================ Theorem 1: types of solutions
 SUBSETS = ("box", "pendulum_plane", "steady", "connections")
+MIXED = "mixed"  # the four subsets in turn: every type of Theorem 1 in one sample (the --quick run)
 
 
 def _conservative(s: dict) -> None:
@@ -148,11 +169,12 @@ def _conservative(s: dict) -> None:
 
 def _types_axes(s: dict) -> list[Axis]:
     _conservative(s)
-    if s["subset"] not in SUBSETS:
-        raise ValueError(f"subset={s['subset']!r} is not one of {', '.join(SUBSETS)}")
+    if s["subset"] not in (*SUBSETS, MIXED):
+        raise ValueError(f"subset={s['subset']!r} is not one of {', '.join((*SUBSETS, MIXED))}")
     if int(s["n_samples"]) < 2 or not s["t_max"] > 0:
         raise ValueError(f"n_samples must be >= 2 and t_max > 0; got {s['n_samples']}, {s['t_max']}")
-    return [Axis("sample", np.arange(int(s["n_samples"]), dtype=float), "1", "index of the seeded sample state")]
+    return [Axis("sample", np.arange(int(s["n_samples"]), dtype=float), "1", "sample index",
+                 comment="index of the seeded sample state")]
 
 
 def sample_states(s: dict, p) -> np.ndarray:
@@ -165,9 +187,18 @@ def sample_states(s: dict, p) -> np.ndarray:
     motions (h > 0 in (54)) with beta0, omega30 drawn as in ``steady`` (draws with h <= 0 are
     skipped), every fifth the ball on top x0+ with |omega20| <= omega2_max; each state lies
     0.02-0.1 rad in beta from its saddle on the side drawn at random
-    (``solver.analysis.reduced.stable_manifold_state``).
+    (``solver.analysis.reduced.stable_manifold_state``). ``mixed``: sample i from subset i mod 4 of
+    ``box``, ``pendulum_plane``, ``steady``, ``connections`` (each drawn with seed + its position).
     """
     n = int(s["n_samples"])
+    if s["subset"] == MIXED:
+        out = np.empty((n, 4))
+        for k, subset in enumerate(SUBSETS):
+            rows = np.arange(k, n, len(SUBSETS))
+            if rows.size:
+                part = {**s, "subset": subset, "n_samples": rows.size, "seed": int(s["seed"]) + k}
+                out[rows] = sample_states(part, p)
+        return out
     rng = np.random.default_rng(int(s["seed"]))
     if s["subset"] == "connections":
         return _connection_states(n, rng, s, p)
@@ -237,10 +268,12 @@ def _types_plot(ds):
                 ha="right" if inside else "left", color="white" if inside else "k")
     ax.set_yticks(ypos, [f"{code} {nm.replace('_', ' ')}" for code, nm in zip(codes, names)])
     ax.set_xlim(0, 1)
-    ax.set_xlabel(f"fraction of the {n} sampled states")
+    ax.set_xlabel(f"fraction of the {n} sampled states [-]")
     t_max = float(setting_of(ds, "t_max"))
-    ax.set_title(f"Types of solutions of the rolling equations (Theorem 1)\n{_sample_words(ds)};\n"
-                 f"each followed for up to {t_max:g} s", fontsize=11)
+    import textwrap
+
+    words = "\n".join(textwrap.wrap(f"{_sample_words(ds)}; each followed for up to {t_max:g} s", 80))
+    ax.set_title(f"Types of solutions of the rolling equations (Theorem 1)\n{words}", fontsize=11)
     return fig
 
 
@@ -255,6 +288,8 @@ def _sample_words(ds) -> str:
                           rf"$|\omega_1| \leq$ {w[0]:g} 1/s",
         "steady": rf"steady motions (47) with $|\omega_{{30}}| \leq$ {w[2]:g} 1/s, every fifth a trivial one (46)",
         "connections": rf"on stable manifolds of saddles (47), $|\omega_{{30}}| \leq$ {w[2]:g} 1/s, 1 in 5 of $x_0^+$",
+        MIXED: "a quarter each: uniform in a box, the plane of Prop. 6, steady motions, near saddles' stable "
+               "manifolds",
     }.get(str(subset), f"subset {subset}")
     return f"{words} (random seed {seed})"
 
@@ -264,7 +299,7 @@ register(Study(
     title="Types of the solutions of the conservative rolling equations (Theorem 1, Table 2) over sampled states",
     settings={"n_samples": 400, "seed": 0, "subset": "box", "omega1_max": 20.0, "omega2_max": 70.0,
               "omega3_max": 70.0, "t_max": 20.0, "rtol": 1e-10, "atol": 1e-12},
-    quick={"n_samples": 40, "t_max": 10.0},
+    quick={"n_samples": 40, "t_max": 10.0, "subset": MIXED},  # a box's states are almost all periodic
     cost=4e-2, cost_scale="t_max", compiles=True,  # s per state at t_max 10 s (--quick), on one core
     axes=_types_axes,
     variables=[
@@ -298,6 +333,10 @@ register(Study(
     compute=_types_compute,
     plot=_types_plot,
     chunks={"sample": 20},
+    # a regression reference at the study's own settings: the type of a state is decided by tests at
+    # tolerances tied to rtol (a rotation number's rational test), so a tighter rtol is another
+    # classifier, not a more precise answer; the default slice holds 40 of the 400 default states
+    reference=ReferenceSpec({"sample": 40}, method="solution_types.classify (scipy DOP853 at the study's rtol)"),
 ))
 
 
@@ -307,7 +346,8 @@ def _inv_axes(s: dict) -> list[Axis]:
     n, n_t = int(s["n_trajectories"]), int(s["n_time"])
     if n < 2 or n_t < 2 or not s["t_max"] > 0:
         raise ValueError(f"n_trajectories and n_time must be >= 2 and t_max > 0; got {n}, {n_t}, {s['t_max']}")
-    return [Axis("trajectory", np.arange(n, dtype=float), "1", "index of the seeded trajectory"),
+    return [Axis("trajectory", np.arange(n, dtype=float), "1", "trajectory index",
+                 comment="index of the seeded trajectory"),
             Axis("time", np.linspace(0.0, s["t_max"], n_t), "s", "time")]
 
 
@@ -353,8 +393,8 @@ def _inv_plot(ds):
     t = ds["time"].values
     rtol = float(setting_of(ds, "rtol"))
     tiny = 1e-17
-    for ax, name, label in zip(axes, ("rel_change_E", "rel_change_P_I", "rel_change_P_II"),
-                               (r"$|\Delta E|/|E_0|$", r"$|\Delta P_I|/|P_0|$", r"$|\Delta P_{II}|/|P_0|$")):
+    labels = (r"$|\Delta E|/|E_0|$ [-]", r"$|\Delta P_I|/|P_0|$ [-]", r"$|\Delta P_{II}|/|P_0|$ [-]")
+    for ax, name, label in zip(axes, ("rel_change_E", "rel_change_P_I", "rel_change_P_II"), labels):
         for k in ds["trajectory"].values:
             v = np.abs(ds[name].sel(trajectory=k).values)
             ax.semilogy(t[1:], np.maximum(v[1:], tiny), lw=1.0, label=state_label(ds.sel(trajectory=k)))
@@ -403,4 +443,7 @@ register(Study(
     compute=_inv_compute,
     plot=_inv_plot,
     chunks={"trajectory": 1},
+    # scipy DOP853 at rtol 1e-12 against the default 1e-10, every 10th output time of the default grid
+    reference=ReferenceSpec({"trajectory": 6, "time": 41}, precise=("rtol=1e-12", "atol=1e-14"),
+                            method="scipy DOP853 (solver.analysis.trajectory)"),
 ))

@@ -27,15 +27,14 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
-from scipy.optimize import brentq
 
 from rimroll import solver
-from rimroll.solver.analysis import boundaries, steady
+from rimroll.solver.analysis import boundaries
 from rimroll.solver.engine import outcomes
 from rimroll.study import plotting as P
 from rimroll.study.dataset import params_of, setting_of
 from rimroll.study.registry import ReferenceSpec, Study, output_var, register
-from rimroll.workflows.sections import QUICK, SETTINGS, scene_params, section_axes
+from rimroll.workflows.sections import QUICK, SETTINGS, scene_params, section_axes, steady_beta0
 
 VARIABLES = [output_var(name) for name in (
     "outcome", "t_end", "f2_min", "half_period", "revolutions", "slip_time", "energy_drift", "beta_end", "omega1_end",
@@ -169,8 +168,9 @@ BOUNDARY_STYLES = {  # how the plot draws each boundary type: a thin line along 
     boundaries.SEPARATRIX: dict(color="#ffff33", lw=1.3, label=r"separatrix boundary (half period $\to \infty$)"),
     boundaries.SLIPPING_INDUCED: dict(color="#e7298a", lw=1.3, label="slipping-induced boundary"),
     boundaries.UNDETERMINED: dict(color="#00e5ff", lw=1.3, label="undetermined boundary (grid too coarse to tell)"),
-    boundaries.SEPARATRIX_AND_DEADLOCK: dict(color="k", lw=1.1, outline="#ffff33",
-                                             label="separatrix, then deadlock, within one cell"),
+    # black dashes on yellow: a separatrix and a deadlock in one cell, told from a deadlock (solid black)
+    boundaries.SEPARATRIX_AND_DEADLOCK: dict(color="k", lw=2.2, ls=(0, (1.2, 1.0)), gapcolor="#ffff33",
+                                             dash_capstyle="butt", label="separatrix, then deadlock, within one cell"),
 }
 ON_RIM_MARKERS = {  # how the plot marks cells still on the rim at t_max, by on_rim_reason: markers larger than a
     # cell, under the boundary lines (which run through them), so that neither hides the other
@@ -181,8 +181,9 @@ ON_RIM_MARKERS = {  # how the plot marks cells still on the rim at t_max, by on_
 }
 ON_RIM_MARK_FRACTION = 0.02  # mark on-rim cells when they are at most this fraction of a panel (else the grey shows)
 ISLAND_STYLES = {  # outlines of the periodic islands of the conservative scenes, drawn in dissipative panels
-    "rolling_only": dict(color="k", lw=1.1, ls=":", label=r"periodic region, rolling only ($\mu=\infty$)"),
-    "slipping": dict(color="k", lw=1.0, ls="--", label="periodic region with slipping"),
+    # (dashed: a dotted area means a long time on the rim, as in the paper)
+    "rolling_only": dict(color="k", lw=1.1, ls="-.", label=r"former periodic region, rolling only ($\mu=\infty$)"),
+    "slipping": dict(color="k", lw=1.0, ls="--", label="former periodic region with slipping"),
 }
 
 
@@ -216,7 +217,23 @@ def boundary_segments(labels, periodic, w1, beta, code) -> list:
     pair = (periodic[:-1, :] != periodic[1:, :]) & typed[:-1, :] & typed[1:, :]
     for i, j in zip(*np.nonzero(pair)):
         segs.append([(xe[j], ye[i + 1]), (xe[j + 1], ye[i + 1])])
-    return segs
+    return _joined(segs)
+
+
+def _joined(segs: list) -> list:
+    """The segments with each straight run of touching ones joined into one (a dashed style then
+    dashes along the run instead of restarting at every cell edge)."""
+    out = []
+    for seg in sorted(segs, key=lambda s: (s[0][0] != s[1][0], s[0][1] if s[0][0] != s[1][0] else s[0][0],
+                                           s[0])):
+        last = out[-1] if out else None
+        same_line = last is not None and ((last[0][0] == last[1][0] == seg[0][0] == seg[1][0])
+                                          or (last[0][1] == last[1][1] == seg[0][1] == seg[1][1]))
+        if same_line and last[1] == seg[0]:
+            out[-1] = [last[0], seg[1]]
+        else:
+            out.append(list(seg))
+    return out
 
 
 def _draw_boundaries(ax, sel, w1, beta) -> set:
@@ -231,25 +248,16 @@ def _draw_boundaries(ax, sel, w1, beta) -> set:
     for code, style in BOUNDARY_STYLES.items():
         segs = boundary_segments(lab, periodic, w1, beta, code)
         if segs:
-            ax.add_collection(LineCollection(segs, zorder=4, label=style["label"], gid=f"boundary_{code}",
-                                             capstyle="projecting", **_line_kw(style)))
+            kw = _line_kw(style)  # projecting caps: the edges of a run meet at corners (butt for dashes: gaps stay)
+            kw["capstyle"] = kw.pop("dash_capstyle", "projecting")
+            ax.add_collection(LineCollection(segs, zorder=4, label=style["label"], gid=f"boundary_{code}", **kw))
             drawn.add(code)
     return drawn
 
 
-def steady_beta0(omega2: float, omega3: float, p: solver.Params, lo: float, hi: float) -> float | None:
-    """beta0 in [lo, hi] [rad] of the steady motion (48) with these omega20, omega30; None if none."""
-    def f(b):
-        return steady.omega20(b, omega3, p) - omega2
-    grid = np.linspace(lo, min(hi, np.pi / 2 - 1e-6), 400)
-    vals = f(grid)
-    sign = np.nonzero(np.sign(vals[:-1]) != np.sign(vals[1:]))[0]
-    return float(brentq(f, grid[sign[0]], grid[sign[0] + 1])) if sign.size else None
-
-
 PALETTE = P.OUTCOME_PALETTE  # the one outcome palette of every outcome figure
-STAR = dict(marker="*", ls="", ms=11, mfc="none", mec="k", mew=1.3, zorder=5)  # hollow: the cells show through
-TIME_LEVELS = (5.0, 10.0, 20.0, 40.0)  # [s] contours of the time on the rim in dissipative panels
+STAR = P.STAR  # the steady motion's marker
+
 
 
 def _small_region(mask, fraction: float = 0.08):
@@ -312,14 +320,14 @@ def _panel(ax, sel, w1, beta, b0, islands, extras, labels=True, star_size=None) 
         extras["star"] = Line2D([], [], **dict(STAR, label="steady motion (48)"))
     if float(sel["k_r"]) != 0 or float(sel["k_d"]) != 0:
         _outline_islands(ax, islands, w1, beta, extras)
-        t_end = sel["t_end"].transpose("beta", "omega1").values
-        levels = [lv for lv in TIME_LEVELS if lv < float(sel["t_max"]) and np.nanmin(t_end) < lv < np.nanmax(t_end)]
-        if levels:
-            cs = ax.contour(w1, beta, t_end, levels=levels, colors="k", linewidths=0.7, linestyles="-")
-            if labels:
-                P.place_contour_labels(ax, cs, fmt="%g s", avoid=[(0.0, b0)] if b0 is not None else [])
-            extras["time"] = Line2D([], [], color="k", lw=0.7, label="time on the rim [s]")
+        _time_on_rim(ax, sel, w1, beta, b0, extras, labels)
     return set(np.unique(out).tolist()), kinds
+
+
+def _time_on_rim(ax, sel, w1, beta, b0, extras, labels: bool) -> None:
+    """How long a dissipative scene keeps the ball on the rim (``study.plotting.time_on_rim``)."""
+    t_end = sel["t_end"].transpose("beta", "omega1").values
+    extras.update(P.time_on_rim(ax, w1, beta, t_end, float(sel["t_max"]), b0, labels))
 
 
 def _zoom(ax, sel, w1, beta, b0, islands, extras, region) -> None:
@@ -330,6 +338,8 @@ def _zoom(ax, sel, w1, beta, b0, islands, extras, region) -> None:
     part = sel.isel(beta=rs, omega1=cs)
     _panel(inset, part, w1[cs], beta[rs], b0, {k: m[rs, cs] for k, m in islands.items()}, extras, star_size=7)
     inset.tick_params(labelsize=6, length=2)
+    inset.set_xlabel(r"$\omega_1$ [1/s]", fontsize=6.5, labelpad=1)
+    inset.set_ylabel(r"$\beta$ [rad]", fontsize=6.5, labelpad=1)
     inset.set_title("zoom", fontsize=7, pad=2)
     ax.indicate_inset_zoom(inset, edgecolor="k", lw=0.8)
 
@@ -376,7 +386,8 @@ def _plot(ds):
     handles += [Line2D([], [], **_line_kw(BOUNDARY_STYLES[c]), label=BOUNDARY_STYLES[c]["label"])
                 for c in BOUNDARY_STYLES if c in kinds]
     handles += [extras[f"on_rim_{c}"] for c in ON_RIM_MARKERS if f"on_rim_{c}" in extras]
-    handles += [extras[key] for key in ("star", "time", "island_rolling_only", "island_slipping") if key in extras]
+    handles += [extras[key] for key in ("star", "time", "long", "island_rolling_only", "island_slipping")
+                if key in extras]
     fig.legend(handles=handles, loc="outside lower center", ncol=3, fontsize=9, frameon=False)
     fig.suptitle(rf"{ds.attrs['title']}: $\omega_2={omega2:g}$ 1/s, $\omega_3={omega3:g}$ 1/s", fontsize=11)
     return fig

@@ -21,14 +21,17 @@ probability variable and colour without an edit here.
 from __future__ import annotations
 
 import numpy as np
+from matplotlib.figure import Figure
+from matplotlib.patches import Rectangle
 from matplotlib.ticker import FixedLocator, FuncFormatter, NullLocator
 
 from rimroll import solver
 from rimroll.solver.analysis import predictability as pred
 from rimroll.solver.engine import outcomes
+from rimroll.study import cubeplots as C
 from rimroll.study import plotting as P
 from rimroll.study.dataset import setting_of
-from rimroll.study.registry import Axis, Study, Var, output_var, register
+from rimroll.study.registry import Axis, ReferenceSpec, Study, Var, output_var, register
 from rimroll.workflows import sections
 
 # ================================================================ outcome names and colours
@@ -61,7 +64,8 @@ PRED_SETTINGS = {
     "n_sample": 2000,  # points drawn from the grid's certain part for the eps < 1 test
     "seed": 0,
 }
-PRED_QUICK = {**sections.QUICK, "n_sample": 200, "n_coarse": 1}
+PRED_QUICK = {**sections.QUICK, "n_sample": 200, "n_coarse": 1, "box": 4}
+"""The quick grid, 24 x 36, holds whole boxes of 4 x 4 (5 x 5 left strips without a box)."""
 
 
 def eps_values(n_fine: int, n_coarse: int) -> np.ndarray:
@@ -113,10 +117,12 @@ def _pred_compute(coords, p, s):
 PRED_VARIABLES = [
     _outcome_var(),
     Var("box_entropy", "1", "Shannon entropy [nats] of the outcome fractions in the box (box x box grid points) "
-        "holding this point; NaN outside whole boxes"),
+        "holding this point; NaN outside whole boxes", pointwise=False),
     Var("uncertain", "1", "bit i set: the outcome changes when beta or omega1 moves by +-eps[i] grid steps "
-        "(eps[i] = 2**(i - n_fine)); bits of eps < 1 are known where sample_weight > 0", dtype="int32"),
-    Var("sample_weight", "1", "grid points this point stands for in the eps < 1 test (0: not simulated)"),
+        "(eps[i] = 2**(i - n_fine)); bits of eps < 1 are known where sample_weight > 0", dtype="int32",
+        pointwise=False),
+    Var("sample_weight", "1", "grid points this point stands for in the eps < 1 test (0: not simulated)",
+        pointwise=False),
     output_var("status", long_name="integration status of the nominal state"),
 ]
 
@@ -183,6 +189,7 @@ def _pred_plot(ds):
     styles = ("o-", "s--", "^-.", "v:")
     w1, beta = ds["omega1"].values, ds["beta"].values
     emax = np.log(max(2, len(OUTCOME_NAMES)))
+    partial = False
     for r, om in enumerate(sections):
         sec = ds.sel(omega2=om) if "omega2" in ds.dims else ds
         ax = axes[r, 0]
@@ -207,14 +214,18 @@ def _pred_plot(ds):
         ax.xaxis.set_major_formatter(FuncFormatter(lambda e, _: f"{e:g}" if e >= 1 else f"1/{1 / e:g}"))
         ax.xaxis.set_minor_locator(NullLocator())
         ax.set_xlabel(r"perturbation $\varepsilon$ [grid steps of $\beta$, $\omega_1$]")
-        ax.set_ylabel(r"uncertain fraction $f(\varepsilon)$")
+        ax.set_ylabel(r"uncertain fraction $f(\varepsilon)$ [-]")
         ax.set_title(rf"$\omega_2$={om:g} 1/s: $f(\varepsilon)\sim\varepsilon^\alpha$", fontsize=10)
         ax.grid(alpha=0.3, which="both")
-        ax.legend(fontsize=7.5, loc="upper left")
+        ax.legend(fontsize=7.5, loc="best")  # the curves rise to the right: the legend finds the empty corner
         for col, k in ((1, 0), (2, 1)):
             ax = axes[r, col]
             sc = sec.isel(scene=k)
             ent = sc["box_entropy"].transpose("beta", "omega1").values
+            if np.isnan(ent).any():  # rows or columns beyond the last whole box: hatched, not blank
+                ax.add_patch(Rectangle((0, 0), 1, 1, transform=ax.transAxes, fc="white", ec="0.6", hatch="///",
+                                       lw=0, zorder=0))
+                partial = True
             mesh = ax.pcolormesh(w1, beta, ent, cmap="magma_r", vmin=0, vmax=emax, shading="nearest",
                                  rasterized=True)
             ax.set_title(rf"box entropy, {scenes[k]}: $S_b$={float(sc['S_b']):.4f}, "
@@ -224,7 +235,8 @@ def _pred_plot(ds):
         fig.colorbar(mesh, ax=axes[r, 1:], label="box entropy [nats]", shrink=0.9)
     box = int(setting_of(ds, "box"))
     fig.suptitle(f"{ds.attrs['title']}\nuncertain fraction f (whole eps read from the grid, eps < 1 simulated on a "
-                 f"stratified sample; lines: fitted slopes) and entropy of {box} x {box} boxes", fontsize=11)
+                 f"stratified sample; lines: fitted slopes) and entropy of {box} x {box} boxes"
+                 + ("; hatched: beyond the last whole box" if partial else ""), fontsize=11)
     return fig
 
 
@@ -253,6 +265,10 @@ register(Study(
     cost=2.5e-4, compiles=True,
     ignores={k: "each of the four scenes sets its own mu, k_r and k_d; change mu_slip or k_dissipation"
              for k in ("mu", "k_r", "k_d")},
+    # a regression reference at the study's own settings: box entropies and eps-uncertain flags count
+    # outcome changes within a grid step, so a tighter rtol moves them only where the outcomes differ;
+    # the default slice is a 24 x 36 sub-grid of every section and scene
+    reference=ReferenceSpec({"beta": 24, "omega1": 36}, method="solver.simulate at the study's rtol and method"),
 ))
 
 
@@ -282,10 +298,10 @@ def _prob_axes(s):
     if not all(np.isfinite(v) and v >= 0 for v in spreads):
         raise ValueError(f"sigma_beta, sigma_omega1, sigma_omega2, sigma_omega3 must be finite and >= 0; got {spreads}")
     w = float(s["omega1_max"])
-    return [Axis("beta", np.linspace(s["beta_min"], s["beta_max"], int(s["n_beta"])), "rad",
-                 "nominal initial height angle of the contact point on the rim's cross-section"),
-            Axis("omega1", np.linspace(-w, w, int(s["n_omega1"])), "s-1",
-                 "nominal initial transversal angular velocity")]
+    return [Axis("beta", np.linspace(s["beta_min"], s["beta_max"], int(s["n_beta"])), "rad", "nominal height angle",
+                 comment="nominal " + sections.BETA_COMMENT),
+            Axis("omega1", np.linspace(-w, w, int(s["n_omega1"])), "s-1", "nominal omega1",
+                 comment="nominal " + sections.OMEGA1_COMMENT)]
 
 
 def sigma_of(s) -> np.ndarray:
@@ -329,9 +345,17 @@ def _first_outer(da):
 
 
 def _prob_plot(ds):
-    fig, _ = P.new_figure(16.0, 5.2)
-    fig.clear()
-    axes = fig.subplots(1, 3, sharey=True)
+    dims = C.swept(ds)
+    fig = Figure(figsize=(16.0, 5.2 + (3.9 if dims else 0.0)), layout="constrained")
+    top = fig.subfigures(2, 1, height_ratios=[5.2, 3.9])[0] if dims else fig
+    if dims:  # every swept axis: the mean probability of each outcome over the section against it
+        bottom = fig.subfigs[1]
+        panels = list(np.atleast_1d(bottom.subplots(1, len(dims), sharey=True)))
+        series = [(PALETTE.label(code), ds[f"p_{name}"].mean(("beta", "omega1")), PALETTE.colour(code))
+                  for code, name in OUTCOME_NAMES.items()]
+        handles = C.sweep_panels(panels, ds, series, "mean probability over the section [-]", ylim=(-0.02, 1.02))
+        bottom.legend(handles=handles, loc="outside right upper", fontsize=8)
+    axes = top.subplots(1, 3, sharey=True)
     w1, beta = ds["omega1"].values, ds["beta"].values
     codes = _first_outer(ds["outcome"]).values
     handles = _outcome_map(axes[0], w1, beta, codes)
@@ -360,7 +384,8 @@ def _prob_plot(ds):
     fig.suptitle(rf"Make probability at $\omega_2$={omega2:g} 1/s: "
                  rf"$\sigma$ = {level:g} x ({s['sigma_beta']:g} rad, {s['sigma_omega1']:g}, {s['sigma_omega2']:g}, "
                  rf"{s['sigma_omega3']:g} 1/s), {int(setting_of(ds, 'n_samples'))} samples per state"
-                 + (f"; first of the sweep: {', '.join(outer)}" if outer else ""), fontsize=11)
+                 + (f"\nmaps: the first value of each swept axis, {', '.join(outer)} (study plot FILE --select ... "
+                    "draws another); below: every swept axis" if outer else ""), fontsize=11)
     return fig
 
 
@@ -378,4 +403,7 @@ register(Study(
     compute=_prob_compute,
     plot=_prob_plot,
     chunks={"beta": 12},
+    # a regression reference at the study's own settings: a probability is a count of n_samples
+    # seeded draws, each an outcome; a 12 x 18 sub-grid of the default section
+    reference=ReferenceSpec({"beta": 12, "omega1": 18}, method="solver.simulate at the study's rtol and method"),
 ))

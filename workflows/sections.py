@@ -57,14 +57,33 @@ def scene_index(label) -> int:
     return SCENES.index(str(label))
 
 
+BETA_COMMENT = "initial height angle of the contact point on the rim's cross-section"
+OMEGA1_COMMENT = "initial transversal angular velocity of the ball"
+
+
 def section_axes(s: dict) -> list[Axis]:
     """The axes of an outcome section: the four named scenes, beta [rad] and omega1 [1/s]."""
     scene = scene_axis(s)
-    beta = Axis("beta", np.linspace(s["beta_min"], s["beta_max"], int(s["n_beta"])), "rad",
-                "initial height angle of the contact point on the rim's cross-section")
+    beta = Axis("beta", np.linspace(s["beta_min"], s["beta_max"], int(s["n_beta"])), "rad", "initial height angle",
+                comment=BETA_COMMENT)
     w = float(s["omega1_max"])
-    omega1 = Axis("omega1", np.linspace(-w, w, int(s["n_omega1"])), "s-1", "initial transversal angular velocity")
+    omega1 = Axis("omega1", np.linspace(-w, w, int(s["n_omega1"])), "s-1", "initial omega1", comment=OMEGA1_COMMENT)
     return [scene, beta, omega1]
+
+
+def steady_beta0(omega2: float, omega3: float, p: solver.Params, lo: float, hi: float) -> float | None:
+    """beta0 in [lo, hi] [rad] of the steady motion (48) with these omega20, omega30 [1/s]; None if
+    none: the star of an outcome map (it lies on omega1 = 0)."""
+    from scipy.optimize import brentq
+
+    from rimroll.solver.analysis import steady
+
+    def f(b):
+        return steady.omega20(b, omega3, p) - omega2
+    grid = np.linspace(lo, min(hi, np.pi / 2 - 1e-6), 400)
+    vals = f(grid)
+    sign = np.nonzero(np.sign(vals[:-1]) != np.sign(vals[1:]))[0]
+    return float(brentq(f, grid[sign[0]], grid[sign[0] + 1])) if sign.size else None
 
 
 def scene_params(p: solver.Params, s: dict, label) -> tuple[solver.Params, float]:

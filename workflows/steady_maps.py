@@ -34,10 +34,10 @@ def _axes(s: dict) -> list[Axis]:
                          f"{s['n_beta0']}, {s['n_omega30']}, {s['omega30_max']}")
     w = s["omega30_max"]
     return [
-        Axis("beta0", np.linspace(-np.pi, np.pi, s["n_beta0"], endpoint=False), "rad",
-             "height angle of the steady motion on the rim's minor circle"),
-        Axis("omega30", np.linspace(-w, w, s["n_omega30"]), "s-1",
-             "circular angular velocity of the steady motion"),
+        Axis("beta0", np.linspace(-np.pi, np.pi, s["n_beta0"], endpoint=False), "rad", "steady height angle",
+             comment="height angle of the steady motion on the rim's minor circle"),
+        Axis("omega30", np.linspace(-w, w, s["n_omega30"]), "s-1", "steady omega3",
+             comment="circular angular velocity of the steady motion"),
     ]
 
 
@@ -187,17 +187,20 @@ def _fig7_compute(coords, p, s):
 
 def _fig7_plot(ds):
     v_throw = float(setting_of(ds, "v_throw"))
+    p = params_of(ds)
     fig, ax = P.new_figure()
-    b, w, v = P.plane(ds, "throw_speed")
+    # (59) is a closed form of (beta0, omega30): its contours are drawn from a finer grid than the
+    # file's, so that the small 1 m/s lobes by the singular points are curves, not specks
+    b, w, v = P.refined_plane(ds, lambda b0, w30: steady.throw_speed(b0, w30, p))
     ax.contourf(b, w, np.nan_to_num(v, nan=1e6, posinf=1e6), levels=[-1.0, v_throw], colors=["0.78"])
     cs = ax.contour(b, w, v, levels=list(V_LEVELS), colors=V_COLOURS, linewidths=1.4)
     P.singular_lines(ax)
     P.beta_omega_axes(ax, ds, rf"Kinetic energy limit (59): contours of $v_{{throw}}$; "
                               rf"shaded: $v_{{throw}} \leq$ {v_throw:g} m/s")
-    # one label per speed, clear of the edges, the other lines and the singular points; no
-    # break in the line (it may border the shading); the legend names every line, even a tiny one
-    P.place_contour_labels(ax, cs, fmt=lambda x: f"{x:g} m/s", fontsize=8, inline=False, margin=0.06,
-                           avoid=[(-np.pi / 2, 0.0), (np.pi / 2, 0.0)])
+    # one label per speed, beside its line (the line stays whole: it may border the shading), clear
+    # of the edges, the other lines and the singular points; the legend names every line, even a tiny one
+    P.place_contour_labels(ax, cs, fmt=lambda x: f"{x:g} m/s", fontsize=8, margin=0.06, beside=True,
+                           avoid=[(-np.pi / 2, 0.0), (np.pi / 2, 0.0)], walls=P.singular_polylines(ax))
     drawn = [lv for lv, segs in zip(cs.levels, cs.allsegs) if any(len(s) for s in segs)]
     handles = [Line2D([], [], color=c, lw=1.4, label=f"{lv:g} m/s") for lv, c in zip(V_LEVELS, V_COLOURS)
                if lv in drawn]
@@ -219,9 +222,6 @@ def _fig8_compute(coords, p, s):
             "omega20": steady.omega20(*coords, p)}
 
 
-REGION_COLOURS = {steady.REGION_A: "#9ecae1", steady.REGION_B: "#fdd0a2", steady.REGION_C: "#c7e9c0"}
-
-
 def _fig8_plot(ds):
     p = params_of(ds)
     v_throw = float(setting_of(ds, "v_throw"))
@@ -229,35 +229,15 @@ def _fig8_plot(ds):
     b, w, region = P.plane(ds, "region")
     _, _, w20 = P.plane(ds, "omega20")
     letters = dict(zip(steady.REGION_FLAG_VALUES, ds["region"].attrs["flag_meanings"].split()))
-    for code, colour in REGION_COLOURS.items():
-        ax.contourf(b, w, (region == code).astype(float), levels=[0.5, 1.5], colors=[colour])
-        ax.contour(b, w, (region == code).astype(float), levels=[0.5], colors="0.35", linewidths=0.8)
-    inside = region != steady.REGION_NONE
-    for (x, y), text in region_labels(b, w, region, w20, letters):
-        ax.text(x, y, text, ha="center", va="center", fontsize=15, fontweight="bold", zorder=7,
-                bbox=dict(fc="white", ec="none", alpha=0.6, pad=0.5))
-    ax.contour(b, w, np.where(inside, w20, np.nan), levels=[0.0], colors="k", linestyles=":", linewidths=1.8)
-    P.singular_lines(ax, circles=False)
     P.beta_omega_axes(ax, ds, rf"Realisable steady motions: $\mu$={_mu_text(p.mu)}, $v_{{throw}}$={v_throw:g} m/s; "
                               r"$\pm$: sign of $\omega_{20}$, dotted: $\omega_{20}=0$")
+    P.region_map(ax, b, w, region, w20, letters)
     return fig
 
 
 def _mu_text(mu: float) -> str:
     """mu for a title: a number, or the infinity sign (rolling only)."""
     return r"$\infty$" if np.isinf(mu) else f"{mu:g}"
-
-
-def region_labels(b, w, region, w20, letters) -> list:
-    """One label per (region, sign of omega20) that occurs: "A+", "B−", ... at a point deep
-    inside the largest connected piece of that region with that sign (other pieces unlabelled)."""
-    out = []
-    for code in (steady.REGION_A, steady.REGION_B, steady.REGION_C):
-        for sign, text in ((1, "+"), (-1, "−")):
-            pieces = P.components((region == code) & (np.sign(w20) == sign), min_fraction=0.0)
-            if pieces:
-                out.append((P.inner_point(b, w, pieces[0]), letters[code][0] + text))
-    return out
 
 
 _study("fig8", "Physically realisable steady motions (paper Fig. 8)",

@@ -1,0 +1,177 @@
+"""Figures of parameter cubes: every swept axis in view, and a slice drawn as the section's map.
+
+A cube is a file with swept settings (global attribute ``swept``: ``--set mu=0.25,0.5,1,2`` makes
+``mu`` an axis). Its figure is small multiples: one panel per swept axis, a quantity's mean over
+the section (an outcome's fraction, a region's area) against that axis, and its range over the
+other swept axes shaded; with at most :data:`MAX_MAPS` slices, the section's map of each slice
+below them. ``study plot FILE --select mu=1,k_r=0`` draws the cube with those axes held (nearest
+values); held on every swept axis, what is left is one section, and the study draws its map as
+the matching paper figure does (Fig. 8: realisable regions over (beta0, omega30); Figs. 11-13:
+outcomes over (omega1, beta)).
+
+Drawing only; the studies (``rimroll.workflows.cubes``, ``make-probability``) say what to draw.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+from matplotlib.figure import Figure
+from matplotlib.patches import Patch
+
+MAX_MAPS = 6
+"""A cube with at most this many slices also shows the section's map of each."""
+UNIT_TEXT = {"s-1": "1/s", "m s-1": "m/s", "1": "-", "": "-", "rad": "rad", "s": "s"}
+SYMBOLS = {"mu": r"$\mu$", "k_r": r"$k_r$", "k_d": r"$k_d$", "omega2": r"$\omega_2$", "omega3": r"$\omega_3$",
+           "j": r"$j$", "rho_over_R": r"$\rho/R$", "v_throw": r"$v_{throw}$", "sigma": r"$\sigma$"}
+"""How a figure writes a swept setting."""
+WORDS = {"mu": "friction coefficient", "k_r": "rolling resistance", "k_d": "drilling resistance",
+         "omega2": "initial", "omega3": "initial", "j": "inertia factor", "rho_over_R": "ball size",
+         "v_throw": "throw speed", "sigma": "noise level"}
+"""The words before the symbol in an axis label (the coordinate's long_name otherwise)."""
+BAND = dict(alpha=0.18, lw=0)
+
+
+def select(ds, values: dict):
+    """``ds`` at the value of each swept axis nearest ``values`` ({dim: number}; inf picks mu = inf
+    exactly, and a finite value the nearest finite one)."""
+    pick = {}
+    for dim, value in values.items():
+        coord = np.asarray(ds[dim].values, dtype=float)
+        exact = np.flatnonzero(coord == value)
+        with np.errstate(invalid="ignore"):
+            dist = np.where(np.isfinite(coord), np.abs(coord - value), np.inf)
+        pick[dim] = int(exact[0]) if exact.size else int(np.argmin(dist) if np.isfinite(dist).any() else 0)
+    return ds.isel(pick)
+
+
+def swept(ds) -> list[str]:
+    """The file's swept axes that still vary in ``ds`` (after a selection: those not held)."""
+    names = str(ds.attrs.get("swept", "")).split()
+    return [n for n in names if n in ds.dims and ds.sizes[n] > 1]
+
+
+def held(ds) -> dict:
+    """{name: value} of the file's swept axes that ``ds`` holds at one value (a selection)."""
+    out = {}
+    for name in str(ds.attrs.get("swept", "")).split():
+        if name in ds.coords and ds[name].size == 1:
+            out[name] = float(ds[name].values.ravel()[0])
+    return out
+
+
+def value_text(value: float) -> str:
+    """A swept value as a figure writes it: 0.25, 1, ∞."""
+    return "\u221e" if np.isinf(value) else f"{value:.4g}"
+
+
+def quantity_text(ds, name: str, value: float) -> str:
+    """'mu = 1', 'k_r = 0.02 1/s': a setting's symbol, value and units (mathtext)."""
+    from rimroll.study.setting_table import lookup
+
+    raw = str(ds[name].attrs.get("units", "")) if name in ds.variables else lookup(name).units
+    units = UNIT_TEXT.get(raw, raw)
+    unit = "" if units in ("-", "") or np.isinf(value) else f" {units}"
+    return f"{SYMBOLS.get(name, name)} = {value_text(value)}{unit}"
+
+
+def axis_label(ds, name: str) -> str:
+    """'friction coefficient $\\mu$ [-]': the axis' long_name, symbol and units."""
+    attrs = ds[name].attrs
+    units = UNIT_TEXT.get(str(attrs.get("units", "")), str(attrs.get("units", "")))
+    return f"{WORDS.get(name, attrs.get('long_name', name))} {SYMBOLS.get(name, '')} [{units}]".replace("  ", " ")
+
+
+def held_text(ds, names=()) -> str:
+    """The settings ``names`` (those a study can sweep) that ``ds`` holds at one value, by a selection
+    or because the run gave one value, as text ('' if none)."""
+    values = held(ds)
+    for name in names:
+        if name not in values and name not in swept(ds):
+            key = next((k for k in (f"setting_{name}", f"param_{name}") if k in ds.attrs), None)
+            if key is not None:
+                values[name] = float(ds.attrs[key])
+    return ", ".join(quantity_text(ds, k, v) for k, v in values.items())
+
+
+def slices(ds, dims) -> list[dict]:
+    """Every slice of the swept axes ``dims``: ``{dim: index}``, in C order."""
+    return [dict(zip(dims, idx)) for idx in itertools.product(*(range(ds.sizes[d]) for d in dims))]
+
+
+def slice_text(ds, pick: dict) -> str:
+    """The values of one slice, as text: 'mu = 0.5, k_r = 0 1/s'."""
+    return ", ".join(quantity_text(ds, d, float(ds[d].values[i])) for d, i in pick.items())
+
+
+def layout(ds, n_maps: int, panel: float = 3.9, legend: float = 0.6):
+    """(Figure, axes of the sweep panels, axes of the maps): one panel per swept axis in the top row;
+    ``n_maps`` maps below (up to three in a row; four as 2 x 2)."""
+    def grid(n):  # (rows, columns): up to three in a row, four as 2 x 2
+        cols = n if n <= 3 else int(np.ceil(np.sqrt(n)))
+        return -(-n // max(cols, 1)), cols
+
+    (s_rows, s_cols), (rows, cols) = grid(len(swept(ds))), grid(n_maps)
+    width = max(s_cols, cols) * panel + legend
+    fig = Figure(figsize=(width, 1.6 + 3.3 * s_rows + 3.6 * rows), layout="constrained")
+    if not n_maps:
+        top = fig
+    else:
+        top, bottom = fig.subfigures(2, 1, height_ratios=[1.0 + 3.3 * s_rows, 3.6 * rows])
+    sweep = list(np.atleast_1d(top.subplots(s_rows, s_cols, sharey=True, squeeze=False)).ravel())
+    for ax in sweep[len(swept(ds)):]:
+        ax.set_visible(False)
+    sweep = sweep[:len(swept(ds))]
+    if not n_maps:
+        return fig, sweep, []
+    maps = list(np.atleast_1d(bottom.subplots(rows, cols, squeeze=False)).ravel())
+    for ax in maps[n_maps:]:
+        ax.set_visible(False)
+    return fig, sweep, maps[:n_maps]
+
+
+def _positions(values) -> tuple[np.ndarray, bool]:
+    """x positions of an axis' values: the values themselves, or 0, 1, ... when one is inf (then
+    the ticks name the values); and whether they are positions."""
+    values = np.asarray(values, dtype=float)
+    if np.all(np.isfinite(values)):
+        return values, False
+    return np.arange(values.size, dtype=float), True
+
+
+def sweep_panels(axes, ds, series, ylabel: str, ylim=None) -> list:
+    """One panel per swept axis of ``ds`` (``axes`` in the order of :func:`swept`): each of ``series``
+    = [(label, DataArray over the swept axes, colour)], its mean over the other swept axes against
+    this one (line and markers), their range shaded. Returns the legend handles."""
+    dims = swept(ds)
+    for ax, d in zip(axes, dims):
+        x, categorical = _positions(ds[d].values)
+        others = [o for o in dims if o != d]
+        for label, da, colour in series:
+            da = da.load() if hasattr(da, "load") else da
+            mean = (da.mean(others) if others else da).transpose(d).values
+            ax.plot(x, mean, "o-", color=colour, lw=1.6, ms=5, label=label)
+            if others:
+                ax.fill_between(x, da.min(others).transpose(d).values, da.max(others).transpose(d).values,
+                                color=colour, **BAND)
+        if categorical or x.size <= 8:
+            ax.set_xticks(x, [value_text(v) for v in ds[d].values])
+        ax.set_xlabel(axis_label(ds, d))
+        ax.grid(alpha=0.3)
+        if ylim is not None:
+            ax.set_ylim(*ylim)
+    for ax in axes:
+        if ax.get_subplotspec().is_first_col():
+            ax.set_ylabel(ylabel)
+    handles = [h for h in axes[0].get_legend_handles_labels()[0]]
+    if len(dims) > 1:
+        handles.append(Patch(color="0.5", alpha=BAND["alpha"], label="shaded: range over the other swept axes"))
+    return handles
+
+
+def select_hint(ds) -> str:
+    """How to draw one slice of this cube: a ``study plot --select`` example of its first values."""
+    dims = swept(ds)
+    first = ",".join(f"{d}={value_text(float(ds[d].values[0])).replace(chr(0x221e), 'inf')}" for d in dims)
+    return f"one slice as a map: study plot FILE --select {first}" if dims else ""
