@@ -182,7 +182,7 @@ def _compute(coords, p: solver.Params, s: dict) -> dict:
                     res, sec = _heyoka(states, params, t_max, float(r))
                     scores = _scores(res, ref, sec)
                     if n_scipy:
-                        scores["seconds_per_trajectory_common"] = _heyoka(states[:n_scipy], params, t_max, float(r))[1]
+                        scores["seconds_per_trajectory_common"] = _heyoka(states[common], params, t_max, float(r))[1]
                 elif n_scipy:
                     res, sec = _scipy(states[common], params, t_max, float(r), SCIPY[name])
                     scores = _scores(res, {key: v[common] for key, v in ref.items()}, sec)
