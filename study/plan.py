@@ -42,6 +42,11 @@ class ChunkJob:
     params: solver.Params
     grid: tuple  # 1-D coordinate arrays of the chunk's grid block, one per grid axis
     n_outer: int
+    digest: str = ""  # the client's code_digest of the study: a worker running other code refuses the job
+
+
+class CodeMismatch(UserError):
+    """A worker's code differs from the client's (another rimroll on its path): it refuses the chunk."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -114,7 +119,12 @@ class Plan:
         region = self.region(k)
         s, params = self.settings_at(k)
         grid = tuple(a.values[sl] for a, sl in zip(self.grid, region[len(self.outer):]))
-        return ChunkJob(self.study.name, k, s, params, grid, len(self.outer))
+        return ChunkJob(self.study.name, k, s, params, grid, len(self.outer), self.digest)
+
+    @functools.cached_property
+    def digest(self) -> str:
+        """:func:`code_digest` of the study on this machine, carried by every :class:`ChunkJob`."""
+        return code_digest(self.study)
 
     @functools.cached_property
     def fingerprint(self) -> str:
@@ -132,7 +142,7 @@ class Plan:
             h.update(np.ascontiguousarray(a.values).tobytes())  # float64 numbers or string labels
             for values, *_ in a.aux.values():
                 h.update(np.ascontiguousarray(values).tobytes())
-        h.update(code_digest(self.study).encode())
+        h.update(self.digest.encode())
         return h.hexdigest()[:16]
 
 
@@ -195,6 +205,23 @@ def make_plan(study: Study, quick: bool = False, sets=(), local: bool = True) ->
     return plan
 
 
+def check_digest(study: Study, expected: str) -> None:
+    """:class:`CodeMismatch` (one line naming both digests and the worker) unless this process's
+    :func:`code_digest` of ``study`` is ``expected``, the client's."""
+    mine = code_digest(study)
+    if mine == expected:
+        return
+    try:
+        from distributed import get_worker
+
+        where = f"worker {get_worker().address}"
+    except (ImportError, ValueError):  # not inside a dask worker
+        where = "this process"
+    raise CodeMismatch(f"{where} refuses chunks of {study.name}: its code digest {mine[:16]} differs from the "
+                       f"client's {expected[:16]} (another rimroll or solver on the worker's path); run the "
+                       "same code on every worker")
+
+
 def compute_chunk(job: ChunkJob) -> dict[str, np.ndarray]:
     """Run the study's ``compute`` on one chunk; arrays shaped like the chunk's region.
 
@@ -204,6 +231,8 @@ def compute_chunk(job: ChunkJob) -> dict[str, np.ndarray]:
     from rimroll.study import registry
 
     study = registry.get(job.study)
+    if job.digest:
+        check_digest(study, job.digest)
     coords = np.meshgrid(*job.grid, indexing="ij") if job.grid else []
     grid_shape = tuple(g.size for g in job.grid)
     out = study.compute(coords, job.params, job.settings)
@@ -218,4 +247,4 @@ def compute_chunk(job: ChunkJob) -> dict[str, np.ndarray]:
     return result
 
 
-__all__ = ["ChunkJob", "Plan", "compute_chunk", "make_plan", "PHYSICAL_KEYS"]
+__all__ = ["ChunkJob", "CodeMismatch", "Plan", "check_digest", "compute_chunk", "make_plan", "PHYSICAL_KEYS"]
