@@ -21,7 +21,7 @@ from rimroll.study.setting_table import TABLE, lookup  # noqa: E402
 
 HEAD = """# The named studies and what their files hold
 
-Every study writes `<out>/<name>.nc` (CF-1.10 netCDF: `units` and `long_name` on every numeric
+Every study writes `<out>/<name>.nc` (CF-1.8 netCDF: `units` and `long_name` on every numeric
 variable and coordinate, `flag_values`/`flag_meanings` on categorical ones) and `<out>/<name>.png`.
 `study info NAME` lists a study's settings with defaults, units and the grid; `study info FILE`
 describes a result. Equation numbers are the paper's. The outcome studies' rules and outputs are

@@ -308,7 +308,8 @@ def _inv_axes(s: dict) -> list[Axis]:
     if n < 2 or n_t < 2 or not s["t_max"] > 0:
         raise ValueError(f"n_trajectories and n_time must be >= 2 and t_max > 0; got {n}, {n_t}, {s['t_max']}")
     return [Axis("trajectory", np.arange(n, dtype=float), "1", "index of the seeded trajectory"),
-            Axis("time", np.linspace(0.0, s["t_max"], n_t), "s", "time")]
+            # "t", not "time": CF reads a dimension named time as a calendar time (units "s since ...")
+            Axis("t", np.linspace(0.0, s["t_max"], n_t), "s", "time since the start of the trajectory")]
 
 
 def initial_states(s: dict, p) -> np.ndarray:
@@ -350,7 +351,7 @@ def _inv_plot(ds):
 
     fig = Figure(figsize=(8.0, 7.0), layout="constrained")
     axes = fig.subplots(3, 1, sharex=True)
-    t = ds["time"].values
+    t = ds["t"].values
     rtol = float(setting_of(ds, "rtol"))
     tiny = 1e-17
     for ax, name, label in zip(axes, ("rel_change_E", "rel_change_P_I", "rel_change_P_II"),
@@ -377,8 +378,8 @@ def _inv_plot(ds):
 
 def state_label(sel) -> str:
     """The initial state of one trajectory of an ``invariants`` file, in words a reader can use."""
-    b = float(sel["beta_t"].isel(time=0))
-    w1 = float(sel["omega1_t"].isel(time=0))
+    b = float(sel["beta_t"].isel(t=0))
+    w1 = float(sel["omega1_t"].isel(t=0))
     return rf"$\beta_0$={b:.3f} rad, $\omega_1$={w1:+.3f} 1/s"
 
 
