@@ -12,9 +12,7 @@ from __future__ import annotations
 import datetime as _dt
 import functools
 import importlib.metadata
-import json
 import pathlib
-import re
 import subprocess
 
 import numpy as np
@@ -25,24 +23,31 @@ from rimroll.study.registry import PHYSICAL_KEYS, Axis, Study
 
 HERE = pathlib.Path(__file__).resolve().parent
 CONVENTIONS = "CF-1.8"  # what both CF checkers (compliance-checker, cfchecker) verify; see study.assemble
-BUILD_INFO = HERE / "_build_info.json"  # written by setup.py's build_py into an installed build
 
 
 @functools.lru_cache(maxsize=1)
 def rimroll_version() -> str:
-    """Version of the rimroll code that runs: the installed distribution's when this package is
-    the installed one, else the ``version`` of the source tree's pyproject.toml; 'unknown' if neither."""
+    """Version of the rimroll code that runs: what setuptools-scm wrote into this build
+    (``rimroll/_version.py``: from git, a tag or ``0.1.devN+g<commit>``), else the installed
+    distribution's; 'unknown' if neither."""
+    build = _build_record()
+    if build.get("version"):
+        return str(build["version"])
     try:
-        dist = importlib.metadata.distribution("rimroll")
-        if pathlib.Path(dist.locate_file("study/__init__.py")).resolve() == HERE / "__init__.py":
-            return dist.version
-    except (importlib.metadata.PackageNotFoundError, OSError):
-        pass
+        return importlib.metadata.version("rimroll")
+    except importlib.metadata.PackageNotFoundError:
+        return "unknown"
+
+
+def _build_record() -> dict:
+    """``version``, ``commit`` (git's abbreviated hash, 'g' first) and ``dirty`` of this build, as
+    setuptools-scm wrote them into ``rimroll/_version.py`` (pyproject.toml ``[tool.setuptools_scm]``);
+    empty when it is absent (a tree never built)."""
     try:
-        match = re.search(r'^version\s*=\s*"([^"]+)"', (HERE.parent / "pyproject.toml").read_text(), re.M)
-    except OSError:
-        match = None
-    return match.group(1) if match else "unknown"
+        from rimroll import _version
+    except ImportError:
+        return {}
+    return {k: getattr(_version, k, None) for k in ("version", "commit", "dirty")}
 
 
 def _git(*args: str) -> str | None:
@@ -57,21 +62,22 @@ def _git(*args: str) -> str | None:
 def git_revision() -> str | None:
     """Commit hash (+'-dirty') of the code that runs, or None; never raises.
 
-    An installed build: the revision its source tree had when it was built (``_build_info.json``).
     A source checkout (or editable install): the checkout's HEAD now, if this package is its own
     ``study/`` (not, say, a copy in a virtual environment that happens to sit inside a checkout).
+    An installed build: the commit its source tree had when it was built (git's abbreviated hash,
+    recorded by setuptools-scm in ``rimroll/_version.py``), with '-dirty' when tracked files differed.
     """
-    if BUILD_INFO.is_file():
-        try:
-            return json.loads(BUILD_INFO.read_text()).get("git_revision") or None
-        except (OSError, ValueError):
-            return None
     top = _git("rev-parse", "--show-toplevel")
-    if not top or pathlib.Path(top).resolve() != HERE.parent:
+    if top and pathlib.Path(top).resolve() == HERE.parent:
+        rev = _git("rev-parse", "HEAD")
+        dirty = _git("status", "--porcelain", "--untracked-files=no")
+        return f"{rev}-dirty" if rev and dirty else (rev or None)
+    build = _build_record()
+    commit = str(build.get("commit") or "")
+    if not commit:
         return None
-    rev = _git("rev-parse", "HEAD")
-    dirty = _git("status", "--porcelain", "--untracked-files=no")
-    return f"{rev}-dirty" if rev and dirty else (rev or None)
+    commit = commit[1:] if commit.startswith("g") else commit
+    return f"{commit}-dirty" if build.get("dirty") else commit
 
 
 def _attr_value(value):
