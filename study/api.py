@@ -79,8 +79,20 @@ def run(name: str, quick: bool = False, out: str | os.PathLike | None = None, cl
         a list (a sweep: an outer axis of the cube) or a ``"start:stop:num"`` string (a range),
         e.g. ``run("outcome-cube", quick=True, mu=[0.5, 1, 2], k_r=0)``.
 
-    Raises :class:`UserError` for a bad name, setting or cluster (one line, before any work), and
-    warns with :class:`rimroll.LaneStatusWarning` when lanes of the result did not finish ok.
+    Returns
+    -------
+    xarray.Dataset
+        the result: loaded in memory without ``out``, opened lazily from ``<out>/<name>.nc`` with it.
+
+    Raises
+    ------
+    UserError
+        a bad name, setting or cluster (one line, before any work), or another run in ``out``.
+
+    Warns
+    -----
+    LaneStatusWarning
+        when lanes of the result did not finish their integration ok (see its ``status`` variable).
     """
     study = registry.get(name)
     sets = [f"{key}={_word(key, value)}" for key, value in settings.items()]

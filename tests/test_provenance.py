@@ -35,7 +35,7 @@ def test_a_build_records_the_version_and_git_revision_of_its_source_tree(tmp_pat
         pytest.skip("not a git checkout")
     src = tmp_path / "clone"
     subprocess.run(["git", "clone", "-q", str(ROOT), str(src)], check=True, capture_output=True, timeout=120)
-    local = all(importlib.util.find_spec(m) for m in ("setuptools", "setuptools_scm"))
+    local = all(importlib.util.find_spec(m) for m in ("setuptools", "setuptools_scm", "wheel"))  # else isolated
     build = subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(tmp_path / "dist"),
                             *(["--no-build-isolation"] if local else []), str(src)],
                            capture_output=True, text=True, timeout=600)
