@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import datetime as _dt
 import functools
+import importlib
 import importlib.metadata
 import pathlib
 import subprocess
@@ -44,7 +45,7 @@ def _build_record() -> dict:
     setuptools-scm wrote them into ``rimroll/_version.py`` (pyproject.toml ``[tool.setuptools_scm]``);
     empty when it is absent (a tree never built)."""
     try:
-        from rimroll import _version
+        _version = importlib.import_module("rimroll._version")
     except ImportError:
         return {}
     return {k: getattr(_version, k, None) for k in ("version", "commit", "dirty")}

@@ -196,8 +196,8 @@ def client(workers: int | None = None, scheduler: str | None = None, timeout: fl
     local = {"dashboard_address": "127.0.0.1:0", "memory_limit": 0}
     if gpu:
         n = gpu_workers(workers)
-        with LocalCluster(n_workers=n, threads_per_worker=1, processes=n > 1, host="127.0.0.1", **local) as cluster, \
-                Client(cluster) as c:
+        where = {"processes": True, "host": "127.0.0.1"} if n > 1 else {"processes": False}
+        with LocalCluster(n_workers=n, threads_per_worker=1, **where, **local) as cluster, Client(cluster) as c:
             c.register_plugin(OneGPUPerWorker(local=True))
             yield c
         return

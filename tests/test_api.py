@@ -25,10 +25,8 @@ PROBE = str(pathlib.Path(__file__).with_name("fanout_probe.py"))
 
 
 @pytest.fixture
-def probe(monkeypatch):
-    monkeypatch.setenv(PLUGIN_ENV, PROBE)
-    monkeypatch.delenv("FANOUT_PROBE_FAIL_MU", raising=False)
-    return registry.get("fanout-probe")
+def probe(probe_study):
+    return probe_study
 
 
 def _python(code: str, **env) -> subprocess.CompletedProcess:

@@ -112,7 +112,6 @@ def test_a_worker_with_other_code_refuses_the_chunks(tmp_path):
     refuses the chunk in one line naming both digests, and nothing of it is saved."""
     from rimroll.study import plan, registry
 
-    os.environ.setdefault(PLUGIN_ENV, PROBE)
     mine = plan.code_digest(registry.get("fig8"))
     with cluster(tmp_path, workers=[{"preload": PRELOAD}]) as sfile:
         run = _study("run", "fig8", "--quick", "--out", str(tmp_path / "out"), "--no-progress",
@@ -125,18 +124,14 @@ def test_a_worker_with_other_code_refuses_the_chunks(tmp_path):
     assert not list((tmp_path / "out").glob(".parts/*/chunk-*.npz"))
 
 
-def test_the_python_api_reaches_a_cluster_through_its_client(tmp_path):
+def test_the_python_api_reaches_a_cluster_through_its_client(tmp_path, probe_study):
     from distributed import Client
 
     import rimroll
 
     with cluster(tmp_path, workers=[{}, {}]) as sfile, Client(scheduler_file=str(sfile), timeout=30) as c:
         c.wait_for_workers(2, timeout=START_S)
-        os.environ[PLUGIN_ENV] = PROBE
-        try:
-            ds = rimroll.run("fanout-probe", client=c, mu=[0.5, 1], v_throw=1)
-        finally:
-            del os.environ[PLUGIN_ENV]
+        ds = rimroll.run("fanout-probe", client=c, mu=[0.5, 1], v_throw=1)
     assert ds.sizes == {"mu": 2, "x": 8, "y": 3}
 
 

@@ -7,7 +7,6 @@ before these changes) still compared alike.
 from __future__ import annotations
 
 import math
-import pathlib
 
 import netCDF4
 import numpy as np
@@ -18,9 +17,6 @@ import rimroll
 from rimroll.study import registry
 from rimroll.study.cli import main
 from rimroll.study.plan import STORAGE_VALUES, make_plan, storage_chunks
-from rimroll.study.registry import PLUGIN_ENV
-
-PROBE = str(pathlib.Path(__file__).with_name("fanout_probe.py"))
 
 
 @pytest.fixture(scope="module")
@@ -94,12 +90,11 @@ def test_storage_chunks_hold_about_a_million_values_whatever_the_compute_chunks(
     assert storage_chunks((4, 3, 3, 3, 24, 36), (1, 1, 1, 1, 24, 36)) == (4, 3, 3, 3, 24, 36)  # a cube: all of it
 
 
-def test_a_cube_is_assembled_in_storage_blocks_with_the_same_numbers(monkeypatch, tmp_path):
+def test_a_cube_is_assembled_in_storage_blocks_with_the_same_numbers(monkeypatch, tmp_path, probe_study):
     """The probe's compute chunks are 1 x 1 x 4 x 3 values; stored in blocks of 1 x 3 x 8 x 3 (a small
     target), every value lands where the probe's formula puts it."""
     from rimroll.study import plan as plan_module
 
-    monkeypatch.setenv(PLUGIN_ENV, PROBE)
     monkeypatch.setattr(plan_module, "STORAGE_VALUES", 96)
     sets = ["mu=0.5,1,2", "v_throw=1,2,3", "n_x=8"]
     assert main(["run", "fanout-probe", *(w for s in sets for w in ("--set", s)), "--out", str(tmp_path),
