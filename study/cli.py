@@ -230,11 +230,13 @@ def _cmd_info(args) -> int:
     print("coordinates:")
     for name, c in ds.coords.items():
         units = f" [{c.attrs['units']}]" if "units" in c.attrs else ""
-        if c.dtype.kind in "iuf":
+        if c.ndim == 0:  # a scalar setting of the run
+            values = f"{c.item():.6g}" if c.dtype.kind in "iuf" else str(c.item())
+        elif c.dtype.kind in "iuf":
             values = f"{float(c.min()):.4g} .. {float(c.max()):.4g}"
         else:  # labels (scene, integrator)
             values = ", ".join(str(v) for v in c.values.ravel()[:12]) + (", ..." if c.size > 12 else "")
-        print(f"  {name}{units} {c.attrs.get('long_name', '')}: {values} ({c.size} points)")
+        print(f"  {name}{units} {c.attrs.get('long_name', '')}: {values}" + (f" ({c.size} points)" if c.ndim else ""))
     print("variables:")
     for name, v in ds.data_vars.items():
         line = f"  {name}({', '.join(v.dims)}) {v.dtype} [{v.attrs.get('units', '?')}] {v.attrs.get('long_name', '')}"

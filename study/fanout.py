@@ -2,16 +2,18 @@
 
 One code path for both cases: locally an in-process cluster of threads (the kernels release
 the GIL; ``--workers N`` threads, default one per core), or an existing cluster reached with
-``--scheduler ADDRESS``. Tasks are :func:`study.plan.compute_chunk` on a picklable
-:class:`study.plan.ChunkJob`. At most a small window of tasks is in flight; each result is
-written to disk as it completes (``as_completed``) and dropped, so memory holds a few chunks
-whatever the size of the cube.
+``--scheduler ADDRESS`` or ``--scheduler-file PATH`` (or a client passed to ``rimroll.run``).
+Every connection, the probe of the address included, uses dask's ``Security`` from the dask
+configuration (:func:`security`), so a ``tls://`` scheduler works as a ``tcp://`` one. Tasks are
+:func:`study.plan.compute_chunk` on a picklable :class:`study.plan.ChunkJob`, which carries the
+client's code digest: a worker running other code refuses it (``study.plan.check_digest``). At
+most a small window of tasks is in flight; each result is written to disk as it completes and
+dropped, so memory holds a few chunks whatever the size of the cube.
 
 With the CUDA backend (a study's ``backend`` setting) each worker process uses one GPU: locally
 one single-threaded worker per visible GPU (processes when there are several), on a
-``--scheduler`` cluster whatever workers it has; ``study.gpu_workers`` gives worker number i the
-device i (modulo the devices it sees). A worker started with one device visible
-(``CUDA_VISIBLE_DEVICES``, as dask-cuda does) uses that one.
+``--scheduler`` cluster whatever workers it has; ``study.gpu_workers`` picks each worker's device
+(rimroll's local workers by their number, a dask-cuda worker device 0 of the devices it was given).
 
 Every wait is bounded by ``timeout`` seconds (``study run --timeout``): a ``--scheduler`` address
 must answer dask's identity call in that time (an HTTP server, a socket that never answers or
