@@ -16,6 +16,7 @@ import subprocess
 import sys
 import time
 
+import numpy as np
 import pytest
 import xarray as xr
 
@@ -71,7 +72,7 @@ def cluster(tmp_path, workers=({},), tls=(), scheduler_env=None):
             p.terminate()
         for p in reversed(procs):
             try:
-                p.wait(timeout=20)
+                p.wait(timeout=10)
             except subprocess.TimeoutExpired:
                 p.kill()
                 p.wait(timeout=10)
@@ -86,14 +87,23 @@ def _errors(err: str) -> list[str]:
     return [line for line in err.strip().splitlines() if ": dashboard of the cluster at " not in line]
 
 
-def test_a_scheduler_file_reaches_the_cluster_and_the_dashboard_is_named(tmp_path):
-    with cluster(tmp_path) as sfile:
+def test_a_scheduler_file_reaches_the_cluster_from_the_command_and_from_python(tmp_path, probe_study):
+    """``study run --scheduler-file`` (its dashboard link printed) and ``rimroll.run(client=...)`` on one
+    cluster of two workers."""
+    from distributed import Client
+
+    import rimroll
+
+    with cluster(tmp_path, workers=[{}, {}]) as sfile:
         run = _study("run", "fanout-probe", "--out", str(tmp_path / "out"), "--no-progress",
                      "--scheduler-file", str(sfile), "--timeout", "30")
+        with Client(scheduler_file=str(sfile), timeout=30) as c:
+            ds = rimroll.run("fanout-probe", client=c, mu=[0.5, 1], v_throw=1)
     assert run.returncode == 0, run.stderr
     assert "fanout-probe: dashboard of the cluster at http://127.0.0.1:" in run.stderr  # --no-dashboard: none served
-    with xr.open_dataset(tmp_path / "out" / "fanout-probe.nc") as ds:
-        assert ds.sizes == {"mu": 3, "v_throw": 2, "x": 8, "y": 3}
+    with xr.open_dataset(tmp_path / "out" / "fanout-probe.nc") as whole:
+        assert whole.sizes == {"mu": 3, "v_throw": 2, "x": 8, "y": 3}
+        np.testing.assert_array_equal(ds["f"].values, whole["f"].sel(mu=[0.5, 1.0], v_throw=1.0).values)
 
 
 def test_a_scheduler_file_that_never_appears_is_one_line(tmp_path):
@@ -122,17 +132,6 @@ def test_a_worker_with_other_code_refuses_the_chunks(tmp_path):
     assert f"its code digest {mine[::-1][:16]} differs from the client's {mine[:16]}" in lines[0]
     assert not (tmp_path / "out" / "fig8.nc").exists()
     assert not list((tmp_path / "out").glob(".parts/*/chunk-*.npz"))
-
-
-def test_the_python_api_reaches_a_cluster_through_its_client(tmp_path, probe_study):
-    from distributed import Client
-
-    import rimroll
-
-    with cluster(tmp_path, workers=[{}, {}]) as sfile, Client(scheduler_file=str(sfile), timeout=30) as c:
-        c.wait_for_workers(2, timeout=START_S)
-        ds = rimroll.run("fanout-probe", client=c, mu=[0.5, 1], v_throw=1)
-    assert ds.sizes == {"mu": 2, "x": 8, "y": 3}
 
 
 def _certificate(directory: pathlib.Path) -> tuple[str, str]:
