@@ -12,8 +12,8 @@ import pathlib
 import shlex
 import sys
 
-from rimroll.study import checks, execute, fanout, io, keyvalue, registry, reuse, runguard
-from rimroll.study.parts import PartStore
+from rimroll import _messages
+from rimroll.study import checks, execute, fanout, io, keyvalue, registry, runguard
 from rimroll.study.plan import make_plan
 from rimroll.study.registry import UserError, natural_order
 from rimroll.study.setting_table import lookup
@@ -45,13 +45,17 @@ def _parser() -> argparse.ArgumentParser:
                           "cpu, cuda (one GPU per worker; extra rimroll[gpu]) or auto (the GPU when usable)")
     run.add_argument("--workers", type=int, default=None, help="local threads (default: one per core)")
     run.add_argument("--scheduler", default=None, metavar="ADDRESS",
-                     help="run the chunks on an existing dask.distributed cluster, e.g. tcp://host:8786")
+                     help="run the chunks on an existing dask.distributed cluster, e.g. tcp://host:8786 "
+                          "(tls://... with the TLS settings of the dask configuration)")
+    run.add_argument("--scheduler-file", default=None, metavar="PATH",
+                     help="the cluster whose scheduler wrote PATH (dask scheduler --scheduler-file, dask-jobqueue, "
+                          "dask-mpi)")
     run.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                      help="show chunks done/total on stderr (default: when stderr is a terminal)")
     run.add_argument("--force", action="store_true",
                      help="recompute and replace the file even if it holds this run or another one")
     run.add_argument("--timeout", type=float, default=fanout.DEFAULT_TIMEOUT, metavar="SECONDS",
-                     help="bound on waiting for a --scheduler and for workers (default: %(default)g s)")
+                     help="bound on waiting for a --scheduler (or its file) and for workers (default: %(default)g s)")
     plot = sub.add_parser("plot", help="re-draw the PNG of an existing results file")
     plot.add_argument("target", help="a study name (meaning <out>/NAME.nc) or a .nc file")
     plot.add_argument("--out", default="results", help="directory holding NAME.nc (default: results)")
@@ -162,7 +166,9 @@ def _selection(words: list[str], ds) -> dict:
 def _cmd_run(args, command: str) -> int:
     study = registry.get(args.name)
     checks.check_workers(args.workers)
-    if args.workers is not None and args.scheduler:
+    if args.scheduler and args.scheduler_file:
+        raise UserError("give --scheduler ADDRESS or --scheduler-file PATH, not both")
+    if args.workers is not None and (args.scheduler or args.scheduler_file):
         raise UserError("--workers is for local runs; a --scheduler cluster has its own workers")
     if not (0 < args.timeout <= 86400):
         raise UserError(f"--timeout must be > 0 and <= 86400 s; got {args.timeout}")
@@ -170,57 +176,21 @@ def _cmd_run(args, command: str) -> int:
     sets = list(args.sets) + ([f"backend={args.backend}"] if args.backend else [])
     if args.backend and "backend" not in study.settings:
         raise UserError(f"--backend: study {study.name} does not run solver.simulate (no backend setting)")
-    plan = make_plan(study, args.quick, sets, local=not args.scheduler)
-    out = pathlib.Path(args.out)
-    runguard.check_out(out)
-    nc = out / f"{study.name}.nc"
-    request = execute.file_attrs(plan, command)
-    sizes = {a.name: a.values.size for a in plan.axes}
-    if not args.force and (found := _reusable(study, nc, plan, request, sizes)) is not None:
-        return found
+    remote = bool(args.scheduler or args.scheduler_file)
+    plan = make_plan(study, args.quick, sets, local=not remote)
     progress = sys.stderr.isatty() if args.progress is None else args.progress
-    store = PartStore(out, study.name, plan.fingerprint)
-    with store.lock(), runguard.saved_on_stop(store, plan):
-        if not args.force and (found := _reusable(study, nc, plan, request, sizes, quiet=True)) is not None:
-            return found  # a run that held the lock just finished it
-        stats = execute.produce(plan, store, nc, command, workers=args.workers, scheduler=args.scheduler,
-                                timeout=args.timeout, progress=progress)
+    cluster = execute.Cluster(None, args.workers, args.scheduler, args.scheduler_file, args.timeout)
+    outcome = execute.run_to_file(plan, args.out, command, cluster, force=args.force, progress=progress)
+    nc, stats = outcome.path, outcome.stats
+    if stats is None:
+        return _exists(study, nc)
     png = _draw(study, nc)
     resumed = f" ({stats.resumed} of {stats.total} chunks resumed)" if stats.resumed else ""
     print(f"wrote {nc}" + (f" and {png}" if png else "") + resumed)
     warning = runguard.status_summary(nc)
     if warning:
-        print(warning, file=sys.stderr)
+        print(f"study: warning: {warning}", file=sys.stderr)
     return 0
-
-
-def _reusable(study, nc: pathlib.Path, plan, request: dict, sizes: dict, quiet=False) -> int | None:
-    """0 after saying that ``nc`` is this very run; None if it must be (re)computed; UserError if it
-    holds another run (the fingerprint rule of ``study.reuse``)."""
-    found = reuse.inspect(nc, plan.fingerprint, request, sizes)
-    if found.state == "same":
-        if not quiet:
-            _tidy(PartStore(nc.parent, study.name, plan.fingerprint))
-        return _exists(study, nc)
-    if found.state == "different":
-        raise UserError(f"{nc} holds another run of {study.name} ({found.detail}); use --force to replace "
-                        "it (it is kept until the new file is complete), or another --out")
-    if found.state == "unreadable" and not quiet:
-        print(f"study: {nc} is not a readable result ({found.detail}); recomputing it", file=sys.stderr)
-    return None
-
-
-def _tidy(store: PartStore) -> None:
-    """The result is complete: parts of this study left by a run killed during its cleanup, or by
-    killed runs of other inputs, belong to no live run; delete them unless a run holds the lock."""
-    if not store.root.is_dir():
-        return
-    try:
-        with store.lock():
-            store.sweep_stale()
-            store.remove()
-    except UserError:  # another run of this study into this --out is live: leave its parts alone
-        pass
 
 
 def _exists(study, nc: pathlib.Path) -> int:
@@ -266,13 +236,15 @@ def _cmd_info(args) -> int:
     print("coordinates:")
     for name, c in ds.coords.items():
         units = f" [{c.attrs['units']}]" if "units" in c.attrs else ""
-        if c.dtype.kind in "iuf" and name not in ds.dims and 1 < c.size <= 12:  # one value per scene: each
+        if c.ndim == 0:  # a scalar setting of the run
+            values = f"{c.item():.6g}" if c.dtype.kind in "iuf" else str(c.item())
+        elif c.dtype.kind in "iuf" and name not in ds.dims and 1 < c.size <= 12:  # one value per scene: each
             values = ", ".join(f"{v:g}" for v in c.values.ravel()) + f" (per {', '.join(c.dims)})"
         elif c.dtype.kind in "iuf":
             values = f"{float(c.min()):.4g} .. {float(c.max()):.4g}"
         else:  # labels (scene, integrator)
             values = ", ".join(str(v) for v in c.values.ravel()[:12]) + (", ..." if c.size > 12 else "")
-        print(f"  {name}{units} {c.attrs.get('long_name', '')}: {values} ({c.size} points)")
+        print(f"  {name}{units} {c.attrs.get('long_name', '')}: {values}" + (f" ({c.size} points)" if c.ndim else ""))
     print("variables:")
     for name, v in ds.data_vars.items():
         line = f"  {name}({', '.join(v.dims)}) {v.dtype} [{v.attrs.get('units', '?')}] {v.attrs.get('long_name', '')}"
@@ -352,6 +324,11 @@ def main(argv=None) -> int:
     words = sys.argv[1:] if argv is None else list(argv)
     command = shlex.join(["study", *words])
     _ignore_file_size_signal()
+    with _messages.command_line():  # notices (logging) on stderr, whatever logging the caller set up
+        return _main(words, command)
+
+
+def _main(words: list[str], command: str) -> int:
     try:
         if _study_help(words):
             return 0

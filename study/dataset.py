@@ -1,4 +1,4 @@
-"""Coordinates and provenance of result files (CF-1.10), and reading them back.
+"""Coordinates and provenance of result files (CF-1.8; the layout: ``study.assemble``), and reading them back.
 
 Global attributes: ``Conventions``, ``title``, ``study``, ``references`` (the paper),
 ``source`` (rimroll version and method), every Params value as ``param_<name>`` plus
@@ -11,10 +11,9 @@ from __future__ import annotations
 
 import datetime as _dt
 import functools
+import importlib
 import importlib.metadata
-import json
 import pathlib
-import re
 import subprocess
 
 import numpy as np
@@ -24,25 +23,32 @@ from rimroll import solver
 from rimroll.study.registry import PHYSICAL_KEYS, Axis, Study
 
 HERE = pathlib.Path(__file__).resolve().parent
-BUILD_INFO = HERE / "_build_info.json"  # written by setup.py's build_py into an installed build
+CONVENTIONS = "CF-1.8"  # what both CF checkers (compliance-checker, cfchecker) verify; see study.assemble
 
 
 @functools.lru_cache(maxsize=1)
 def rimroll_version() -> str:
-    """Version of the rimroll code that runs: the installed distribution's when this package is
-    the installed one, else the ``version`` of the source tree's pyproject.toml; 'unknown' if neither."""
+    """Version of the rimroll code that runs: what setuptools-scm wrote into this build
+    (``rimroll/_version.py``: from git, a tag or ``0.1.devN+g<commit>``), else the installed
+    distribution's; 'unknown' if neither."""
+    build = _build_record()
+    if build.get("version"):
+        return str(build["version"])
     try:
-        dist = importlib.metadata.distribution("rimroll")
-        installed = pathlib.Path(dist.locate_file("rimroll/study/__init__.py")).resolve()
-        if installed == (HERE / "__init__.py").resolve():
-            return dist.version
-    except (importlib.metadata.PackageNotFoundError, OSError):
-        pass
+        return importlib.metadata.version("rimroll")
+    except importlib.metadata.PackageNotFoundError:
+        return "unknown"
+
+
+def _build_record() -> dict:
+    """``version``, ``commit`` (git's abbreviated hash, 'g' first) and ``dirty`` of this build, as
+    setuptools-scm wrote them into ``rimroll/_version.py`` (pyproject.toml ``[tool.setuptools_scm]``);
+    empty when it is absent (a tree never built)."""
     try:
-        match = re.search(r'^version\s*=\s*"([^"]+)"', (HERE.parent / "pyproject.toml").read_text(), re.M)
-    except OSError:
-        match = None
-    return match.group(1) if match else "unknown"
+        _version = importlib.import_module("rimroll._version")
+    except ImportError:
+        return {}
+    return {k: getattr(_version, k, None) for k in ("version", "commit", "dirty")}
 
 
 def _git(*args: str) -> str | None:
@@ -57,21 +63,22 @@ def _git(*args: str) -> str | None:
 def git_revision() -> str | None:
     """Commit hash (+'-dirty') of the code that runs, or None; never raises.
 
-    An installed build: the revision its source tree had when it was built (``_build_info.json``).
     A source checkout (or editable install): the checkout's HEAD now, if this package is its own
     ``study/`` (not, say, a copy in a virtual environment that happens to sit inside a checkout).
+    An installed build: the commit its source tree had when it was built (git's abbreviated hash,
+    recorded by setuptools-scm in ``rimroll/_version.py``), with '-dirty' when tracked files differed.
     """
-    if BUILD_INFO.is_file():
-        try:
-            return json.loads(BUILD_INFO.read_text()).get("git_revision") or None
-        except (OSError, ValueError):
-            return None
     top = _git("rev-parse", "--show-toplevel")
-    if not top or pathlib.Path(top).resolve() != HERE.parent:
+    if top and pathlib.Path(top).resolve() == HERE.parent:
+        rev = _git("rev-parse", "HEAD")
+        dirty = _git("status", "--porcelain", "--untracked-files=no")
+        return f"{rev}-dirty" if rev and dirty else (rev or None)
+    build = _build_record()
+    commit = str(build.get("commit") or "")
+    if not commit:
         return None
-    rev = _git("rev-parse", "HEAD")
-    dirty = _git("status", "--porcelain", "--untracked-files=no")
-    return f"{rev}-dirty" if rev and dirty else (rev or None)
+    commit = commit[1:] if commit.startswith("g") else commit
+    return f"{commit}-dirty" if build.get("dirty") else commit
 
 
 def _attr_value(value):
@@ -98,6 +105,34 @@ def coords_of(axes: list[Axis]) -> dict:
     return coords
 
 
+def scalar_coords(study: Study, settings: dict, swept: tuple = (), taken=()) -> dict:
+    """The run's numeric scalar settings and physical parameters as scalar coordinates
+    ``{name: ((), value, {units, long_name})}`` (units and meaning from the setting table), so that
+    files of runs that differ in one setting combine along it. Left out: swept settings (axes), the
+    physical parameters the study ignores (a scene sets its own), labels and switches (``method``,
+    ``backend``: attributes only) and names already ``taken`` by an axis, coordinate or variable."""
+    from rimroll.study.setting_table import lookup
+
+    varying = set(swept) | ({"r"} if "rho_over_R" in swept else set())
+    out = {}
+    for name, value in settings.items():
+        if name in varying or name in taken or name in study.ignores or value is None or isinstance(value, bool):
+            continue
+        if name in PHYSICAL_KEYS or name in study.settings:
+            if isinstance(value, (int, float, np.integer, np.floating)):
+                entry = lookup(name)
+                attrs = {"units": entry.units or "1", "long_name": entry.doc or name}
+                out[name] = ((), _number(value), attrs)
+    return out
+
+
+def _number(value) -> np.ndarray:
+    """A 0-d array of a setting: int32 for an integer that fits (CF-1.8 has no 64-bit integers), else float64."""
+    if isinstance(value, (int, np.integer)) and abs(int(value)) < 2**31:
+        return np.asarray(value, dtype=np.int32)
+    return np.asarray(value, dtype=np.float64)
+
+
 def global_attrs(study: Study, params: solver.Params, settings: dict, command: str,
                  swept: tuple = (), device: str | None = None) -> dict:
     """Provenance of one run. ``swept``: names of the settings swept as outer axes; they get no
@@ -106,7 +141,7 @@ def global_attrs(study: Study, params: solver.Params, settings: dict, command: s
     workers' devices), recorded in ``source``."""
     now = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat()
     version = rimroll_version()
-    attrs = {"Conventions": "CF-1.10", "title": study.title, "study": study.name,
+    attrs = {"Conventions": CONVENTIONS, "title": study.title, "study": study.name,
              "references": REFERENCES, "source": _source(study, settings, version, device)}
     varying = set(swept) | ({"r", "rho"} if "rho_over_R" in swept else set())  # one value per point of an axis
     for name, value in params.as_dict().items():
@@ -168,14 +203,19 @@ def params_of(ds: xr.Dataset) -> solver.Params:
 
 
 def setting_of(ds: xr.Dataset, name: str):
-    """A recorded setting (``setting_<name>``, else ``param_<name>``) of a results file; for a
-    swept setting, its scalar coordinate once one point is selected (``ds.sel(mu=1.0)``)."""
+    """A recorded setting of a results file: its scalar coordinate (a file's own scalar setting, or
+    one point of a swept one selected, ``ds.sel(mu=1.0)``), else the attribute ``setting_<name>`` or
+    ``param_<name>``. A setting that varies along a dimension of ``ds`` (swept, or the axis of files
+    combined with ``xr.open_mfdataset``) is a ValueError until one point is selected."""
+    if name in ds.coords and ds[name].ndim == 0:
+        return ds[name].item()
+    if name in ds.dims:
+        raise ValueError(f"{name!r} is swept in this file ({ds.sizes[name]} values along its axis); select one "
+                         f"point first, e.g. ds.sel({name}={ds[name].values[0]!r})")
     if f"setting_{name}" in ds.attrs:
         return ds.attrs[f"setting_{name}"]
     if f"param_{name}" in ds.attrs:
         return ds.attrs[f"param_{name}"]
-    if name in ds.coords and ds[name].ndim == 0:
-        return ds[name].item()
     if name in ds.coords:
         raise ValueError(f"{name!r} is swept in this file ({ds[name].size} values along its axis); select one "
                          f"point first, e.g. ds.sel({name}={ds[name].values[0]!r})")

@@ -11,8 +11,11 @@ study, was made by the same code.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
+import logging
 import pathlib
 import tempfile
+from typing import Any
 
 import xarray as xr
 
@@ -22,6 +25,9 @@ from rimroll.study.dataset import global_attrs
 from rimroll.study.parts import PartStore
 from rimroll.study.plan import Plan
 from rimroll.study.progress import ProgressLine
+from rimroll.study.registry import UserError
+
+log = logging.getLogger(__name__)
 
 
 def file_attrs(plan: Plan, command: str, device: str | None = None) -> dict:
@@ -34,28 +40,55 @@ def file_attrs(plan: Plan, command: str, device: str | None = None) -> dict:
     return attrs
 
 
+@dataclasses.dataclass(frozen=True)
+class Cluster:
+    """Where the chunks of a run are computed: an existing dask ``client``, else a cluster opened for
+    the run: the one at ``scheduler`` or named by ``scheduler_file``, or ``workers`` local threads.
+    ``timeout`` bounds every wait on a cluster (``study run --timeout``)."""
+
+    client: Any = None
+    workers: int | None = None
+    scheduler: str | None = None
+    scheduler_file: str | None = None
+    timeout: float = fanout.DEFAULT_TIMEOUT
+
+    @property
+    def remote(self) -> bool:
+        return bool(self.client is not None or self.scheduler or self.scheduler_file)
+
+    def open(self, gpu: bool):
+        if self.client is not None:
+            return contextlib.nullcontext(self.client)
+        return fanout.client(self.workers, self.scheduler, self.timeout, gpu=gpu, scheduler_file=self.scheduler_file)
+
+
 def produce(plan: Plan, store: PartStore, nc, command: str, *, extra_attrs=None, client=None,
             workers: int | None = None, scheduler: str | None = None,
-            timeout: float = fanout.DEFAULT_TIMEOUT, progress: bool = False) -> fanout.RunStats:
+            timeout: float = fanout.DEFAULT_TIMEOUT, progress: bool = False,
+            cluster: Cluster | None = None) -> fanout.RunStats:
     """Write the result of ``plan`` to ``nc`` (atomically); call with ``store``'s lock held.
 
     Parts of this study's other inputs are deleted (no live run owns them), intact parts of this
-    plan are kept (a resumed run), the missing chunks are computed on ``client`` (else on a
-    cluster opened here: ``workers`` local threads or the one at ``scheduler``), the file is
-    assembled with :func:`file_attrs` plus ``extra_attrs``, and the parts are removed. A plan on
-    the CUDA backend runs one GPU per worker (``fanout.client(gpu=True)``), and its file names the
-    workers' devices.
+    plan are kept (a resumed run), the missing chunks are computed on ``cluster`` (or on
+    ``client``, else on a cluster opened here: ``workers`` local threads or the one at
+    ``scheduler``), the file is assembled with :func:`file_attrs` plus ``extra_attrs``, and the
+    parts are removed. A plan on the CUDA backend runs one GPU per worker
+    (``fanout.client(gpu=True)``), and its file names the workers' devices. The link to the
+    cluster's dashboard is a notice (logging, INFO) for a cluster that is not local threads, and
+    for a local run long enough to announce its plan.
     """
+    cluster = cluster or Cluster(client, workers, scheduler, None, timeout)
     store.sweep_stale()
     done = store.valid(plan.n_chunks, plan.expected)
     todo = [k for k in range(plan.n_chunks) if k not in done]
     runguard.announce(plan, len(todo))
     line = ProgressLine(plan.n_chunks, plan.study.name, resumed=len(done), enabled=progress)
     gpu = plan.backend == "cuda"
-    opened = (contextlib.nullcontext(client) if client is not None
-              else fanout.client(workers, scheduler, timeout, gpu=gpu))
-    with opened as c:
-        stats = fanout.run(plan, store, todo, c, line, timeout=timeout)
+    with cluster.open(gpu) as c:
+        link = fanout.dashboard(c) if todo and (cluster.remote or len(todo) >= runguard.ANNOUNCE_CHUNKS) else None
+        if link:
+            log.info("%s: dashboard of the cluster at %s", plan.study.name, link)
+        stats = fanout.run(plan, store, todo, c, line, timeout=cluster.timeout)
         device = fanout.devices(c) if gpu else None
     assemble(plan, store, nc, {**file_attrs(plan, command, device), **(extra_attrs or {})})
     store.remove()
@@ -71,3 +104,62 @@ def compute(plan: Plan, command: str, workers: int | None = None) -> xr.Dataset:
         with store.lock():
             produce(plan, store, nc, command, workers=workers)
         return io.open_result(nc)
+
+
+@dataclasses.dataclass(frozen=True)
+class Outcome:
+    """What :func:`run_to_file` did: the file, and the run's statistics (None: the file already held
+    this very run, and was reused)."""
+
+    path: pathlib.Path
+    stats: fanout.RunStats | None
+
+
+def run_to_file(plan: Plan, out, command: str, cluster: Cluster, *, force: bool = False,
+                progress: bool = False) -> Outcome:
+    """``study run`` and :func:`rimroll.run`: ``<out>/<name>.nc`` of ``plan``, by the fingerprint rule.
+
+    A file of this plan's fingerprint is reused (``study.reuse``); one of other inputs is a
+    :class:`UserError` unless ``force``; an unreadable one is recomputed. Otherwise, holding the
+    output's lock (``study.parts``; a second run into the same file is refused), the parts of an
+    interrupted run of the same inputs are resumed and the rest computed (:func:`produce`).
+    """
+    out = pathlib.Path(out)
+    runguard.check_out(out)
+    nc = out / f"{plan.study.name}.nc"
+    request = file_attrs(plan, command)
+    sizes = {a.name: a.values.size for a in plan.axes}
+    store = PartStore(out, plan.study.name, plan.fingerprint)
+    if not force and _reusable(plan, nc, request, sizes):
+        _tidy(store)
+        return Outcome(nc, None)
+    with store.lock(), runguard.saved_on_stop(store, plan):
+        if not force and _reusable(plan, nc, request, sizes, quiet=True):
+            return Outcome(nc, None)  # a run that held the lock just finished it
+        stats = produce(plan, store, nc, command, progress=progress, cluster=cluster)
+    return Outcome(nc, stats)
+
+
+def _reusable(plan: Plan, nc: pathlib.Path, request: dict, sizes: dict, quiet: bool = False) -> bool:
+    """True if ``nc`` is this very run; False if it must be (re)computed; UserError if it holds
+    another run (the fingerprint rule of ``study.reuse``)."""
+    found = reuse.inspect(nc, plan.fingerprint, request, sizes)
+    if found.state == "different":
+        raise UserError(f"{nc} holds another run of {plan.study.name} ({found.detail}); use --force to replace "
+                        "it (it is kept until the new file is complete), or another --out")
+    if found.state == "unreadable" and not quiet:
+        log.warning("%s is not a readable result (%s); recomputing it", nc, found.detail)
+    return found.state == "same"
+
+
+def _tidy(store: PartStore) -> None:
+    """The result is complete: parts of this study left by a run killed during its cleanup, or by
+    killed runs of other inputs, belong to no live run; delete them unless a run holds the lock."""
+    if not store.root.is_dir():
+        return
+    try:
+        with store.lock():
+            store.sweep_stale()
+            store.remove()
+    except UserError:  # another run of this study into this --out is live: leave its parts alone
+        pass

@@ -2,16 +2,18 @@
 
 One code path for both cases: locally an in-process cluster of threads (the kernels release
 the GIL; ``--workers N`` threads, default one per core), or an existing cluster reached with
-``--scheduler ADDRESS``. Tasks are :func:`study.plan.compute_chunk` on a picklable
-:class:`study.plan.ChunkJob`. At most a small window of tasks is in flight; each result is
-written to disk as it completes (``as_completed``) and dropped, so memory holds a few chunks
-whatever the size of the cube.
+``--scheduler ADDRESS`` or ``--scheduler-file PATH`` (or a client passed to ``rimroll.run``).
+Every connection, the probe of the address included, uses dask's ``Security`` from the dask
+configuration (:func:`security`), so a ``tls://`` scheduler works as a ``tcp://`` one. Tasks are
+:func:`study.plan.compute_chunk` on a picklable :class:`study.plan.ChunkJob`, which carries the
+client's code digest: a worker running other code refuses it (``study.plan.check_digest``). At
+most a small window of tasks is in flight; each result is written to disk as it completes and
+dropped, so memory holds a few chunks whatever the size of the cube.
 
 With the CUDA backend (a study's ``backend`` setting) each worker process uses one GPU: locally
 one single-threaded worker per visible GPU (processes when there are several), on a
-``--scheduler`` cluster whatever workers it has; ``study.gpu_workers`` gives worker number i the
-device i (modulo the devices it sees). A worker started with one device visible
-(``CUDA_VISIBLE_DEVICES``, as dask-cuda does) uses that one.
+``--scheduler`` cluster whatever workers it has; ``study.gpu_workers`` picks each worker's device
+(rimroll's local workers by their number, a dask-cuda worker device 0 of the devices it was given).
 
 Every wait is bounded by ``timeout`` seconds (``study run --timeout``): a ``--scheduler`` address
 must answer dask's identity call in that time (an HTTP server, a socket that never answers or
@@ -50,17 +52,51 @@ def check_address(scheduler: str | None) -> None:
     except (ValueError, TypeError):
         ok = False
     if not ok:
-        raise UserError(f"--scheduler {scheduler!r} is not an address of the form tcp://HOST:PORT")
+        raise UserError(f"--scheduler {scheduler!r} is not an address of the form tcp://HOST:PORT (or tls://...)")
+
+
+def security():
+    """dask's :class:`distributed.security.Security` of the dask configuration (``distributed.comm.tls``:
+    CA file, client certificate and key, ``require-encryption``), which every connection of a run uses."""
+    from distributed.security import Security
+
+    return Security()
+
+
+def scheduler_address(path: str, timeout: float) -> str:
+    """The address in the scheduler file ``path`` (``dask scheduler --scheduler-file``, dask-jobqueue,
+    dask-mpi), waiting up to ``timeout`` s for the file to appear; UserError otherwise."""
+    import json
+    import pathlib
+
+    file = pathlib.Path(path)
+    deadline = time.monotonic() + timeout
+    while True:
+        try:
+            address = json.loads(file.read_text())["address"]
+            if isinstance(address, str) and address:
+                return address
+            raise ValueError("no address")
+        except FileNotFoundError:
+            if time.monotonic() > deadline:
+                raise UserError(f"no scheduler file at {path} after {timeout:g} s") from None
+        except (OSError, ValueError, KeyError, TypeError) as exc:
+            if time.monotonic() > deadline:
+                raise UserError(f"--scheduler-file {path} is not a dask scheduler file ({exc})") from None
+        time.sleep(POLL)
 
 
 def _identity(address: str, timeout: float) -> dict:
-    """The scheduler's answer to dask's ``identity`` call, all of it within ``timeout`` seconds."""
+    """The scheduler's answer to dask's ``identity`` call, all of it within ``timeout`` seconds, over a
+    connection made with the configured :func:`security` (TLS for ``tls://``)."""
     import asyncio
 
     from distributed.comm import connect
 
+    args = security().get_connection_args("client")
+
     async def ask():
-        comm = await connect(address, timeout=timeout)
+        comm = await connect(address, timeout=timeout, **args)
         try:
             await comm.write({"op": "identity"})
             return await comm.read()
@@ -127,10 +163,11 @@ def devices(c) -> str:
 
 @contextlib.contextmanager
 def client(workers: int | None = None, scheduler: str | None = None, timeout: float = DEFAULT_TIMEOUT,
-           gpu: bool = False):
-    """A dask.distributed Client: the cluster at ``scheduler`` (which must answer and have a worker
-    within ``timeout`` s), else threads in this process. ``gpu``: the run uses the CUDA backend,
-    one GPU per worker (``study.gpu_workers.OneGPUPerWorker``; locally one worker per GPU)."""
+           gpu: bool = False, scheduler_file: str | None = None):
+    """A dask.distributed Client: the cluster at ``scheduler`` or named by ``scheduler_file`` (which
+    must answer and have a worker within ``timeout`` s; connections use the configured
+    :func:`security`), else threads in this process. ``gpu``: the run uses the CUDA backend, one
+    GPU per worker (``study.gpu_workers.OneGPUPerWorker``; locally one worker per GPU)."""
     from distributed import Client, LocalCluster
 
     from rimroll.study.gpu_workers import OneGPUPerWorker
@@ -138,11 +175,13 @@ def client(workers: int | None = None, scheduler: str | None = None, timeout: fl
     for name in ("distributed", "distributed.scheduler", "distributed.nanny"):
         logging.getLogger(name).setLevel(logging.ERROR)
     logging.getLogger("distributed.worker").setLevel(logging.CRITICAL)  # the client re-raises task errors
+    if scheduler_file:
+        scheduler = scheduler_address(scheduler_file, timeout)
     if scheduler:
         check_address(scheduler)
         probe_scheduler(scheduler, timeout)
         try:
-            c = Client(scheduler, timeout=timeout)
+            c = Client(scheduler, timeout=timeout, security=security())
         except (OSError, TimeoutError, ValueError) as exc:
             raise UserError(f"cannot connect to the dask scheduler at {scheduler}: {exc}") from None
         with c:
@@ -154,18 +193,28 @@ def client(workers: int | None = None, scheduler: str | None = None, timeout: fl
                 c.register_plugin(OneGPUPerWorker())
             yield c
         return
+    # the dashboard on a free port of the loopback address: 8787 may be taken, and a run's
+    # dashboard is for the one who started it
+    local = {"dashboard_address": "127.0.0.1:0", "memory_limit": 0}
     if gpu:
         n = gpu_workers(workers)
-        with LocalCluster(n_workers=n, threads_per_worker=1, processes=n > 1, dashboard_address=":0",
-                          memory_limit=0) as cluster, Client(cluster) as c:
-            c.register_plugin(OneGPUPerWorker())
+        where = {"processes": True, "host": "127.0.0.1"} if n > 1 else {"processes": False}
+        with LocalCluster(n_workers=n, threads_per_worker=1, **where, **local) as cluster, Client(cluster) as c:
+            c.register_plugin(OneGPUPerWorker(local=True))
             yield c
         return
     threads = workers or os.cpu_count() or 1
-    # dashboard on a free port: the default 8787 may be taken (a warning per run otherwise)
-    with LocalCluster(n_workers=1, threads_per_worker=threads, processes=False, dashboard_address=":0",
-                      memory_limit=0) as cluster, Client(cluster) as c:
+    with LocalCluster(n_workers=1, threads_per_worker=threads, processes=False, **local) as cluster, \
+            Client(cluster) as c:
         yield c
+
+
+def dashboard(c) -> str | None:
+    """The link to the dashboard of client ``c``'s scheduler, or None when it has none."""
+    try:
+        return c.dashboard_link or None
+    except Exception:  # noqa: BLE001  a scheduler without an HTTP server
+        return None
 
 
 def _workers(c) -> int:

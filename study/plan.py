@@ -20,6 +20,7 @@ import inspect
 import json
 import math
 import pathlib
+import re
 
 import numpy as np
 
@@ -30,6 +31,7 @@ from rimroll.study.registry import PHYSICAL_KEYS, Axis, Study, UserError
 from rimroll.study.settings import base_settings, params_from, resolve
 
 DEFAULT_CHUNK = 64  # points per chunk along the first grid axis when the study does not say
+STORAGE_VALUES = 2**20  # values per on-disk chunk, at most: 1 MiB of int8 ... 8 MiB of float64
 
 
 @dataclasses.dataclass(frozen=True)
@@ -42,6 +44,11 @@ class ChunkJob:
     params: solver.Params
     grid: tuple  # 1-D coordinate arrays of the chunk's grid block, one per grid axis
     n_outer: int
+    digest: str = ""  # the client's code_digest of the study: a worker running other code refuses the job
+
+
+class CodeMismatch(UserError):
+    """A worker's code differs from the client's (another rimroll on its path): it refuses the chunk."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -78,8 +85,14 @@ class Plan:
 
     @property
     def nc_chunks(self) -> tuple[int, ...]:
-        """netCDF chunk shape of a full-cube variable (= a full compute chunk)."""
+        """Compute chunk shape of a full-cube variable (outer axes by 1, then the grid block)."""
         return (1,) * len(self.outer) + tuple(self.block)
+
+    @functools.cached_property
+    def storage(self) -> tuple[int, ...]:
+        """On-disk (netCDF) chunk shape of a full-cube variable: about :data:`STORAGE_VALUES` values,
+        each length a multiple or a divisor of the compute chunk's (:func:`storage_chunks`)."""
+        return storage_chunks(self.shape, self.nc_chunks)
 
     def region(self, k: int) -> tuple[slice, ...]:
         """Slices of the full cube covered by chunk ``k``."""
@@ -114,26 +127,73 @@ class Plan:
         region = self.region(k)
         s, params = self.settings_at(k)
         grid = tuple(a.values[sl] for a, sl in zip(self.grid, region[len(self.outer):]))
-        return ChunkJob(self.study.name, k, s, params, grid, len(self.outer))
+        return ChunkJob(self.study.name, k, s, params, grid, len(self.outer), self.digest)
+
+    @functools.cached_property
+    def digest(self) -> str:
+        """:func:`code_digest` of the study on this machine, carried by every :class:`ChunkJob`."""
+        return code_digest(self.study)
 
     @functools.cached_property
     def fingerprint(self) -> str:
-        """16 hex digits: study, settings, Params, axes, variables, chunking and code version."""
+        """16 hex digits: study, settings, Params, axes, variables, chunking, the release of rimroll and the
+        code digest."""
         h = hashlib.sha256()
 
         def put(obj):
             h.update(json.dumps(obj, sort_keys=True, default=repr).encode())
 
         put({"study": self.study.name, "settings": {k: repr(v) for k, v in self.settings.items()},
-             "params": self.params.as_dict(), "block": list(self.block), "rimroll": rimroll_version(),
+             "params": self.params.as_dict(), "block": list(self.block), "rimroll": release(rimroll_version()),
              "variables": [(v.name, v.dtype, v.outer) for v in self.study.variables]})
         for a in self.axes:
             put([a.name, a.units, sorted(a.aux)])
             h.update(np.ascontiguousarray(a.values).tobytes())  # float64 numbers or string labels
             for values, *_ in a.aux.values():
                 h.update(np.ascontiguousarray(values).tobytes())
-        h.update(code_digest(self.study).encode())
+        h.update(self.digest.encode())
         return h.hexdigest()[:16]
+
+
+def storage_chunks(shape: tuple[int, ...], block: tuple[int, ...], target: int | None = None) -> tuple[int, ...]:
+    """On-disk chunk shape for a variable of ``shape`` computed in chunks of ``block``: at most
+    ``target`` values (default :data:`STORAGE_VALUES`; more only when a single row along the last
+    dimension is more), as close to it as the shape allows.
+
+    Each length is a multiple of the compute block's along that dimension (small compute chunks,
+    e.g. the one point of an outer axis: storage chunks span several, from the last dimension
+    on) or a divisor of it (a compute chunk larger than ``target``, e.g. a whole GPU section:
+    split from the first dimension on), or the whole dimension. So a storage chunk never straddles
+    two compute chunks partly, and the assembly writes whole storage chunks (``study.assemble``).
+    """
+    target = STORAGE_VALUES if target is None else target
+    sb = [max(1, min(int(b), int(n))) for b, n in zip(block, shape)]
+    for d in range(len(sb)):  # too large: split the first dimensions into divisors of their block
+        rest = math.prod(sb) // sb[d]
+        if rest * sb[d] <= target:
+            break
+        bound = max(1, target // rest)
+        sb[d] = max(k for k in _divisors(sb[d]) if k <= bound)
+    for d in reversed(range(len(sb))):  # too small: grow the last dimensions by multiples of their block
+        size = math.prod(sb)
+        if size * 2 > target:
+            break
+        if sb[d] < shape[d]:
+            sb[d] = min(int(shape[d]), sb[d] * max(1, target // size))
+    return tuple(sb)
+
+
+def _divisors(n: int) -> list[int]:
+    small = [k for k in range(1, math.isqrt(n) + 1) if n % k == 0]
+    return sorted({*small, *(n // k for k in small)})
+
+
+def release(version: str) -> str:
+    """The release part of a version, '0.1' of '0.1.dev173+g1a2b3c4.d20260101': what the fingerprint
+    keeps of it (between releases the code digest tells the code apart, so a new commit of the
+    documentation does not make every result another run)."""
+    match = re.match(r"\d+(\.\d+)*", version)
+    return match.group(0) if match else version
 
 
 def code_digest(study: Study) -> str:
@@ -195,6 +255,34 @@ def make_plan(study: Study, quick: bool = False, sets=(), local: bool = True) ->
     return plan
 
 
+def _narrowed(values: np.ndarray, dtype: str, name: str) -> np.ndarray:
+    """``values`` as ``dtype``; an integer that does not fit the stored integer type is an error, not a
+    wrapped number (int64 counts are stored as int32, ``registry.output_var``)."""
+    kind = np.dtype(dtype)
+    if kind.kind in "iu" and values.dtype.kind in "iu" and values.size:
+        info = np.iinfo(kind)
+        if values.min() < info.min or values.max() > info.max:
+            raise OverflowError(f"variable {name!r}: values {values.min()}..{values.max()} do not fit its {dtype}")
+    return values.astype(kind)
+
+
+def check_digest(study: Study, expected: str) -> None:
+    """:class:`CodeMismatch` (one line naming both digests and the worker) unless this process's
+    :func:`code_digest` of ``study`` is ``expected``, the client's."""
+    mine = code_digest(study)
+    if mine == expected:
+        return
+    try:
+        from distributed import get_worker
+
+        where = f"worker {get_worker().address}"
+    except (ImportError, ValueError):  # not inside a dask worker
+        where = "this process"
+    raise CodeMismatch(f"{where} refuses chunks of {study.name}: its code digest {mine[:16]} differs from the "
+                       f"client's {expected[:16]} (another rimroll or solver on the worker's path); run the "
+                       "same code on every worker")
+
+
 def compute_chunk(job: ChunkJob) -> dict[str, np.ndarray]:
     """Run the study's ``compute`` on one chunk; arrays shaped like the chunk's region.
 
@@ -204,6 +292,8 @@ def compute_chunk(job: ChunkJob) -> dict[str, np.ndarray]:
     from rimroll.study import registry
 
     study = registry.get(job.study)
+    if job.digest:
+        check_digest(study, job.digest)
     coords = np.meshgrid(*job.grid, indexing="ij") if job.grid else []
     grid_shape = tuple(g.size for g in job.grid)
     out = study.compute(coords, job.params, job.settings)
@@ -212,10 +302,10 @@ def compute_chunk(job: ChunkJob) -> dict[str, np.ndarray]:
         if var.name not in out:
             raise KeyError(f"study {study.name!r}: compute returned no {var.name!r}")
         shape = () if var.outer else grid_shape
-        values = np.broadcast_to(np.asarray(out[var.name]), shape).astype(var.dtype)
+        values = _narrowed(np.broadcast_to(np.asarray(out[var.name]), shape), var.dtype, var.name)
         # np.array, not np.ascontiguousarray: that one turns a 0-d result (no swept axis) into shape (1,)
         result[var.name] = np.array(values.reshape((1,) * job.n_outer + shape), order="C")
     return result
 
 
-__all__ = ["ChunkJob", "Plan", "compute_chunk", "make_plan", "PHYSICAL_KEYS"]
+__all__ = ["ChunkJob", "CodeMismatch", "Plan", "check_digest", "compute_chunk", "make_plan", "PHYSICAL_KEYS"]

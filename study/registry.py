@@ -158,7 +158,10 @@ def output_var(name: str, **changes) -> Var:
     from rimroll.solver.engine.outputs import output
 
     item = output(name)
-    fields = dict(name=item.name, units=item.units, long_name=item.long_name, dtype=item.dtype,
+    # the files follow CF-1.8, whose netCDF types have no 64-bit integers: the kernels' int64 counts
+    # (steps of one lane, far below 2**31) are stored as int32 (study.plan.compute_chunk checks the range)
+    dtype = "int32" if item.dtype == "int64" else item.dtype
+    fields = dict(name=item.name, units=item.units, long_name=item.long_name, dtype=dtype,
                   flag_values=item.flag_values, flag_meanings=item.flag_meanings, standard_name=item.standard_name,
                   comment=item.comment or None, tolerance=item.tolerance, compared=item.compared)
     return Var(**{**fields, **changes})

@@ -7,14 +7,16 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import logging
 import os
 import pathlib
-import sys
 import tempfile
 
 import numpy as np
 
 from rimroll.study.registry import UserError
+
+log = logging.getLogger(__name__)
 
 ANNOUNCE_CHUNKS = 100  # runs of at least this many chunks print their plan before starting
 
@@ -90,26 +92,31 @@ def _space(directory: pathlib.Path) -> str:
     return ", ".join(parts) or "disk full or a file size limit?"
 
 
+def _say(text: str, stream=None) -> None:
+    """A notice: on ``stream`` when given, else a logging record at INFO (``rimroll._messages``)."""
+    if stream is None:
+        log.info("%s", text)
+        return
+    stream.write(f"study: {text}\n")
+    stream.flush()
+
+
 def announce(plan, n_todo: int, stream=None) -> None:
-    """One stderr line with the plan of a run of at least :data:`ANNOUNCE_CHUNKS` chunks to do."""
+    """One notice with the plan of a run of at least :data:`ANNOUNCE_CHUNKS` chunks to do."""
     if n_todo < ANNOUNCE_CHUNKS:
         return
-    stream = stream or sys.stderr
     points = int(np.prod(plan.shape, dtype=float))
-    stream.write(f"study: {plan.study.name}: {n_todo} of {plan.n_chunks} chunks to compute, {points:.3g} grid "
-                 f"points; an estimate of the time follows the first chunks (Ctrl-C stops, a rerun resumes)\n")
-    stream.flush()
+    _say(f"{plan.study.name}: {n_todo} of {plan.n_chunks} chunks to compute, {points:.3g} grid "
+         f"points; an estimate of the time follows the first chunks (Ctrl-C stops, a rerun resumes)", stream)
 
 
 def estimate(plan, seconds_per_chunk: float, n_left: int, threads: int, stream=None) -> None:
-    """One stderr line with the time left, printed once when it exceeds a minute."""
+    """One notice with the time left, said once when it exceeds a minute."""
     total = seconds_per_chunk * n_left / max(threads, 1)
     if total < 60:
         return
-    stream = stream or sys.stderr
-    stream.write(f"study: {plan.study.name}: about {_duration(total)} left for {n_left} chunks "
-                 f"({seconds_per_chunk:.2g} s per chunk on {threads} threads)\n")
-    stream.flush()
+    _say(f"{plan.study.name}: about {_duration(total)} left for {n_left} chunks "
+         f"({seconds_per_chunk:.2g} s per chunk on {threads} threads)", stream)
 
 
 def _duration(seconds: float) -> str:
@@ -121,7 +128,9 @@ def _duration(seconds: float) -> str:
 
 
 def status_summary(nc: pathlib.Path) -> str | None:
-    """A line counting the lanes whose ``status`` is not ok (flag 0), by meaning; None if all ok."""
+    """A line counting the lanes whose ``status`` is not ok (flag 0), by meaning; None if all ok.
+    ``study run`` prints it as ``study: warning: ...``, ``rimroll.run`` warns with it
+    (:class:`rimroll.LaneStatusWarning`)."""
     import xarray as xr
 
     with xr.open_dataset(nc, engine="netcdf4", chunks={}) as ds:
@@ -140,5 +149,4 @@ def status_summary(nc: pathlib.Path) -> str | None:
     detail = ", ".join(f"{n} {names.get(v, f'status {v}')}" for v, n in sorted(bad.items()))
     if n_bad > sum(bad.values()):  # codes the file's flag_values do not name
         detail = ", ".join(filter(None, [detail, f"{n_bad - sum(bad.values())} of unknown status"]))
-    return (f"study: warning: {n_bad} of {total} lanes of {nc} did not finish ok ({detail}); "
-            "see the variable 'status'")
+    return f"{n_bad} of {total} lanes of {nc} did not finish ok ({detail}); see the variable 'status'"

@@ -2,6 +2,11 @@
 
 from __future__ import annotations
 
+import os
+import pathlib
+import re
+import sys
+
 import pytest
 
 STEADY_STUDIES = ("fig3", "fig5", "fig6", "fig7", "fig8")
@@ -16,3 +21,19 @@ def quick_results(tmp_path_factory):
     for name in STEADY_STUDIES:
         assert main(["run", name, "--quick", "--out", str(out), "--no-progress"]) == 0
     return out
+
+
+PROBE = pathlib.Path(__file__).with_name("fanout_probe.py")
+
+
+@pytest.fixture
+def probe_study(monkeypatch):
+    """The test-only ``fanout-probe`` study (tests/fanout_probe.py), registered in this process for the
+    test only: afterwards the registry again holds rimroll's own studies (tests/test_docs.py)."""
+    from rimroll.study import registry
+
+    monkeypatch.setenv(registry.PLUGIN_ENV, str(PROBE))
+    monkeypatch.delenv("FANOUT_PROBE_FAIL_MU", raising=False)
+    yield registry.get("fanout-probe")
+    registry._REGISTRY.pop("fanout-probe", None)
+    sys.modules.pop("rimroll_plugin_" + re.sub(r"\W", "_", os.path.abspath(PROBE)), None)

@@ -48,10 +48,11 @@ def _log_lines(path) -> list[str]:
 
 
 def _assert_same_data(a, b):
-    """Same coordinates, data variables and variable attributes (global provenance may differ)."""
+    """Same coordinates, data variables and variable attributes (global provenance may differ, and so
+    may the scalar coordinates of settings that do not change the numbers, such as the probe's delay)."""
     with xr.open_dataset(a) as x, xr.open_dataset(b) as y:
         assert list(x.dims) == list(y.dims) and set(x.data_vars) == set(y.data_vars)
-        for name in [*x.coords, *x.data_vars]:
+        for name in [*(c for c in x.coords if x[c].ndim), *x.data_vars]:
             assert x[name].dtype == y[name].dtype, name
             np.testing.assert_array_equal(x[name].values, y[name].values, err_msg=name)
             assert x[name].attrs.keys() == y[name].attrs.keys(), name
@@ -226,7 +227,8 @@ def test_cube_opens_lazily_chunked_along_swept_axes(tmp_path):
     assert _run(tmp_path, "--quick", name="realisable-cube") == 0
     with xr.open_dataset(tmp_path / "realisable-cube.nc", chunks={}) as ds:
         assert list(ds.region.dims) == ["mu", "v_throw", "j", "rho_over_R", "beta0", "omega30"]
-        assert ds.region.data.chunksize == (1, 1, 1, 1, 121, 80)
+        # stored in chunks of about a million values, so several outer points a chunk (computed one by one)
+        assert ds.region.data.chunksize == (2, 3, 2, 2, 121, 80)
         one = ds.region.sel(mu=1.0, v_throw=10.0, j=2 / 3, rho_over_R=ds.rho_over_R[-1])
         assert one.data.npartitions == 1
         area = float(ds.area_A.sel(mu=1.0, v_throw=10.0, j=2 / 3, rho_over_R=ds.rho_over_R[-1]))

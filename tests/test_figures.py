@@ -260,7 +260,7 @@ def test_invariants_and_solution_types_speak_plainly(tmp_path):
     inv = _run(tmp_path, "invariants")
     texts = P.legend_texts(get("invariants").plot(inv))
     assert texts and not any("trajectory" in t for t in texts)
-    b0 = inv["beta_t"].isel(time=0).values
+    b0 = inv["beta_t"].isel(t=0).values
     assert all(any(f"{b:.3f}" in t for t in texts) for b in b0)
     types = _run(tmp_path, "solution-types")
     ax = get("solution-types").plot(types).axes[0]

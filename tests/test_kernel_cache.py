@@ -66,23 +66,31 @@ def test_result_fingerprints_cover_every_room_of_the_solver(monkeypatch):
     assert plan.code_digest(study) != before
 
 
-def test_a_first_compile_is_announced_on_stderr_once(monkeypatch, capsys):
+def test_a_first_compile_is_announced_once(monkeypatch, caplog):
+    """A notice at INFO under the logger 'rimroll' (tests/test_api.py: on stderr until the application
+    configures logging, silenced by logging.getLogger('rimroll').setLevel(logging.WARNING))."""
     import importlib
+    import logging
 
     simulate_module = importlib.import_module("rimroll.solver.engine.simulate")  # the module, not the function
 
     monkeypatch.setattr(simulate_module, "kernels_cached", lambda scene=None: False)
     monkeypatch.setattr(simulate_module, "_announced", set())
     x = [[1.1, 2.0, 35.0, 10.0]]
+
+    def notices():
+        found = [r for r in caplog.records if "first run only" in r.getMessage()]
+        assert all(r.levelno == logging.INFO and r.name.startswith("rimroll.solver") for r in found)
+        caplog.clear()
+        return [r.getMessage() for r in found]
+
     solver.simulate(x, solver.Params(mu=float("inf")), t_max=0.1)
     solver.simulate(x, solver.Params(mu=float("inf")), t_max=0.1)
-    err = capsys.readouterr().err
-    assert err.count("first run only") == 1
-    assert "rolling scene" in err
-    assert str(_jit.cache_dir()) in err
+    said = notices()
+    assert len(said) == 1 and "rolling scene" in said[0] and str(_jit.cache_dir()) in said[0]
     solver.simulate(x, solver.Params(mu=1.0), t_max=0.1)  # another scene: its own line
-    err = capsys.readouterr().err
-    assert err.count("first run only") == 1 and "hybrid scene" in err
+    said = notices()
+    assert len(said) == 1 and "hybrid scene" in said[0]
 
 
 def test_the_cache_index_of_the_scene_kernel_is_found_after_a_run():

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import pathlib
 import shutil
 import subprocess
@@ -24,33 +23,57 @@ def _git_head() -> str | None:
     return out.stdout.strip() or None
 
 
-def test_build_records_the_git_revision_of_the_source_tree(tmp_path):
-    """setup.py's build_py writes rimroll/study/_build_info.json, what an installed build reads."""
+def test_a_build_records_the_version_and_git_revision_of_its_source_tree(tmp_path):
+    """setuptools-scm writes rimroll/_version.py into a build (pyproject.toml [tool.setuptools_scm]):
+    the version from git and the commit, which git_revision of an installed build reads. Built as CI
+    builds: from a clean clone with its history."""
+    import importlib.util
+    import zipfile
+
     head = _git_head()
     if head is None:
         pytest.skip("not a git checkout")
-    subprocess.run([sys.executable, "setup.py", "-q", "build_py", "--build-lib", str(tmp_path)], cwd=ROOT,
-                   check=True, capture_output=True)
-    info = json.loads((tmp_path / "rimroll" / "study" / "_build_info.json").read_text())
-    assert info["git_revision"].removesuffix("-dirty") == head
-    assert (tmp_path / "rimroll" / "solver" / "__init__.py").is_file()  # a normal build otherwise
-    assert not (tmp_path / "solver").exists()  # nothing named solver at the top
+    src = tmp_path / "clone"
+    subprocess.run(["git", "clone", "-q", str(ROOT), str(src)], check=True, capture_output=True, timeout=120)
+    local = all(importlib.util.find_spec(m) for m in ("setuptools", "setuptools_scm", "wheel"))  # else isolated
+    build = subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(tmp_path / "dist"),
+                            *(["--no-build-isolation"] if local else []), str(src)],
+                           capture_output=True, text=True, timeout=600)
+    assert build.returncode == 0, build.stderr
+    wheel = next((tmp_path / "dist").glob("rimroll-*.whl"))
+    with zipfile.ZipFile(wheel) as z:
+        names = set(z.namelist())
+        record: dict = {}
+        exec(z.read("rimroll/_version.py").decode(), record)
+    assert record["version"] == wheel.name.split("-")[1] and not record["dirty"]
+    assert head.startswith(record["commit"].removeprefix("g")) and len(record["commit"]) >= 8
+    assert {"rimroll/py.typed", "rimroll/solver/__init__.py", "rimroll/study/reference_slices/fig8.nc"} <= names
+    assert not any(n.startswith(("solver/", "study/", "workflows/")) for n in names)  # nothing else at the top
 
 
-def test_an_installed_build_reports_its_build_revision(tmp_path, monkeypatch):
-    info = tmp_path / "_build_info.json"
-    info.write_text(json.dumps({"git_revision": "0123abc"}))
-    monkeypatch.setattr(dataset, "BUILD_INFO", info)
+def test_an_installed_build_reports_its_build_revision(monkeypatch):
+    import types
+
+    monkeypatch.setitem(sys.modules, "rimroll._version", types.SimpleNamespace(
+        version="0.2.dev3+g0123abc", commit="g0123abc", dirty=True))
+    monkeypatch.setattr(dataset, "_git", lambda *args: None)  # not inside a checkout
     dataset.git_revision.cache_clear()
+    dataset.rimroll_version.cache_clear()
     try:
-        assert dataset.git_revision() == "0123abc"
+        assert dataset.git_revision() == "0123abc-dirty"
+        assert dataset.rimroll_version() == "0.2.dev3+g0123abc"
     finally:
         dataset.git_revision.cache_clear()
+        dataset.rimroll_version.cache_clear()
 
 
-def test_version_is_the_projects_even_from_a_source_tree():
-    text = (ROOT / "pyproject.toml").read_text()
-    assert f'version = "{dataset.rimroll_version()}"' in text
+def test_the_version_comes_from_git_through_the_build():
+    import importlib.metadata
+
+    import rimroll
+
+    assert dataset.rimroll_version() == importlib.metadata.version("rimroll") == rimroll.__version__ != "unknown"
+    assert 'dynamic = ["version"]' in (ROOT / "pyproject.toml").read_text()
 
 
 def test_swept_settings_are_axes_not_attributes(tmp_path):

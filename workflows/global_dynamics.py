@@ -348,7 +348,8 @@ def _inv_axes(s: dict) -> list[Axis]:
         raise ValueError(f"n_trajectories and n_time must be >= 2 and t_max > 0; got {n}, {n_t}, {s['t_max']}")
     return [Axis("trajectory", np.arange(n, dtype=float), "1", "trajectory index",
                  comment="index of the seeded trajectory"),
-            Axis("time", np.linspace(0.0, s["t_max"], n_t), "s", "time")]
+            # "t", not "time": CF reads a dimension named time as a calendar time (units "s since ...")
+            Axis("t", np.linspace(0.0, s["t_max"], n_t), "s", "time")]
 
 
 def initial_states(s: dict, p) -> np.ndarray:
@@ -390,7 +391,7 @@ def _inv_plot(ds):
 
     fig = Figure(figsize=(8.0, 7.0), layout="constrained")
     axes = fig.subplots(3, 1, sharex=True)
-    t = ds["time"].values
+    t = ds["t"].values
     rtol = float(setting_of(ds, "rtol"))
     tiny = 1e-17
     labels = (r"$|\Delta E|/|E_0|$ [-]", r"$|\Delta P_I|/|P_0|$ [-]", r"$|\Delta P_{II}|/|P_0|$ [-]")
@@ -417,8 +418,8 @@ def _inv_plot(ds):
 
 def state_label(sel) -> str:
     """The initial state of one trajectory of an ``invariants`` file, in words a reader can use."""
-    b = float(sel["beta_t"].isel(time=0))
-    w1 = float(sel["omega1_t"].isel(time=0))
+    b = float(sel["beta_t"].isel(t=0))
+    w1 = float(sel["omega1_t"].isel(t=0))
     return rf"$\beta_0$={b:.3f} rad, $\omega_1$={w1:+.3f} 1/s"
 
 
@@ -444,6 +445,6 @@ register(Study(
     plot=_inv_plot,
     chunks={"trajectory": 1},
     # scipy DOP853 at rtol 1e-12 against the default 1e-10, every 10th output time of the default grid
-    reference=ReferenceSpec({"trajectory": 6, "time": 41}, precise=("rtol=1e-12", "atol=1e-14"),
+    reference=ReferenceSpec({"trajectory": 6, "t": 41}, precise=("rtol=1e-12", "atol=1e-14"),
                             method="scipy DOP853 (solver.analysis.trajectory)"),
 ))

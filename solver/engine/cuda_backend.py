@@ -210,13 +210,13 @@ def compile_kernel(scene: Scene, method: str) -> None:
 
 
 def _announce(scene: Scene, method: str) -> None:
-    """One line on stderr before a kernel's first compile in this process: a long silence otherwise."""
-    import sys
+    """One notice (logging, INFO, logger ``rimroll.solver...``) before a kernel's first compile in this process:
+    a long silence otherwise."""
+    import logging
 
     name = scene.kernel.removeprefix("scene_")
-    sys.stderr.write(f"rimroll: compiling the CUDA kernel of the {name} scene ({method}) for the device, once per "
-                     "process: about a minute\n")
-    sys.stderr.flush()
+    logging.getLogger(__name__).info("compiling the CUDA kernel of the %s scene (%s) for the device, once per "
+                                     "process: about a minute", name, method)
 
 
 def batch_size(m: int, free_bytes: float, max_batch: int | None = None) -> int:

@@ -10,10 +10,10 @@ trajectory).
 
 from __future__ import annotations
 
+import logging
 import math
 import os
 import pathlib
-import sys
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -58,15 +58,16 @@ def kernels_cached(scene: Scene | None = None) -> bool:
 
 
 def _announce_compile(scene: Scene):
-    """One line on stderr before a scene kernel's first compile in this environment: a long silence otherwise."""
+    """One notice (logging, INFO, logger ``rimroll.solver...``) before a scene kernel's first compile in this
+    environment: a long silence otherwise."""
     key = (scene.kernel, tuple(t.name for t in scene.loads))
     if key in _announced or _jit._DISABLE or kernels_cached(scene):
         return
     _announced.add(key)
     name = scene.kernel.removeprefix("scene_") + "".join(f" + {t.name}" for t in scene.loads)
-    sys.stderr.write(f"rimroll: compiling the simulation kernel of the {name} scene, first run only: about "
-                     f"{COLD_COMPILE_S[scene.kernel]} s on 2 cores (cached in {_jit.cache_dir()})\n")
-    sys.stderr.flush()
+    logging.getLogger(__name__).info(
+        "compiling the simulation kernel of the %s scene, first run only: about %s s on 2 cores (cached in %s)",
+        name, COLD_COMPILE_S[scene.kernel], _jit.cache_dir())
 
 
 def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="dp5", *,

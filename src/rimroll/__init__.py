@@ -1,32 +1,61 @@
 """rimroll: nonlinear dynamics of a basketball rolling around the rim.
 
-Three subpackages, each importable on its own (``import rimroll`` loads none of them):
+In a notebook or a script::
+
+    import rimroll
+
+    ds = rimroll.run("fig11", quick=True)          # an xarray.Dataset, with a progress bar
+    ds = rimroll.run("outcome-cube", quick=True, mu=[0.25, 0.5, 1], out="runs")   # a swept cube, in runs/
+    ds = rimroll.open("runs/outcome-cube.nc")       # a result file, opened lazily
+    rimroll.studies()                               # {name: title} of every named study
+
+Three subpackages, each importable on its own (``import rimroll`` loads none of them, nor xarray,
+dask or numba):
 
 * :mod:`rimroll.solver`: the physics and its integration, numpy arrays in and out;
 * :mod:`rimroll.study`: named studies as labelled xarray/netCDF results, dask fan-out, plots and
-  the ``study`` command (``python -m rimroll.study``);
+  the ``study`` command (``python -m rimroll.study``); :func:`run`, :func:`open` and
+  :func:`studies` are :mod:`rimroll.study.api`;
 * :mod:`rimroll.workflows`: the named studies themselves (every figure of the paper, parameter cubes).
 
-The layout and what each part may import: docs/architecture.md.
+Notices go through :mod:`logging` (logger ``"rimroll"``, INFO), results with failed lanes raise a
+:class:`LaneStatusWarning` (:mod:`warnings`). The layout and what each part may import:
+docs/architecture.md.
 """
 
 from __future__ import annotations
 
 import importlib
 from importlib.metadata import PackageNotFoundError, version
+from typing import TYPE_CHECKING
+
+from rimroll._messages import LaneStatusWarning, RimrollWarning, install
 
 try:
     __version__ = version("rimroll")
 except PackageNotFoundError:  # a source tree that was never installed
     __version__ = "0+unknown"
 
-_SUBPACKAGES = ("solver", "study", "workflows")
+install()  # notices at INFO on stderr until the application configures logging (rimroll._messages)
 
-__all__ = ["__version__", *_SUBPACKAGES]
+if TYPE_CHECKING:  # for type checkers and IDEs; at run time they load on first use
+    from rimroll.study.api import open, run, studies
+
+_SUBPACKAGES = ("solver", "study", "workflows")
+_API = ("run", "open", "studies")
+
+__all__ = ["__version__", "LaneStatusWarning", "RimrollWarning", "run", "open", "studies", "solver", "study",
+           "workflows"]
 
 
 def __getattr__(name: str):
-    """``rimroll.solver`` and friends, imported on first use (``import rimroll`` stays cheap)."""
+    """``rimroll.solver``, ``rimroll.run`` and friends, imported on first use (``import rimroll`` stays cheap)."""
     if name in _SUBPACKAGES:
         return importlib.import_module(f"rimroll.{name}")
+    if name in _API:
+        return getattr(importlib.import_module("rimroll.study.api"), name)
     raise AttributeError(f"module 'rimroll' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -1,0 +1,147 @@
+"""rimroll's Python API for studies: :func:`run` one, :func:`open` a result, list the :func:`studies`.
+
+``rimroll.run``, ``rimroll.open`` and ``rimroll.studies`` are these functions. :func:`run` takes the
+path of ``study run``: the settings are resolved and checked by ``study.settings`` (the same
+``--set`` rules: a list or a ``"start:stop:num"`` range of a sweepable setting becomes an axis of
+the cube), the plan carries the run's fingerprint, and ``study.execute.run_to_file`` reuses a file
+of the same fingerprint, resumes the parts of an interrupted run and refuses to overwrite a file
+of other inputs. Notices go through :mod:`logging` (logger ``"rimroll"``), lanes that did not
+finish ok through :mod:`warnings` (:class:`rimroll.LaneStatusWarning`).
+"""
+
+from __future__ import annotations
+
+import os
+import pathlib
+import tempfile
+import warnings
+from collections.abc import Iterable
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from rimroll._messages import LaneStatusWarning
+from rimroll.study import checks, execute, fanout, io, registry, runguard
+from rimroll.study import progress as _progress
+from rimroll.study.plan import make_plan
+from rimroll.study.registry import UserError, natural_order
+
+__all__ = ["open", "run", "studies"]
+
+
+def studies() -> dict[str, str]:
+    """Every named study, ``{name: title}``, in natural order (``fig3 ... fig13``, then the others)."""
+    return {name: registry.get(name).title for name in natural_order(registry.names())}
+
+
+def open(path: str | os.PathLike, lazy: bool = True) -> xr.Dataset:  # noqa: A001  rimroll.open, like xr.open_*
+    """Open a rimroll result file (``study run``, :func:`run` with ``out``).
+
+    ``lazy`` (default): dask-backed in the file's storage chunks, so a cube larger than memory opens
+    at once; close it (or use ``with``) when done. ``lazy=False``: loaded into memory, file closed.
+    Files of every rimroll version open alike; a label axis (``scene``, ``integrator``) is indexed by
+    its labels, ``ds.sel(scene="slipping")``. :class:`UserError` if ``path`` is not a rimroll result.
+    """
+    return io.open_result(pathlib.Path(path), lazy=lazy)
+
+
+def run(name: str, quick: bool = False, out: str | os.PathLike | None = None, client: Any = None, *,
+        force: bool = False, workers: int | None = None, scheduler: str | None = None,
+        scheduler_file: str | os.PathLike | None = None, timeout: float = fanout.DEFAULT_TIMEOUT,
+        progress: bool | None = None, plot: bool = False, **settings: Any) -> xr.Dataset:
+    """Run the named study ``name`` and return its result as an :class:`xarray.Dataset`.
+
+    Parameters
+    ----------
+    name:
+        a study of :func:`studies` (``study list``).
+    quick:
+        the study's coarse settings (``study run --quick``).
+    out:
+        a directory: the result is ``<out>/<name>.nc``, reused when it holds this very run (same
+        fingerprint), resumed from its parts when a run of the same inputs was interrupted, and
+        refused (:class:`UserError`) when it holds another run, unless ``force``; the Dataset is
+        opened lazily from it. None (default): computed in a temporary directory and returned
+        loaded in memory.
+    client:
+        a ``distributed.Client`` to compute the chunks on (a cluster of yours: dask-jobqueue,
+        dask-cuda, ...); its workers must run the same rimroll (a worker with other code refuses
+        the chunks). Else ``scheduler`` (an address), ``scheduler_file``, or ``workers`` local
+        threads (default one per core); ``timeout`` [s] bounds every wait on a cluster.
+    progress:
+        show chunks done / total (a bar in a notebook, a line on stderr in a terminal); default:
+        in a notebook, or when stderr is a terminal. Quiet for the first 2 s.
+    plot:
+        with ``out``, also draw ``<out>/<name>.png`` as ``study run`` does.
+    **settings:
+        the study's settings and physical parameters, as ``study run --set``: a number, a label,
+        a list (a sweep: an outer axis of the cube) or a ``"start:stop:num"`` string (a range),
+        e.g. ``run("outcome-cube", quick=True, mu=[0.5, 1, 2], k_r=0)``.
+
+    Returns
+    -------
+    xarray.Dataset
+        the result: loaded in memory without ``out``, opened lazily from ``<out>/<name>.nc`` with it.
+
+    Raises
+    ------
+    UserError
+        a bad name, setting or cluster (one line, before any work), or another run in ``out``.
+
+    Warns
+    -----
+    LaneStatusWarning
+        when lanes of the result did not finish their integration ok (see its ``status`` variable).
+    """
+    study = registry.get(name)
+    sets = [f"{key}={_word(key, value)}" for key, value in settings.items()]
+    checks.check_workers(workers)
+    remote = bool(client is not None or scheduler or scheduler_file)
+    if workers is not None and remote:
+        raise UserError("workers= is for local runs; a cluster has its own workers")
+    if not (0 < timeout <= 86400):
+        raise UserError(f"timeout must be > 0 and <= 86400 s; got {timeout}")
+    fanout.check_address(scheduler)
+    plan = make_plan(study, quick, sets, local=not remote)
+    command = "rimroll.run(" + ", ".join([repr(name)] + (["quick=True"] if quick else [])
+                                         + [f"{k}={v!r}" for k, v in settings.items()]) + ")"
+    cluster = execute.Cluster(client, workers, scheduler, os.fspath(scheduler_file) if scheduler_file else None,
+                              timeout)
+    shown = _progress.wanted(progress)
+    if out is None:
+        with tempfile.TemporaryDirectory(prefix="rimroll-") as tmp:
+            outcome = execute.run_to_file(plan, tmp, command, cluster, progress=shown)
+            _warn_lanes(outcome.path, f"rimroll.run({name!r})")
+            return io.open_result(outcome.path)
+    outcome = execute.run_to_file(plan, out, command, cluster, force=force, progress=shown)
+    _warn_lanes(outcome.path, str(outcome.path))
+    if plot and study.plot is not None:
+        with io.open_result(outcome.path, lazy=True) as ds:
+            io.write_figure(study.plot(ds), outcome.path.with_suffix(".png"))
+    return io.open_result(outcome.path, lazy=True)
+
+
+def _word(key: str, value: Any) -> str:
+    """A setting's value as the text of ``--set KEY=TEXT``."""
+    if isinstance(value, str):
+        return value
+    if isinstance(value, (bool, np.bool_)):
+        return "true" if value else "false"
+    if isinstance(value, (np.ndarray, list, tuple, range)) or (
+            isinstance(value, Iterable) and not isinstance(value, (bytes, dict))):
+        items = [_word(key, v) for v in value]
+        if len(items) == 1:
+            return items[0]
+        return ",".join(items)
+    if isinstance(value, (int, np.integer)):
+        return str(int(value))
+    if isinstance(value, (float, np.floating)):
+        return repr(float(value))
+    raise UserError(f"setting {key}={value!r}: expected a number, a label, a list or a 'start:stop:num' range")
+
+
+def _warn_lanes(path: pathlib.Path, what: str) -> None:
+    summary = runguard.status_summary(path)
+    if summary:
+        warnings.warn(summary.replace(str(path), what), LaneStatusWarning, stacklevel=3)

@@ -1,0 +1,206 @@
+"""The Python API (issue 25): rimroll.run / open / studies on the path of `study run`, notices through
+logging, lane summaries through warnings, a progress display that works in a notebook.
+
+Most runs use the test-only ``fanout-probe`` study (``tests/fanout_probe.py``) and fig8 --quick.
+"""
+
+from __future__ import annotations
+
+import os
+import pathlib
+import subprocess
+import sys
+import warnings
+
+import numpy as np
+import pytest
+import xarray as xr
+
+import rimroll
+from rimroll.study import registry
+from rimroll.study.cli import main
+from rimroll.study.registry import PLUGIN_ENV, UserError
+
+PROBE = str(pathlib.Path(__file__).with_name("fanout_probe.py"))
+
+
+@pytest.fixture
+def probe(probe_study):
+    return probe_study
+
+
+def _python(code: str, **env) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
+                          env={**os.environ, **env})
+
+
+def test_import_rimroll_loads_no_numerics():
+    run = _python("import sys, rimroll; rimroll.LaneStatusWarning; "
+                  "print(sorted(m for m in ('numpy', 'xarray', 'dask', 'numba', 'rimroll.study') if m in sys.modules))")
+    assert run.returncode == 0 and run.stdout.strip() == "[]", run.stderr
+    assert callable(rimroll.run) and callable(rimroll.open) and "run" in dir(rimroll)
+
+
+def test_studies_lists_every_study_with_its_title():
+    found = rimroll.studies()
+    assert list(found)[:3] == ["fig3", "fig5", "fig6"] and "outcome-cube" in found
+    assert found["fig8"] == registry.get("fig8").title
+
+
+def test_run_in_memory_equals_study_run(tmp_path):
+    assert main(["run", "fig8", "--quick", "--set", "v_throw=7", "--out", str(tmp_path), "--no-progress"]) == 0
+    ds = rimroll.run("fig8", quick=True, v_throw=7, progress=False)
+    assert isinstance(ds, xr.Dataset) and not list(tmp_path.glob(".parts"))
+    with xr.open_dataset(tmp_path / "fig8.nc") as cli:
+        assert ds.attrs["run_fingerprint"] == cli.attrs["run_fingerprint"]
+        for name in ("region", "omega20"):
+            np.testing.assert_array_equal(ds[name].values, cli[name].values)
+    assert ds.attrs["history"].endswith(f"rimroll.run('fig8', quick=True, v_throw=7) - rimroll {rimroll.__version__}"
+                                        + (f" (git {ds.attrs['git_revision']})" if "git_revision" in ds.attrs else ""))
+
+
+def test_run_into_out_reuses_refuses_and_forces(probe, tmp_path):
+    log = tmp_path / "log.txt"
+    ds = rimroll.run("fanout-probe", out=tmp_path, mu=[0.5, 1], v_throw=2, log=str(log), progress=False)
+    assert ds.sizes["mu"] == 2 and "v_throw" not in ds.dims and ds["f"].chunks is not None  # lazy, from the file
+    n = len(log.read_text().splitlines())
+    ds.close()
+    again = rimroll.run("fanout-probe", out=tmp_path, mu=[0.5, 1], v_throw=2, log=str(log))
+    assert len(log.read_text().splitlines()) == n  # the same fingerprint: reused, nothing computed
+    again.close()
+    with pytest.raises(UserError, match="holds another run"):
+        rimroll.run("fanout-probe", out=tmp_path, mu=[0.5, 2], v_throw=2, log=str(log))
+    rimroll.run("fanout-probe", out=tmp_path, mu=[0.5, 2], v_throw=2, log=str(log), force=True).close()
+    assert len(log.read_text().splitlines()) == 2 * n
+
+
+def test_run_resumes_the_parts_of_an_interrupted_run(probe, tmp_path):
+    """Parts saved by `study run` (stopped with FANOUT_PROBE_FAIL_MU) are resumed by rimroll.run."""
+    log = tmp_path / "log.txt"
+    env = {**os.environ, PLUGIN_ENV: PROBE, "FANOUT_PROBE_FAIL_MU": "2.0"}
+    run = subprocess.run([sys.executable, "-m", "rimroll.study", "run", "fanout-probe", "--out", str(tmp_path),
+                          "--set", f"log={log}", "--workers", "1", "--no-progress"],
+                         capture_output=True, text=True, timeout=120, env=env)
+    assert run.returncode != 0 and not (tmp_path / "fanout-probe.nc").exists()
+    before = log.read_text().splitlines()
+    ds = rimroll.run("fanout-probe", out=tmp_path, log=str(log), workers=1)
+    after = log.read_text().splitlines()[len(before):]
+    assert all(line.startswith("2.0 ") for line in after) and len(after) == 4  # only the chunks of mu = 2
+    assert ds.sizes == {"mu": 3, "v_throw": 2, "x": 8, "y": 3}
+    ds.close()
+
+
+def test_run_refuses_bad_input_in_one_line_before_any_work(probe, tmp_path):
+    with pytest.raises(UserError, match="unknown setting 'nope'"):
+        rimroll.run("fanout-probe", out=tmp_path, nope=1)
+    with pytest.raises(UserError, match="no study named|unknown study|not a study"):
+        rimroll.run("no-such-study")
+    with pytest.raises(UserError, match="workers= is for local runs"):
+        rimroll.run("fanout-probe", workers=2, scheduler="tcp://127.0.0.1:1")
+    with pytest.raises(UserError, match="expected a number, a label"):
+        rimroll.run("fanout-probe", mu={"a": 1})
+    assert not list(tmp_path.iterdir())
+
+
+def test_settings_words_follow_the_set_rules():
+    from rimroll.study.api import _word
+
+    assert _word("mu", [0.5, 1, 2]) == "0.5,1,2" and _word("mu", np.array([0.25, 1.0])) == "0.25,1.0"
+    assert _word("mu", float("inf")) == "inf" and _word("n_x", 8) == "8" and _word("flag", True) == "true"
+    assert _word("j", "0.4:0.6:5") == "0.4:0.6:5" and _word("mu", (3.0,)) == "3.0"
+
+
+def test_open_reads_a_result_lazily_or_loaded(tmp_path):
+    assert main(["run", "fig8", "--quick", "--out", str(tmp_path), "--no-progress"]) == 0
+    with rimroll.open(tmp_path / "fig8.nc") as ds:
+        assert ds["omega20"].chunks is not None
+    loaded = rimroll.open(str(tmp_path / "fig8.nc"), lazy=False)
+    assert loaded["omega20"].chunks is None
+    with pytest.raises(UserError, match="no such results file"):
+        rimroll.open(tmp_path / "nothing.nc")
+
+
+# ---------------------------------------------------------------- messages: logging and warnings
+
+NOTICE = ("import logging, rimroll\n"
+          "{setup}\n"
+          "logging.getLogger('rimroll.solver.engine.simulate').info('compiling the probe kernel')\n"
+          "logging.getLogger('rimroll.study.runguard').info('probe: 100 of 100 chunks to compute')\n")
+
+
+def test_notices_go_to_stderr_until_silenced_with_the_standard_logging_call():
+    shown = _python(NOTICE.format(setup=""))
+    assert shown.stderr.splitlines() == ["rimroll: compiling the probe kernel",
+                                         "study: probe: 100 of 100 chunks to compute"], shown.stderr
+    quiet = _python(NOTICE.format(setup="logging.getLogger('rimroll').setLevel(logging.WARNING)"))
+    assert quiet.returncode == 0 and quiet.stderr == ""
+
+
+def test_notices_go_through_the_applications_logging_once_it_is_configured():
+    routed = _python(NOTICE.format(setup="logging.basicConfig(format='%(name)s|%(levelname)s|%(message)s')"))
+    assert routed.stderr.splitlines() == ["rimroll.solver.engine.simulate|INFO|compiling the probe kernel",
+                                          "rimroll.study.runguard|INFO|probe: 100 of 100 chunks to compute"]
+
+
+def test_lanes_not_ok_are_a_warning_of_rimrolls_own_category(tmp_path):
+    from rimroll.study import api
+
+    path = tmp_path / "lanes.nc"
+    status = xr.DataArray(np.array([0, 0, 2, 3], dtype="int8"), dims="x",
+                          attrs={"flag_values": np.array([0, 1, 2, 3], dtype="int8"),
+                                 "flag_meanings": "ok max_steps non_finite step_too_small"})
+    xr.Dataset({"status": status}).to_netcdf(path)
+    with pytest.warns(rimroll.LaneStatusWarning, match=r"2 of 4 lanes of run\(x\) did not finish ok "
+                                                       r"\(1 non_finite, 1 step_too_small\)"):
+        api._warn_lanes(path, "run(x)")
+    assert issubclass(rimroll.LaneStatusWarning, rimroll.RimrollWarning)
+    with warnings.catch_warnings():
+        warnings.filterwarnings("error", category=rimroll.LaneStatusWarning)
+        with pytest.raises(rimroll.LaneStatusWarning):
+            api._warn_lanes(path, "run(x)")
+
+
+# ---------------------------------------------------------------- progress in a notebook and a terminal
+
+class _Handle:
+    def __init__(self, shown):
+        self.shown = shown
+
+    def update(self, bundle, raw=False):
+        self.shown.append(("update", bundle))
+
+
+def test_progress_in_a_notebook_is_one_cell_output_updated_in_place():
+    from rimroll.study.progress import ProgressLine
+
+    shown = []
+
+    def display(bundle, raw=False, display_id=False):
+        assert raw and display_id
+        shown.append(("display", bundle))
+        return _Handle(shown)
+
+    line = ProgressLine(4, "probe", minimum=0.0, display=display)
+    for _ in range(4):
+        line.advance()
+        line.last = -1.0  # no 0.2 s throttle in the test
+    line.close()
+    assert [kind for kind, _ in shown] == ["display", "update", "update", "update"]
+    last = shown[-1][1]
+    assert last["text/plain"].startswith("study: probe chunks 4/4")
+    assert '<progress value="4" max="4"' in last["text/html"]
+
+
+def test_progress_in_a_terminal_redraws_one_line(monkeypatch):
+    import io
+
+    from rimroll.study import progress
+
+    stream = io.StringIO()
+    line = progress.ProgressLine(2, "probe", minimum=0.0, stream=stream)
+    line.advance()
+    line.advance()
+    line.close()
+    assert stream.getvalue().startswith("\rstudy: probe chunks 1/2") and stream.getvalue().endswith("\n")
+    monkeypatch.setattr(progress, "in_notebook", lambda: True)
+    assert progress.wanted(None) and not progress.wanted(False)
