@@ -47,7 +47,7 @@ import threading
 import numpy as np
 from numba import cuda, types
 
-from rimroll.solver.engine import kernels, scene_code, system, tableaus
+from rimroll.solver.engine import kernels, rosenbrock, scene_code, system, tableaus
 from rimroll.solver.engine.backends import simulated
 from rimroll.solver.engine.kernels import N_G, N_RF, N_RI, N_W
 from rimroll.solver.engine.scenes import Scene
@@ -138,6 +138,8 @@ def launcher(scene: Scene, method: str):
     Method, Limits, Work, Model = tableaus.Method, kernels.Limits, kernels.Work, system.Model
     has_load = bool(scene.loads)  # the scene's load terms come from its generated module (scene_code)
     terms = scene_code.module(scene) if has_load else None
+    # the Rosenbrock arrays of slip phases (kernels.Work): 1 x 1 where the scene never slips
+    n_ro, n_j = (rosenbrock.N_ROWS, N_MAX) if slips else (1, 1)
 
     def launch(states, m, p, t_max, rtol, atol, max_steps, max_switches, sw, res_f, res_i):
         k = cuda.grid(1)
@@ -148,6 +150,10 @@ def launcher(scene: Scene, method: str):
         Q = cuda.local.array((N_MAX, n_poly), f64)
         G = cuda.local.array((N_G, N_EVENTS), f64)
         sign = cuda.local.array(N_EVENTS, i64)
+        R = cuda.local.array((n_ro, n_j), f64)
+        J = cuda.local.array((n_j, n_j), f64)
+        LU = cuda.local.array((n_j, n_j), f64)
+        piv = cuda.local.array(n_j, i64)
         search = cuda.local.array(N_EVENTS, b1)
         active = cuda.local.array((2, N_EVENTS), b1)
         for i in range(N_MAX):
@@ -164,7 +170,7 @@ def launcher(scene: Scene, method: str):
             active[1, e] = True
             for r in range(N_G):
                 G[r, e] = 0.0
-        work = Work(W, K, Q, G, sign, search, active)
+        work = Work(W, K, Q, G, sign, search, active, R, J, LU, piv)
         method = Method(A, E, P, n_stages, err_mode, error_order)
         limits = Limits(t_max, rtol, atol, max_steps, max_switches, conservative)
         if has_load:  # a constant of the kernel, as slips: numba compiles one branch

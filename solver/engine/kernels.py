@@ -51,7 +51,7 @@ from numba.extending import overload
 
 from rimroll.solver import _jit
 from rimroll.solver._compile import kernel
-from rimroll.solver.engine import rules, system
+from rimroll.solver.engine import rosenbrock, rules, system
 from rimroll.solver.engine.events import (
     Dense,
     Scratch,
@@ -103,7 +103,7 @@ from rimroll.solver.engine.system import (
 )
 from rimroll.solver.physics import rolling, slipping
 from rimroll.solver.physics.params import P_G, P_M, P_RHO
-from rimroll.solver.physics.switching import enter_slipping, try_return
+from rimroll.solver.physics.switching import SW_U_STOP, enter_slipping, try_return
 
 # Result columns (solver.engine.outputs): float64 outputs in res_f, integer ones in res_i.
 RF_T_END, RF_F2_MIN, RF_HALF_PERIOD = column("t_end"), column("f2_min"), column("half_period")
@@ -132,8 +132,11 @@ N_G = 13  # G_CROSS: [omega1 crossings counted in this rolling phase, time of th
 class Work(NamedTuple):
     """The work arrays of one trajectory (reused by the next): state vectors ``W`` (N_W, N_MAX),
     stages ``K`` (n_dense, N_MAX), dense-output coefficients ``Q`` (N_MAX, n_poly), event values
-    ``G`` (N_G, N_EVENTS), each event's ``sign`` (int64) and gate flag ``search`` (bool), and the
-    events each phase of the scene has, ``active`` (2, N_EVENTS) bool (rolling, slipping)."""
+    ``G`` (N_G, N_EVENTS), each event's ``sign`` (int64) and gate flag ``search`` (bool), the
+    events each phase of the scene has, ``active`` (2, N_EVENTS) bool (rolling, slipping), and the
+    arrays of the Rosenbrock steps of slip phases (``solver.engine.rosenbrock``): stages ``R``
+    (rosenbrock.N_ROWS, N_MAX), the Jacobian ``J`` and its LU factors ``LU`` (N_MAX, N_MAX), the
+    pivots ``piv`` (N_MAX, int64)."""
 
     W: np.ndarray
     K: np.ndarray
@@ -142,6 +145,10 @@ class Work(NamedTuple):
     sign: np.ndarray
     search: np.ndarray
     active: np.ndarray
+    R: np.ndarray
+    J: np.ndarray
+    LU: np.ndarray
+    piv: np.ndarray
 
 
 class Limits(NamedTuple):
@@ -194,10 +201,11 @@ def begin_phase(rhs, events, aux, phase, model, work, t, rtol):
 
 
 @kernel(inline=True, takes_functions=True)
-def gate(rhs, events, aux, phase, model, method, rtol, h, h_prev, work):
+def gate(rhs, events, aux, phase, model, method, rtol, h, h_prev, work, prepared):
     """Does the accepted step of length h [s] need its dense output searched for events? (the
-    grazing gate of ``solver.engine.events``). Returns (searched, dense output prepared); sets
-    ``work.search``, the running minima and the gate's memory of the step (G_TH, G_THIRD)."""
+    grazing gate of ``solver.engine.events``). ``prepared``: the step's dense output is in work.Q
+    already (a Rosenbrock step). Returns (searched, dense output prepared); sets ``work.search``,
+    the running minima and the gate's memory of the step (G_TH, G_THIRD)."""
     W = work.W
     G = work.G
     g = G[G_G]
@@ -205,7 +213,6 @@ def gate(rhs, events, aux, phase, model, method, rtol, h, h_prev, work):
     g1 = G[G_G1]
     gr1 = G[G_GR1]
     searched = False
-    prepared = False
     for e in range(N_EVENTS):
         work.search[e] = False
         if not phase.active[e]:
@@ -324,6 +331,77 @@ def slipping_action(act, y_ev, model, sw, t_left, work, res_i):
     return END_NONE, -1.0
 
 
+@kernel(inline=True)
+def slip_end_cap(y, f, sw):
+    """Largest step [s] of a slipping phase whose slip speed u falls: the time for u to fall to half
+    the return threshold u_stop at its present rate (so that a large implicit step cannot pass
+    u = 0, where the slip direction of (42) is undefined); infinite while u grows."""
+    u = np.hypot(y[system.I_U1], y[system.I_U3])
+    rate = (y[system.I_U1] * f[system.I_U1] + y[system.I_U3] * f[system.I_U3]) / u
+    u_stop = sw[SW_U_STOP]
+    if rate < 0.0 and u > u_stop:
+        return (u - 0.5 * u_stop) / -rate
+    return np.inf
+
+
+@kernel(inline=True, takes_functions=True)
+def stiff_attempt(rhs, ret, control, model, method, arrays, work, t, h, after_reject, budget):
+    """A Rosenbrock step attempt of a slipping phase (``rosenbrock.attempt``) with the Jacobian of
+    (42) at the step's start, the step capped by :func:`slip_end_cap`. Returns rosenbrock.attempt's
+    tuple and the stiffness (``rosenbrock.stiffness`` of the slip-velocity block) [1/s]."""
+    y = arrays.y
+    system.slipping_jacobian(y, model, work.J, work.R, rosenbrock.ROW_JAC, work.W[W_SLOPE])
+    h = min(h, slip_end_cap(y, arrays.f, ret))
+    code, h, h_next, attempts, last = rosenbrock.attempt(
+        rhs, system.N_SLIPPING, control, model, arrays, work.R, work.J, work.LU, work.piv, work.Q, method.n_stages,
+        t, h, after_reject, budget)
+    return code, h, h_next, attempts, last, rosenbrock.stiffness(work.J, system.I_U1, system.I_U3)
+
+
+@kernel
+def first_return(y, h, n, t, model, sw, t_max, work):
+    """The first point of a slipping step from (t [s], y) of length h [s], whose end meets the
+    return rule (``switching.try_return``), where the rule is met: bisection (40 halvings of h) on
+    the step's dense output (work.Q), so that the return does not wait for the end of a long
+    step. Moves y and t there and returns (t, the time advanced by the return [s]); W[W_Y_RET]
+    holds the rolling state."""
+    W = work.W
+    y_at = W[W_Y_EV]
+    n_poly = work.Q.shape[1]
+    lo = 0.0
+    hi = 1.0
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        dense_eval(mid, y, h, work.Q, n, n_poly, y_at)
+        if try_return(y_at, model.p, sw, t_max - t - mid * h, W[W_Y_RET], model.load_fn) >= 0.0:
+            hi = mid
+        else:
+            lo = mid
+    if hi < 1.0:
+        dense_eval(hi, y, h, work.Q, n, n_poly, y_at)
+        for i in range(n):
+            y[i] = y_at[i]
+    else:
+        for i in range(n):
+            y[i] = W[W_Y_NEW, i]
+    t = t + hi * h
+    return t, try_return(y, model.p, sw, t_max - t, W[W_Y_RET], model.load_fn)
+
+
+@kernel(inline=True)
+def next_slip_mode(stiff, rho, h_next, y, u_switch):
+    """Rosenbrock (True) or explicit steps next in a slipping phase, and the slip speed of the last
+    switch to explicit steps [m/s]: explicit once the next step h_next [s] times the stiffness rho
+    [1/s] falls below ``rosenbrock.STIFF_SWITCH``; Rosenbrock again once the slip speed has fallen
+    below half that of the switch (the stiffness grows as 1/|u|)."""
+    u = np.hypot(y[system.I_U1], y[system.I_U3])
+    if stiff:
+        if h_next * rho < rosenbrock.STIFF_SWITCH:
+            return False, u
+        return True, u_switch
+    return u < 0.5 * u_switch, u_switch
+
+
 @kernel(takes_functions=True)
 def run_phase(rhs, events, aux, ret, phase, model, method, limits, work, res_f, res_i):
     """Run one phase from the state W[W_Y] at time res_f[RF_T_END] to its terminal event.
@@ -359,9 +437,20 @@ def run_phase(rhs, events, aux, ret, phase, model, method, limits, work, res_f, 
     after_reject = False
     end = END_T_MAX
     dt_return = -1.0
+    stiff_mode = True  # a slip starts at a small slip speed: stiff
+    u_switch = 0.0
     while t < t_max:
-        code, h, h_next, attempts, last = attempt(rhs, method, control, model, arrays, t, h, after_reject,
-                                                  limits.max_steps - n_steps)
+        stiff = False
+        if ret is not None:
+            if model.slipping:
+                stiff = stiff_mode
+        rho = 0.0
+        if stiff:
+            code, h, h_next, attempts, last, rho = stiff_attempt(rhs, ret, control, model, method, arrays, work,
+                                                                 t, h, after_reject, limits.max_steps - n_steps)
+        else:
+            code, h, h_next, attempts, last = attempt(rhs, method, control, model, arrays, t, h, after_reject,
+                                                      limits.max_steps - n_steps)
         n_steps += attempts
         if code != ACCEPTED:
             res_i[RI_STATUS] = MAX_STEPS if code == BUDGET_SPENT else (
@@ -371,7 +460,7 @@ def run_phase(rhs, events, aux, ret, phase, model, method, limits, work, res_f, 
         for i in range(n):  # the FSAL slope of y_new (the slope of y is in K[0])
             f_new[i] = K[method.n_stages, i]
         events(y_new, f_new, model, aux, G[G_G1], G[G_GR1])
-        searched, prepared = gate(rhs, events, aux, phase, model, method, rtol, h, h_prev, work)
+        searched, prepared = gate(rhs, events, aux, phase, model, method, rtol, h, h_prev, work, stiff)
         h_prev = h
         if searched:
             n_searched += 1
@@ -383,6 +472,13 @@ def run_phase(rhs, events, aux, ret, phase, model, method, limits, work, res_f, 
             end = END_T_MAX
         else:
             update_signs(G[G_G1], work.sign, -1)
+        if ret is not None and model.slipping:  # the return rule (switching.try_return) met within the step?
+            if try_return(y_new, model.p, ret, t_max - t - h, W[W_Y_RET], model.load_fn) >= 0.0:
+                if not prepared:
+                    dense_prepare(rhs, method, y, h, n, K, work.Q, W[W_TMP], model)
+                t, dt_return = first_return(y, h, n, t, model, ret, t_max, work)
+                end = END_SWITCH
+                break
         # the step is taken in full
         t = t_max if last else t + h
         for i in range(n):
@@ -395,11 +491,8 @@ def run_phase(rhs, events, aux, ret, phase, model, method, limits, work, res_f, 
             G[G_MIN, EV_FALL] = G[G_G1, EV_FALL]
         h = h_next
         after_reject = False
-        if ret is not None and model.slipping:  # a slipping phase: the return rule at every step end too
-            dt_return = try_return(y, model.p, ret, t_max - t, W[W_Y_RET], model.load_fn)
-            if dt_return >= 0.0:
-                end = END_SWITCH
-                break
+        if ret is not None and model.slipping:
+            stiff_mode, u_switch = next_slip_mode(stiff, rho, h, y, u_switch)
     res_f[RF_T_END] = t
     res_i[RI_N_STEPS] = n_steps
     res_i[RI_N_SEARCHED] = n_searched
@@ -577,7 +670,8 @@ def new_work(method) -> Work:
     Python: the kernels allocate nothing (they are compiled without numba's runtime, ``solver._jit``)."""
     return Work(np.zeros((N_W, N_MAX)), np.zeros((method.A.shape[0], N_MAX)), np.zeros((N_MAX, method.P.shape[1])),
                 np.zeros((N_G, N_EVENTS)), np.zeros(N_EVENTS, dtype=np.int64), np.zeros(N_EVENTS, dtype=np.bool_),
-                np.ones((2, N_EVENTS), dtype=np.bool_))
+                np.ones((2, N_EVENTS), dtype=np.bool_), np.zeros((rosenbrock.N_ROWS, N_MAX)),
+                np.zeros((N_MAX, N_MAX)), np.zeros((N_MAX, N_MAX)), np.zeros(N_MAX, dtype=np.int64))
 
 
 @kernel(inline=True)

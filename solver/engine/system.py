@@ -266,6 +266,44 @@ def slipping_events(y, f, model, aux, g, gr):
 
 
 @kernel(inline=True)
+def load_rates(y, model, R, row):
+    """What the scene's load adds to the slipping rates at y, into R[row, :N_SLIPPING - 1]: (42) with
+    the load minus (42) without it (exact zeros for a load of zero strength)."""
+    beta = y[0]
+    w1 = y[1]
+    w3 = y[3]
+    u1 = y[I_U1]
+    u3 = y[I_U3]
+    p = model.p
+    with_load = slipping.slipping_rhs(beta, w1, y[2], w3, u1, u3, p, slipping_load(model, y))
+    without = slipping.slipping_rhs(beta, w1, y[2], w3, u1, u3, p, None)
+    for i in range(N_SLIPPING - 1):
+        R[row, i] = with_load[i] - without[i]
+
+
+@kernel(inline=True)
+def slipping_jacobian(y, model, J, R, row, tmp):
+    """Jacobian of the slipping rates of :func:`slipping_rhs` at y into J[:7, :7]: the analytic one
+    of (42) (``slipping.slipping_jacobian``), plus, in a scene with terms, forward differences of
+    what the load adds (:func:`load_rates`; step sqrt(eps) relative, at least 1e-4 of a unit for
+    angles and rates, 1e-4 of the slip speed for the slip velocity). R[row], R[row + 1] and tmp are
+    scratch."""
+    slipping.slipping_jacobian(y[0], y[1], y[2], y[3], y[I_U1], y[I_U3], model.p, J)
+    if model.load_fn is not None:
+        load_rates(y, model, R, row + 1)
+        for k in range(N_MAX):
+            tmp[k] = y[k]
+        u = max(abs(y[I_U1]), abs(y[I_U3]), 1e-8)
+        for k in range(N_MAX - 1):
+            dk = 1.5e-8 * max(abs(y[k]), 1e-4 if k < I_U1 else 1e-4 * u)
+            tmp[k] = y[k] + dk
+            load_rates(tmp, model, R, row)
+            for i in range(N_MAX - 1):
+                J[i, k] += (R[row, i] - R[row + 1, i]) / dk
+            tmp[k] = y[k]
+
+
+@kernel(inline=True)
 def hybrid_rhs(y, model, K, s):
     """Rates of the phase ``model.slipping`` says: one step loop serves both phases of a scene that
     slips (compiled once, not once per phase)."""

@@ -1,0 +1,260 @@
+"""Rodas4, the L-stable Rosenbrock method of Hairer & Wanner, for the stiff slip phases.
+
+The slipping equations (42) are stiff while the slip speed u is small: the slip angle relaxes at
+|B|/|u| (~25 m/s^2 over 1e-5 m/s), so an explicit step sits at its stability limit (~1e-6 s) for
+the whole of a slip. A Rosenbrock method solves a linear system with the Jacobian of the rates
+in each stage instead of iterating, and being L-stable it takes steps set by accuracy alone.
+
+Method: RODAS (order 4, embedded order 3, six stages, stiffly accurate), E. Hairer and G. Wanner,
+Solving Ordinary Differential Equations II, 2nd ed., Springer 1996, Sect. IV.7, in the form of
+their code ``rodas.f`` (coefficient set 1): with E = I/(h gamma) - J and stage values k_s,
+
+    E k_s = f(y + sum_j a_sj k_j) + sum_j c_sj k_j / h,      s = 1..6,
+    y_new = y + sum_j a_5j k_j + k_5 + k_6,                   error estimate k_6,
+
+and the dense output y(theta) = y + theta (y_new - y) + theta (1 - theta) (d2 + theta d3) with
+d2 = sum d_2j k_j, d3 = sum d_3j k_j (order 3). The systems are autonomous (no time derivative
+term). The last component of the state is a quadrature (the cyclic angle alpha): nothing depends
+on it, so E is block triangular; its block is solved by substitution and the LU factorisation
+(partial pivoting, in place, no allocation) is of the other n - 1 components.
+
+Step-size control as the explicit methods' (``stepper``) with the error exponent -1/4 and at most
+a factor :data:`MAX_FACTOR` of growth per step (Hairer's ``FACR = 1/6``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rimroll.solver._compile import kernel
+from rimroll.solver.engine.stepper import (
+    ACCEPTED,
+    BUDGET_SPENT,
+    MAX_NONFINITE_RETRIES,
+    MIN_FACTOR,
+    NON_FINITE,
+    SAFETY,
+    UNDERFLOW,
+    min_step,
+)
+
+GAMMA = 0.25
+A21 = 1.544
+A31, A32 = 0.9466785280815826, 0.2557011698983284
+A41, A42, A43 = 3.314825187068521, 2.896124015972201, 0.9986419139977817
+A51, A52, A53, A54 = 1.221224509226641, 6.019134481288629, 12.53708332932087, -0.6878860361058950
+C21 = -5.6688
+C31, C32 = -2.430093356833875, -0.2063599157091915
+C41, C42, C43 = -0.1073529058151375, -9.594562251023355, -20.47028614809616
+C51, C52, C53, C54 = 7.496443313967647, -10.24680431464352, -33.99990352819905, 11.70890893206160
+C61, C62, C63, C64, C65 = 8.083246795921522, -7.981132988064893, -31.52159432874371, 16.31930543123136, \
+    -6.058818238834054
+D21, D22, D23, D24, D25 = 10.12623508344586, -7.487995877610167, -34.80091861555747, -7.992771707568823, \
+    1.025137723295662
+D31, D32, D33, D34, D35 = -0.6762803392801253, 6.087714651680015, 16.43084320892478, 24.76722511418386, \
+    -6.594389125716872
+ERROR_EXPONENT = -0.25  # the embedded estimate is of order 3
+MAX_FACTOR = 6.0  # largest growth of h after an accepted step
+N_ROWS = 8  # rows of the stage array: k_1..k_6, then two rows of scratch (for the Jacobian)
+ROW_JAC = 6
+STIFF_SWITCH = 8.0
+"""A slip phase leaves the Rosenbrock steps for the explicit method when h rho < STIFF_SWITCH (rho:
+the spectral radius of the slip-velocity block of the Jacobian, h the next step): an explicit step
+is stable up to h rho ~ 3.3 (DP5) to 6 (DOP853) and costs about a third of a Rosenbrock step, so
+below this the stiffness no longer pays for the linear algebra."""
+
+
+@kernel(inline=True)
+def stiffness(J, i, k):
+    """Spectral radius [1/s] of the 2 x 2 block of J on the components i, k (the slip velocity)."""
+    a = J[i, i]
+    b = J[i, k]
+    c = J[k, i]
+    d = J[k, k]
+    half = 0.5 * (a + d)
+    disc = half * half - (a * d - b * c)
+    return abs(half) + np.sqrt(abs(disc))
+
+
+@kernel(inline=True)
+def lu_factor(J, h, m, LU, piv):
+    """LU = I/(h gamma) - J[:m, :m] factored in place with partial pivoting (row swaps in ``piv``).
+    False if a pivot is zero or not finite (the trial step is then cut)."""
+    fac = 1.0 / (h * GAMMA)
+    for i in range(m):
+        for c in range(m):
+            LU[i, c] = -J[i, c]
+        LU[i, i] += fac
+    for k in range(m):
+        p = k
+        big = abs(LU[k, k])
+        for i in range(k + 1, m):
+            if abs(LU[i, k]) > big:
+                big = abs(LU[i, k])
+                p = i
+        if not (big > 0.0 and big < np.inf):
+            return False
+        piv[k] = p
+        if p != k:
+            for c in range(m):
+                tmp = LU[k, c]
+                LU[k, c] = LU[p, c]
+                LU[p, c] = tmp
+        inv = 1.0 / LU[k, k]
+        for i in range(k + 1, m):
+            lik = LU[i, k] * inv
+            LU[i, k] = lik
+            if lik != 0.0:
+                for c in range(k + 1, m):
+                    LU[i, c] -= lik * LU[k, c]
+    return True
+
+
+@kernel(inline=True)
+def stage_solve(LU, piv, J, h, n, b):
+    """b <- E^-1 b for E = I/(h gamma) - J, the first n - 1 components through the factors of
+    :func:`lu_factor`, the last (a quadrature: column n - 1 of J is zero) by substitution."""
+    m = n - 1
+    for k in range(m):
+        p = piv[k]
+        if p != k:
+            tmp = b[k]
+            b[k] = b[p]
+            b[p] = tmp
+    for k in range(m):
+        for i in range(k + 1, m):
+            b[i] -= LU[i, k] * b[k]
+    for i in range(m - 1, -1, -1):
+        acc = b[i]
+        for c in range(i + 1, m):
+            acc -= LU[i, c] * b[c]
+        b[i] = acc / LU[i, i]
+    acc = b[m]
+    for c in range(m):
+        acc += J[m, c] * b[c]
+    b[m] = h * GAMMA * acc
+
+
+@kernel(inline=True, takes_functions=True)
+def stage(rhs, s, y, h, n, model, R, LU, piv, J, tmp, a1, a2, a3, a4, a5, c1, c2, c3, c4, c5):
+    """Stage s (1-based index s + 1) of the step: k_s = E^-1 (f(y + sum a_j k_j) + sum c_j k_j / h)
+    into R[s] (the coefficients of stages that do not exist yet are zero)."""
+    for i in range(n):
+        tmp[i] = y[i] + a1 * R[0, i] + a2 * R[1, i] + a3 * R[2, i] + a4 * R[3, i] + a5 * R[4, i]
+    rhs(tmp, model, R, s)
+    inv_h = 1.0 / h
+    for i in range(n):
+        R[s, i] += (c1 * R[0, i] + c2 * R[1, i] + c3 * R[2, i] + c4 * R[3, i] + c5 * R[4, i]) * inv_h
+    stage_solve(LU, piv, J, h, n, R[s])
+
+
+@kernel(inline=True, takes_functions=True)
+def rodas_step(rhs, y, f, h, n, model, R, J, LU, piv, y_new, tmp):
+    """One Rodas4 step of length h [s] from y with slope f and Jacobian J: the stages into R[0..5]
+    (R[5] is the error estimate) and the new state into y_new. False if E is singular."""
+    if not lu_factor(J, h, n - 1, LU, piv):
+        return False
+    for i in range(n):
+        R[0, i] = f[i]
+        for s in range(1, 5):
+            R[s, i] = 0.0
+    stage_solve(LU, piv, J, h, n, R[0])
+    stage(rhs, 1, y, h, n, model, R, LU, piv, J, tmp, A21, 0.0, 0.0, 0.0, 0.0, C21, 0.0, 0.0, 0.0, 0.0)
+    stage(rhs, 2, y, h, n, model, R, LU, piv, J, tmp, A31, A32, 0.0, 0.0, 0.0, C31, C32, 0.0, 0.0, 0.0)
+    stage(rhs, 3, y, h, n, model, R, LU, piv, J, tmp, A41, A42, A43, 0.0, 0.0, C41, C42, C43, 0.0, 0.0)
+    stage(rhs, 4, y, h, n, model, R, LU, piv, J, tmp, A51, A52, A53, A54, 0.0, C51, C52, C53, C54, 0.0)
+    stage(rhs, 5, y, h, n, model, R, LU, piv, J, tmp, A51, A52, A53, A54, 1.0, C61, C62, C63, C64, C65)
+    for i in range(n):
+        y_new[i] = tmp[i] + R[5, i]
+    return True
+
+
+@kernel(inline=True)
+def error_norm(R, y, y_new, n_err, rtol, atol):
+    """RMS over the first n_err components of the error estimate k_6 scaled by
+    atol[i] + rtol * max(|y_i|, |y_new_i|); the step is accepted when it is <= 1."""
+    acc = 0.0
+    for i in range(n_err):
+        e = R[5, i] / (atol[i] + rtol * max(abs(y[i]), abs(y_new[i])))
+        acc += e * e
+    return np.sqrt(acc / n_err)
+
+
+@kernel(inline=True)
+def dense_coefficients(R, y, y_new, h, n, Q):
+    """The dense output of the accepted step as the engine's Q: y(theta) = y + h sum_q Q[:, q]
+    theta^(q+1) (``stepper.dense_eval``), from Rodas' y + theta dy + theta (1 - theta)(d2 + theta d3)."""
+    for i in range(n):
+        d2 = D21 * R[0, i] + D22 * R[1, i] + D23 * R[2, i] + D24 * R[3, i] + D25 * R[4, i]
+        d3 = D31 * R[0, i] + D32 * R[1, i] + D33 * R[2, i] + D34 * R[3, i] + D35 * R[4, i]
+        Q[i, 0] = (y_new[i] - y[i] + d2) / h
+        Q[i, 1] = (d3 - d2) / h
+        Q[i, 2] = -d3 / h
+        for q in range(3, Q.shape[1]):
+            Q[i, q] = 0.0
+
+
+@kernel(inline=True)
+def factor(err, after_reject):
+    """Factor for the next step from the error norm of an accepted (err <= 1) or rejected step."""
+    if err == 0.0:
+        fac = MAX_FACTOR
+    else:
+        fac = min(MAX_FACTOR, max(MIN_FACTOR, SAFETY * err ** ERROR_EXPONENT))
+    if after_reject:
+        fac = min(1.0, fac)
+    return fac
+
+
+@kernel(inline=True, takes_functions=True)
+def attempt(rhs, n, control, model, arrays, R, J, LU, piv, Q, fsal_row, t, h, after_reject, budget):
+    """Try Rodas4 steps from (t, y), slope f, Jacobian J at y, first trial step h [s], until one is
+    accepted: the contract of ``stepper.attempt`` (same codes and returns). ``n``: the number of
+    components (a compile-time constant where the caller can make it one: the loops then unroll).
+    On ACCEPTED, y_new holds the step's end, K[fsal_row] its slope f(y_new) (where the explicit
+    methods keep theirs) and Q the dense output (no ``stepper.dense_prepare`` needed)."""
+    t_end = control.t_end
+    y, f, K, y_new, tmp = arrays
+    attempts = 0
+    n_bad = 0
+    code = ACCEPTED
+    last = False
+    h_next = h
+    while True:
+        if attempts >= budget:
+            code = BUDGET_SPENT
+            break
+        last = h >= t_end - t
+        if last:
+            h = t_end - t
+        if not (h >= min_step(t)):
+            code = UNDERFLOW
+            break
+        attempts += 1
+        err = np.inf
+        if rodas_step(rhs, y, f, h, n, model, R, J, LU, piv, y_new, tmp):
+            rhs(y_new, model, K, fsal_row)
+            err = error_norm(R, y, y_new, control.n_err, control.rtol, control.atol)
+        finite = np.isfinite(err)
+        for i in range(n):
+            if not np.isfinite(y_new[i]) or not np.isfinite(K[fsal_row, i]):
+                finite = False
+        if not finite:
+            n_bad += 1
+            if n_bad > MAX_NONFINITE_RETRIES:
+                code = NON_FINITE
+                break
+            h *= MIN_FACTOR
+            after_reject = True
+            continue
+        n_bad = 0
+        if err > 1.0:
+            h *= factor(err, after_reject)
+            after_reject = True
+            continue
+        h_next = h * factor(err, after_reject)
+        break
+    if code != ACCEPTED:
+        return code, h, h, attempts, False
+    dense_coefficients(R, y, y_new, h, n, Q)
+    return code, h, h_next, attempts, last
