@@ -193,6 +193,9 @@ class Phase:
     sol: object
 
 
+IMPLICIT = ("Radau", "BDF", "LSODA")  # solve_ivp's methods that use a Jacobian
+
+
 class _System:
     """The scipy systems of one run: right-hand sides, event values and ``solve_ivp`` events of the
     rolling and slipping phases, and the return rule, for one scene and the run's settings."""
@@ -236,6 +239,20 @@ class _System:
         b, w1, w2, w3, du1, du3 = slipping.slipping_rhs(y[0], y[1], y[2], y[3], y[4], y[5], self.p, self.load(y))
         alpha_dot, _ = kinematics.angle_rates(y[0], y[1], y[3], y[4], y[5], self.p)
         return [b, w1, w2, w3, du1, du3, alpha_dot]
+
+    def jac_slip(self, t, y):
+        """The Jacobian of :meth:`fun_slip` (``slipping.slipping_jacobian``), for the implicit methods."""
+        J = np.zeros((7, 7))
+        slipping.slipping_jacobian(*(float(v) for v in y[:6]), self.p, J)
+        return J
+
+    def slip_options(self) -> dict:
+        """What solve_ivp takes besides events in a slipping phase: the analytic Jacobian of (42) for
+        an implicit method in a scene without terms (it changes the Newton iterations, not the
+        solution; a scene with terms leaves it to scipy's finite differences)."""
+        if self.method in IMPLICIT and self.load_fn is None:
+            return {"jac": self.jac_slip}
+        return {}
 
     def fall_roll_value(self, y):
         return rolling.normal_force(y[0], y[1], y[3], self.p, self.load(y))
@@ -456,7 +473,8 @@ def _slipping_phase(system: _System, run: _Run, max_switches: int) -> None:
         _to_rolling(system, run, t, max_switches)  # allowed at the start already
         return
     sol = solve_ivp(system.fun_slip, (t, system.t_max), y, method=system.method, rtol=system.rtol, atol=system.atol,
-                    events=[system.fall_slip, system.refused, system.f2_min_slip], dense_output=True)
+                    events=[system.fall_slip, system.refused, system.f2_min_slip], dense_output=True,
+                    **system.slip_options())
     run.nfev += sol.nfev
     t_stop = float(sol.t[-1])
     cands = []  # (time, rule): 0 fall, 1 return

@@ -153,8 +153,10 @@ class Work(NamedTuple):
 
 class Limits(NamedTuple):
     """The settings of a run that every trajectory shares: t_max [s], rtol [1], atol [units of each
-    component], the step budget and the budget of rolling/slipping switches per trajectory, and
-    whether periodic rolling is detected (``periodic``: the scene is conservative, Prop. 4)."""
+    component], the step budget and the budget of rolling/slipping switches per trajectory,
+    whether periodic rolling is detected (``periodic``: the scene is conservative, Prop. 4), and
+    whether slip phases take Rosenbrock steps while stiff (``stiff_slips``; else the method's
+    explicit steps throughout)."""
 
     t_max: float
     rtol: float
@@ -162,6 +164,7 @@ class Limits(NamedTuple):
     max_steps: int
     max_switches: int
     periodic: bool
+    stiff_slips: bool = True
 
 
 @kernel(inline=True)
@@ -355,7 +358,14 @@ def stiff_attempt(rhs, ret, control, model, method, arrays, work, t, h, after_re
     code, h, h_next, attempts, last = rosenbrock.attempt(
         rhs, system.N_SLIPPING, control, model, arrays, work.R, work.J, work.LU, work.piv, work.Q, method.n_stages,
         t, h, after_reject, budget)
-    return code, h, h_next, attempts, last, rosenbrock.stiffness(work.J, system.I_U1, system.I_U3)
+    return code, h, h_next, attempts, last, slip_stiffness(work)
+
+
+@kernel(inline=True)
+def slip_stiffness(work):
+    """The spectral radius [1/s] of the slipping Jacobian in work.J (``rosenbrock.spectral_radius``)."""
+    return rosenbrock.spectral_radius(work.J, system.N_SLIPPING - 1, work.R[rosenbrock.ROW_JAC],
+                                      work.R[rosenbrock.ROW_JAC + 1])
 
 
 @kernel
@@ -389,17 +399,19 @@ def first_return(y, h, n, t, model, sw, t_max, work):
 
 
 @kernel(inline=True)
-def next_slip_mode(stiff, rho, h_next, y, u_switch):
-    """Rosenbrock (True) or explicit steps next in a slipping phase, and the slip speed of the last
-    switch to explicit steps [m/s]: explicit once the next step h_next [s] times the stiffness rho
-    [1/s] falls below ``rosenbrock.STIFF_SWITCH``; Rosenbrock again once the slip speed has fallen
-    below half that of the switch (the stiffness grows as 1/|u|)."""
-    u = np.hypot(y[system.I_U1], y[system.I_U3])
+def next_slip_mode(stiff, rho, h, h_next, y, model, work, since_check):
+    """Rosenbrock (True) or explicit steps next in a slipping phase, and the explicit steps since the
+    last look at the stiffness. After a Rosenbrock step: explicit once the next step h_next [s] times
+    the stiffness rho [1/s] falls below ``rosenbrock.STIFF_SWITCH``. After explicit steps: every
+    ``rosenbrock.CHECK_EVERY`` steps the Jacobian at y and its spectral radius; Rosenbrock again if
+    the step just taken, h [s], was near the explicit stability limit (h rho >
+    ``rosenbrock.EXPLICIT_LIMIT``)."""
     if stiff:
-        if h_next * rho < rosenbrock.STIFF_SWITCH:
-            return False, u
-        return True, u_switch
-    return u < 0.5 * u_switch, u_switch
+        return h_next * rho >= rosenbrock.STIFF_SWITCH, 0
+    if since_check + 1 < rosenbrock.CHECK_EVERY:
+        return False, since_check + 1
+    system.slipping_jacobian(y, model, work.J, work.R, rosenbrock.ROW_JAC, work.W[W_SLOPE])
+    return h * slip_stiffness(work) > rosenbrock.EXPLICIT_LIMIT, 0
 
 
 @kernel(takes_functions=True)
@@ -437,8 +449,8 @@ def run_phase(rhs, events, aux, ret, phase, model, method, limits, work, res_f, 
     after_reject = False
     end = END_T_MAX
     dt_return = -1.0
-    stiff_mode = True  # a slip starts at a small slip speed: stiff
-    u_switch = 0.0
+    stiff_mode = limits.stiff_slips  # a slip starts at a small slip speed: stiff
+    since_check = 0
     while t < t_max:
         stiff = False
         if ret is not None:
@@ -489,10 +501,10 @@ def run_phase(rhs, events, aux, ret, phase, model, method, limits, work, res_f, 
             G[G_GR, e] = G[G_GR1, e]
         if work.sign[EV_FALL] > 0 and G[G_G1, EV_FALL] < G[G_MIN, EV_FALL]:
             G[G_MIN, EV_FALL] = G[G_G1, EV_FALL]
+        if ret is not None and model.slipping and limits.stiff_slips:
+            stiff_mode, since_check = next_slip_mode(stiff, rho, h, h_next, y, model, work, since_check)
         h = h_next
         after_reject = False
-        if ret is not None and model.slipping:
-            stiff_mode, u_switch = next_slip_mode(stiff, rho, h, y, u_switch)
     res_f[RF_T_END] = t
     res_i[RI_N_STEPS] = n_steps
     res_i[RI_N_SEARCHED] = n_searched

@@ -29,6 +29,7 @@ from rimroll.solver.physics.steady_motion import stability
 from rimroll.solver.physics.switching import default_tolerances
 
 RTOL_RANGE = (1e-14, 1e-2)
+SLIP_METHODS = ("rodas4", "explicit")  # simulate(slip_method=...): see its docstring
 """Relative tolerances for which the error control means something: below 1e-14 the steps
 drown in round-off, above 1e-2 an accepted step can miss the dynamics entirely (at rtol = 1 a
 periodic state 'falls in')."""
@@ -72,7 +73,7 @@ def _announce_compile(scene: Scene):
 
 def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="dp5", *,
              max_steps=DEFAULT_MAX_STEPS, max_switches=DEFAULT_MAX_SWITCHES, workers=None, switching=None,
-             backend="cpu", terms=()):
+             backend="cpu", terms=(), slip_method="rodas4"):
     """Integrate rolling initial states until they fall, roll periodically or reach t_max.
 
     Parameters
@@ -90,6 +91,11 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
         counts as a steady motion and as a transversal omega1 zero (``solver.engine.rules``).
     method : {"dp5", "dop853"}
         Dormand-Prince 5(4) with 4th-order dense output, or DOP853 with 7th-order dense output.
+    slip_method : {"rodas4", "explicit"}
+        How slip phases are integrated: "rodas4" (default) takes L-stable Rodas4 steps while the
+        slipping equations are stiff (small slip speed, large mu) and ``method``'s steps otherwise
+        (``solver.engine.rosenbrock``); "explicit" takes ``method``'s steps throughout, at the
+        stability limit of the stiff slip (for comparisons).
     max_steps : int
         Budget of attempted steps per trajectory (status ``max_steps`` when spent).
     max_switches : int
@@ -134,7 +140,10 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
     """
     x = _checked_states(states, params)
     scene = scene_of(params, tuple(terms))
-    limits = _checked_limits(t_max, rtol, atol, max_steps, max_switches)._replace(periodic=scene.conservative)
+    if slip_method not in SLIP_METHODS:
+        raise ValueError(f"`slip_method` must be one of {', '.join(map(repr, SLIP_METHODS))}; got {slip_method!r}")
+    limits = _checked_limits(t_max, rtol, atol, max_steps, max_switches)._replace(
+        periodic=scene.conservative, stiff_slips=slip_method == "rodas4")
     if method not in TABLEAUS:
         raise ValueError(f"`method` must be one of {sorted(TABLEAUS)}; got {method!r}")
     workers = _count("workers", (os.cpu_count() or 1) if workers is None else workers)
