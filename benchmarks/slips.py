@@ -9,7 +9,8 @@ rounds (kernels compiled and warm before the first round):
 
 * ``rolling``: ``Params(mu=inf)``, the rolling-only section;
 * ``rodas4``: ``Params(mu=1)``, slip phases with Rodas4 steps while stiff (the default);
-* ``explicit``: ``Params(mu=1)``, ``slip_method="explicit"``: DP5 steps throughout the slips.
+* ``explicit``: ``Params(mu=1)``, ``switching={"slip_method": "explicit"}``: DP5 steps throughout the
+  slips.
 
 It prints and writes (``slips.json``, ``slips.md`` under ``--out``, default ``bench_results/``) the
 wall times and their ratios to rolling only, the attempted steps and the share of slip-phase steps,
@@ -45,7 +46,8 @@ def section(omega2: float, quick: bool) -> np.ndarray:
 def run(x, name, workers):
     mu, slip_method = RUNS[name]
     start = time.perf_counter()
-    res = simulate(x, Params(mu=mu), t_max=T_MAX, rtol=RTOL, atol=ATOL, workers=workers, slip_method=slip_method)
+    res = simulate(x, Params(mu=mu), t_max=T_MAX, rtol=RTOL, atol=ATOL, workers=workers,
+                   switching={"slip_method": slip_method})
     return time.perf_counter() - start, res
 
 

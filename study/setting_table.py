@@ -23,7 +23,7 @@ import dataclasses
 import math
 from collections.abc import Callable
 
-from rimroll.solver.engine.simulate import ATOL_MAX, RTOL_RANGE
+from rimroll.solver.engine.simulate import ATOL_MAX, RTOL_RANGE, SLIP_METHODS
 from rimroll.solver.physics import params as physical
 
 MAX_AXIS = 100_000  # values of one swept list/range, and of an n_* grid size
@@ -150,6 +150,10 @@ _ENTRIES = (
     S("method", "", "integrator of solver.simulate (dp5: Dormand-Prince 5(4))", choices=_methods, what="methods"),
     S("backend", "", "where solver.simulate runs (cuda: a GPU, extra rimroll[gpu]; auto: the GPU when usable)",
       choices=_backends, what="backends"),
+    S("delta", "m s-1", "launch speed of a slip (Sect. 5.2.2); u_stop = delta, u_floor = delta/100",
+      Range(1e-10, 1e-2)),
+    S("slip_method", "", "slip phases: rodas4 (Rosenbrock steps while stiff) or explicit (the method's steps)",
+      choices=SLIP_METHODS, what="slip methods"),
     S("rtol_max", "1", "loosest rtol of the sweep", TOLERANCE),
     S("rtol_min", "1", "tightest rtol of the sweep", TOLERANCE),
     S("n_rtol", "", "number of tolerances", COUNT),

@@ -156,3 +156,26 @@ def test_on_rim_reason_is_stored_with_its_flags(sections):
     assert var.attrs["flag_meanings"].split()[:3] == ["not_on_rim", "rolling_transient", "slip_roll_cycling"]
     on = ds["outcome"] == outcomes.ON_RIM_AT_T_MAX
     assert ((var != outcomes.NOT_ON_RIM) == on).all()
+
+
+def test_delta_and_slip_method_are_settings_recorded_and_used(tmp_path):
+    """``--set delta=...`` (the launch speed of a slip, Sect. 5.2.2) and ``--set slip_method=...``
+    reach the engine and the file: a fig12 run at delta = 1e-6 m/s records it, and its slipping scene
+    equals a direct simulate call with the switching tolerances delta sets (u_stop = delta,
+    u_floor = delta / 100), not the default run."""
+    from rimroll.study.cli import main
+    from rimroll.study.dataset import setting_of
+
+    sets = ["--set", "n_beta=6", "--set", "n_omega1=8", "--set", "delta=1e-6", "--set", "slip_method=explicit"]
+    assert main(["run", "fig12", "--quick", "--out", str(tmp_path), "--no-progress", *sets]) == 0
+    with xr.open_dataset(tmp_path / "fig12.nc") as ds:
+        assert float(setting_of(ds, "delta")) == 1e-6 and setting_of(ds, "slip_method") == "explicit"
+        beta, omega1 = np.meshgrid(ds["beta"].values, ds["omega1"].values, indexing="ij")
+        states = np.stack([beta, omega1, np.full_like(beta, 65.0), np.full_like(beta, 10.0)], axis=-1)
+        switching = {"delta": 1e-6, "u_stop": 1e-6, "u_floor": 1e-8, "slip_method": "explicit"}
+        direct = solver.simulate(states, solver.Params(mu=1.0), t_max=20.0, switching=switching)
+        np.testing.assert_array_equal(ds["t_end"].values[SLIP], direct["t_end"])
+        default = solver.simulate(states, solver.Params(mu=1.0), t_max=20.0)
+        slipped = direct["slip_phases"] > 0
+        assert slipped.any() and not np.array_equal(direct["t_end"][slipped], default["t_end"][slipped])
+    assert main(["run", "fig12", "--quick", "--out", str(tmp_path / "bad"), "--no-progress", "--set", "delta=1"]) == 2

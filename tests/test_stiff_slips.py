@@ -128,11 +128,11 @@ def test_cycling_cells_switch_as_radau_through_thirty_slips(radau_switch_times, 
 
 
 def test_rosenbrock_and_explicit_slip_steps_agree_and_rosenbrock_costs_less():
-    """slip_method="explicit" (the method's steps throughout the slip) gives the same switches; the
+    """switching={"slip_method": "explicit"} (the method's steps throughout the slip) gives the same switches; the
     Rosenbrock steps take fewer slip steps on each cycling cell, and at most a quarter in all (the
     first cell slips near delta, where the explicit steps sit at the stability limit)."""
     fast = simulate(CYCLING, SLIP, t_max=4.0, rtol=1e-10, atol=1e-12)
-    slow = simulate(CYCLING, SLIP, t_max=4.0, rtol=1e-10, atol=1e-12, slip_method="explicit")
+    slow = simulate(CYCLING, SLIP, t_max=4.0, rtol=1e-10, atol=1e-12, switching={"slip_method": "explicit"})
     np.testing.assert_array_equal(fast["slip_phases"], slow["slip_phases"])
     np.testing.assert_array_equal(fast["outcome"], slow["outcome"])
     assert np.all(fast["n_slip_steps"] < 0.5 * slow["n_slip_steps"]), (fast["n_slip_steps"], slow["n_slip_steps"])
@@ -141,7 +141,7 @@ def test_rosenbrock_and_explicit_slip_steps_agree_and_rosenbrock_costs_less():
 
 def test_slip_method_is_checked():
     with pytest.raises(ValueError, match="slip_method"):
-        simulate(CYCLING, SLIP, slip_method="radau")
+        simulate(CYCLING, SLIP, switching={"slip_method": "radau"})
 
 
 # ------------------------------------------------------------------ large mu: slipping precedes separation

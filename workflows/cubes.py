@@ -27,6 +27,7 @@ from rimroll.study import cubeplots as C
 from rimroll.study import plotting as P
 from rimroll.study.dataset import params_of, setting_of
 from rimroll.study.registry import Axis, ReferenceSpec, Study, Var, output_var, register
+from rimroll.workflows import sections
 from rimroll.workflows.sections import BETA_COMMENT, OMEGA1_COMMENT, steady_beta0
 
 STANDARD = solver.Params()
@@ -153,7 +154,7 @@ def _outcome_compute(coords, p, s):
     beta, omega1 = coords
     states = np.stack([beta, omega1, np.full_like(beta, s["omega2"]), np.full_like(beta, s["omega3"])], axis=-1)
     res = solver.simulate(states, p, t_max=s["t_max"], rtol=s["rtol"], atol=s["atol"], method=s["method"],
-                          workers=1, backend=s["backend"])
+                          workers=1, backend=s["backend"], **sections.engine_options(s))
     return {name: res[name] for name in ("outcome", "t_end", "revolutions", "status")}
 
 
@@ -220,7 +221,8 @@ register(Study(
     title="Outcomes of rolling initial states (Figs. 11-13, reduced grid) over mu x k_r x k_d x omega2",
     settings={"mu": (0.5, 1.0, 2.0), "k_r": (0.0, 0.01, 0.02), "k_d": (0.0, 0.01, 0.02),
               "omega2": (35.0, 65.0, 105.0), "omega3": 10.0, "n_beta": 36, "n_omega1": 60,
-              "t_max": 20.0, "rtol": 1e-6, "atol": 1e-9, "method": "dp5", "backend": "cpu"},
+              "t_max": 20.0, "rtol": 1e-6, "atol": 1e-9, "method": "dp5", "backend": "cpu",
+              "delta": sections.SETTINGS["delta"], "slip_method": sections.SETTINGS["slip_method"]},
     quick={"mu": (0.5, 1.0), "k_r": (0.0, 0.02), "k_d": (0.0, 0.02), "omega2": (65.0, 105.0),
            "n_beta": 12, "n_omega1": 18},
     sweepable=OUTCOME_SWEEPS,

@@ -34,7 +34,7 @@ from rimroll.solver.engine import outcomes
 from rimroll.study import plotting as P
 from rimroll.study.dataset import params_of, setting_of
 from rimroll.study.registry import ReferenceSpec, Study, output_var, register
-from rimroll.workflows.sections import QUICK, SETTINGS, scene_params, section_axes, steady_beta0
+from rimroll.workflows.sections import QUICK, SETTINGS, engine_options, scene_params, section_axes, steady_beta0
 
 VARIABLES = [output_var(name) for name in (
     "outcome", "t_end", "f2_min", "half_period", "revolutions", "slip_time", "energy_drift", "beta_end", "omega1_end",
@@ -47,7 +47,7 @@ def _compute(coords, p: solver.Params, s: dict) -> dict:
     params, t_max = scene_params(p, s, scene.flat[0])  # chunks hold one scene (chunks={"scene": 1})
     states = np.stack([beta, omega1, np.full_like(beta, s["omega2"]), np.full_like(beta, s["omega3"])], axis=-1)
     return solver.simulate(states, params, t_max=t_max, rtol=s["rtol"], atol=s["atol"], method=s["method"],
-                           workers=1, backend=s["backend"])
+                           workers=1, backend=s["backend"], **engine_options(s))
 
 
 BOUNDARY_ATTRS = {
@@ -72,6 +72,17 @@ FATES = ("fall_in", "fall_out", "other")
 FORMER_MEANINGS = {0: "none", 1: "rolling_only_island", 2: "slipping_island", 3: "both_islands"}
 
 
+def _recorded(ds) -> dict:
+    """The engine settings recorded in a results file (``sections.engine_options`` reads them)."""
+    out = {}
+    for name in ("delta", "slip_method"):
+        try:
+            out[name] = setting_of(ds, name)
+        except KeyError:  # a file written before the setting existed: the default
+            pass
+    return out
+
+
 def _boundary_labels(ds, k, outcome, f2, hp, t_end, weight, rolling) -> np.ndarray:
     """``boundary_type`` of scene k: grid labels, refined by simulation in a conservative scene."""
     p = params_of(ds)
@@ -86,7 +97,7 @@ def _boundary_labels(ds, k, outcome, f2, hp, t_end, weight, rolling) -> np.ndarr
     labels, _ = boundaries.refine_grid(outcome[k], states, p.replace(mu=mu, k_r=k_r, k_d=k_d),
                                        float(ds["t_max"].values[k]), fallback=grid,
                                        rtol=float(setting_of(ds, "rtol")), atol=float(setting_of(ds, "atol")),
-                                       method=str(setting_of(ds, "method")))
+                                       method=str(setting_of(ds, "method")), **engine_options(_recorded(ds)))
     return labels
 
 

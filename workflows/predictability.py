@@ -97,7 +97,8 @@ def _pred_compute(coords, p, s):
     states = _section_states(beta[0], omega1[0], s)
     # every core inside the chunk: a chunk is a whole section and scene, and the slipping ones
     # are several times the others, so one thread per chunk leaves a core idle at the end
-    sim = dict(t_max=t_max, rtol=s["rtol"], atol=s["atol"], method=s["method"], workers=None)
+    sim = dict(t_max=t_max, rtol=s["rtol"], atol=s["atol"], method=s["method"], workers=None,
+               **sections.engine_options(s))
     res = solver.simulate(states, params, **sim)
     codes = res["outcome"]
     box = int(s["box"])
@@ -283,6 +284,7 @@ PROB_SETTINGS = {
     "sigma_omega1": 1.0, "sigma_omega2": 2.0, "sigma_omega3": 1.0,  # [1/s]
     "n_samples": 64, "seed": 0, "confidence": 0.95,
     "t_max": 20.0, "rtol": 1e-6, "atol": 1e-9, "method": "dp5",
+    "delta": sections.SETTINGS["delta"], "slip_method": sections.SETTINGS["slip_method"],
 }
 PROB_QUICK = {"n_beta": 24, "n_omega1": 36, "n_samples": 16}
 
@@ -312,7 +314,8 @@ def sigma_of(s) -> np.ndarray:
 def _prob_compute(coords, p, s):
     beta, omega1 = coords
     states = _section_states(beta, omega1, s)
-    sim = dict(t_max=s["t_max"], rtol=s["rtol"], atol=s["atol"], method=s["method"], workers=1)
+    sim = dict(t_max=s["t_max"], rtol=s["rtol"], atol=s["atol"], method=s["method"], workers=1,
+               **sections.engine_options(s))
     res = pred.make_probability(states, p, sigma_of(s), n_samples=int(s["n_samples"]), seed=int(s["seed"]),
                                 confidence=float(s["confidence"]), **sim)
     out = {"outcome": solver.simulate(states, p, **sim)["outcome"], "n_failed": res["n_failed"]}

@@ -11,6 +11,7 @@ import numpy as np
 
 from rimroll import solver
 from rimroll.solver.engine import scenes
+from rimroll.solver.physics import switching
 from rimroll.study.registry import Axis
 
 SCENES = tuple(s.name for s in scenes.NAMED)
@@ -26,8 +27,24 @@ SETTINGS = {
     "t_max_dissipative": 60.0,  # [s]
     "rtol": 1e-8, "atol": 1e-10, "method": "dp5",
     "backend": "cpu",  # solver.simulate's backend: cpu, cuda or auto (docs/outcome-engine.md, Backends)
+    "delta": switching.DELTA,  # [m/s] launch speed of a slip (Sect. 5.2.2); u_stop = delta, u_floor = delta/100
+    "slip_method": "rodas4",  # solver.simulate's slip_method (docs/outcome-engine.md, "Stiff slips")
 }
 QUICK = {"n_beta": 24, "n_omega1": 36}
+
+
+def engine_options(s) -> dict:
+    """What ``solver.simulate`` takes from a study's settings (a dict, or a results file's recorded
+    settings through ``get``) besides the tolerances: its ``switching`` dict with ``slip_method``,
+    and where ``delta`` [m/s] is not the default, the switching tolerances it sets: the launch
+    speed delta, the return threshold u_stop = delta and the floor u_floor = delta / 100 (the
+    defaults' proportions, ``solver.physics.switching``). Settings a study or an older file lacks
+    take their defaults."""
+    options = {"slip_method": str(s.get("slip_method", "rodas4"))}
+    delta = float(s.get("delta", switching.DELTA))
+    if delta != switching.DELTA:
+        options.update(delta=delta, u_stop=delta, u_floor=delta / 100.0)
+    return {"switching": options}
 
 
 def scene_table(s: dict) -> dict[str, np.ndarray]:

@@ -196,13 +196,14 @@ def perturbation_fraction(classify: Callable[[np.ndarray], np.ndarray], states, 
 
 
 def uncertainty_fraction(states, params: Params, eps, scale, *, reference=None, t_max=20.0, rtol=1e-8,
-                         atol=1e-10, method="dp5", workers=None) -> Fraction:
+                         atol=1e-10, method="dp5", workers=None, **engine) -> Fraction:
     """f(eps) of rolling initial states: the fraction whose outcome changes under +-eps perturbations.
 
     ``states`` (..., 4) are (beta [rad], omega1, omega2, omega3 [1/s]); component k is moved by
     +-eps * scale[k] (``scale`` in rad, 1/s, 1/s, 1/s; 0 leaves it alone), one component at a
     time, and each copy is run with :func:`solver.simulate` (``t_max`` [s], ``rtol``, ``atol``,
-    ``method``, ``workers`` as there). For an outcome section use the grid steps as ``scale``:
+    ``method``, ``workers`` and any other keyword, ``engine``, as there). For an outcome section use
+    the grid steps as ``scale``:
     then eps counts grid steps, and whole eps can be read from the grid itself
     (:func:`grid_uncertainty_fraction`). ``reference``: the states' outcomes, when known.
     See :func:`perturbation_fraction` for the returned :class:`Fraction`.
@@ -210,7 +211,8 @@ def uncertainty_fraction(states, params: Params, eps, scale, *, reference=None, 
     from rimroll.solver.engine.simulate import simulate
 
     def classify(x):
-        return simulate(x, params, t_max=t_max, rtol=rtol, atol=atol, method=method, workers=workers)["outcome"]
+        return simulate(x, params, t_max=t_max, rtol=rtol, atol=atol, method=method, workers=workers,
+                        **engine)["outcome"]
 
     return perturbation_fraction(classify, states, eps, _check_scale(scale), reference=reference)
 
@@ -253,7 +255,7 @@ def grid_uncertainty_fraction(codes, steps, axes=None) -> Fraction:
 
 
 def section_uncertainty(states, codes, params: Params, eps, scale, *, n_sample: int = 4000, seed=0,
-                        t_max=20.0, rtol=1e-8, atol=1e-10, method="dp5", workers=None):
+                        **simulate_kw):
     """Which points of an outcome grid are eps-uncertain, reusing the grid where it can.
 
     ``states`` (n_0, n_1, ..., 4) is the grid of rolling initial states whose outcomes are
@@ -264,7 +266,8 @@ def section_uncertainty(states, codes, params: Params, eps, scale, *, n_sample: 
     stratified sample: every point that is uncertain at one grid step, plus ``n_sample``
     points drawn at random (``seed``) from the others, each standing for N_rest / n_sample
     points. A boundary that is smooth on the grid's scale has no uncertain point in the
-    second stratum; a fractal one does, and that is how it is seen.
+    second stratum; a fractal one does, and that is how it is seen. ``simulate_kw`` (t_max [s],
+    rtol, atol, method, workers, ...) go to :func:`uncertainty_fraction` and on to ``simulate``.
 
     Returns
     -------
@@ -299,7 +302,7 @@ def section_uncertainty(states, codes, params: Params, eps, scale, *, n_sample: 
         if pick.size == 0:  # no boundary on the grid and no sample asked for
             return uncertain, weight
         fr = uncertainty_fraction(x.reshape(-1, 4)[pick], params, e[fine], s, reference=c.ravel()[pick],
-                                  t_max=t_max, rtol=rtol, atol=atol, method=method, workers=workers)
+                                  **simulate_kw)
         for j, i in enumerate(fine):
             uncertain[i].reshape(-1)[pick] = fr.uncertain[j]
     return uncertain, weight
@@ -418,9 +421,8 @@ def noise_draws(n_samples: int, seed) -> np.ndarray:
     return np.random.default_rng(seed).standard_normal((n_samples, 4))
 
 
-def make_probability(states, params: Params, sigma, n_samples: int = 64, seed=0, *, t_max=20.0,
-                     rtol=1e-8, atol=1e-10, method="dp5", confidence=0.95, workers=None,
-                     block: int = 262_144) -> dict:
+def make_probability(states, params: Params, sigma, n_samples: int = 64, seed=0, *, confidence=0.95,
+                     block: int = 262_144, **simulate_kw) -> dict:
     """Probability of each outcome when the arriving state is normal around each nominal state.
 
     Each nominal rolling state x (beta [rad], omega1, omega2, omega3 [1/s]) is replaced by
@@ -441,8 +443,8 @@ def make_probability(states, params: Params, sigma, n_samples: int = 64, seed=0,
         Samples per nominal state (>= 1).
     seed : int or numpy SeedSequence
         Seed of the draws.
-    t_max, rtol, atol, method, workers :
-        As :func:`solver.simulate`.
+    **simulate_kw :
+        t_max [s], rtol, atol, method, workers, ...: as :func:`solver.simulate` (its defaults).
     confidence : float
         Confidence level of the Wilson intervals.
     block : int
@@ -478,7 +480,7 @@ def make_probability(states, params: Params, sigma, n_samples: int = 64, seed=0,
     per = max(1, block // n_samples)  # nominal states per simulate call
     for i in range(0, flat.shape[0], per):
         sub = flat[i:i + per, None, :] + offsets[None]
-        res = simulate(sub, params, t_max=t_max, rtol=rtol, atol=atol, method=method, workers=workers)
+        res = simulate(sub, params, **simulate_kw)
         outcome[i:i + per] = res["outcome"]
         failed[i:i + per] = (res["status"] != 0).sum(axis=1)
     codes = np.union1d(np.array(sorted(OUTCOME_MEANINGS), dtype=np.int64), np.unique(outcome))

@@ -355,9 +355,8 @@ def stiff_attempt(rhs, ret, control, model, method, arrays, work, t, h, after_re
     y = arrays.y
     system.slipping_jacobian(y, model, work.J, work.R, rosenbrock.ROW_JAC, work.W[W_SLOPE])
     h = min(h, slip_end_cap(y, arrays.f, ret))
-    code, h, h_next, attempts, last = rosenbrock.attempt(
-        rhs, system.N_SLIPPING, control, model, arrays, work.R, work.J, work.LU, work.piv, work.Q, method.n_stages,
-        t, h, after_reject, budget)
+    code, h, h_next, attempts, last = rosenbrock.attempt(rhs, system.N_SLIPPING, control, model, arrays, work,
+                                                         method.n_stages, t, h, after_reject, budget)
     return code, h, h_next, attempts, last, slip_stiffness(work)
 
 

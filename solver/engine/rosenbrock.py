@@ -53,6 +53,24 @@ D21, D22, D23, D24, D25 = 10.12623508344586, -7.487995877610167, -34.80091861555
     1.025137723295662
 D31, D32, D33, D34, D35 = -0.6762803392801253, 6.087714651680015, 16.43084320892478, 24.76722511418386, \
     -6.594389125716872
+STAGE_A = np.array([
+    [0.0, 0.0, 0.0, 0.0, 0.0],
+    [A21, 0.0, 0.0, 0.0, 0.0],
+    [A31, A32, 0.0, 0.0, 0.0],
+    [A41, A42, A43, 0.0, 0.0],
+    [A51, A52, A53, A54, 0.0],
+    [A51, A52, A53, A54, 1.0],  # Y6 = Y5 + k5
+])
+"""Row s: the coefficients of k_1..k_5 in the argument of f at stage s + 1."""
+STAGE_C = np.array([
+    [0.0, 0.0, 0.0, 0.0, 0.0],
+    [C21, 0.0, 0.0, 0.0, 0.0],
+    [C31, C32, 0.0, 0.0, 0.0],
+    [C41, C42, C43, 0.0, 0.0],
+    [C51, C52, C53, C54, 0.0],
+    [C61, C62, C63, C64, C65],
+])
+"""Row s: the coefficients of k_1..k_5 / h added to f at stage s + 1."""
 ERROR_EXPONENT = -0.25  # the embedded estimate is of order 3
 MAX_FACTOR = 6.0  # largest growth of h after an accepted step
 N_ROWS = 8  # rows of the stage array: k_1..k_6, then two rows of scratch (for the Jacobian)
@@ -156,15 +174,21 @@ def stage_solve(LU, piv, J, h, n, b):
 
 
 @kernel(inline=True, takes_functions=True)
-def stage(rhs, s, y, h, n, model, R, LU, piv, J, tmp, a1, a2, a3, a4, a5, c1, c2, c3, c4, c5):
-    """Stage s (1-based index s + 1) of the step: k_s = E^-1 (f(y + sum a_j k_j) + sum c_j k_j / h)
-    into R[s] (the coefficients of stages that do not exist yet are zero)."""
+def stage(rhs, s, y, h, n, model, R, LU, piv, J, tmp):
+    """Stage s + 1 of the step: k = E^-1 (f(y + sum_j a_sj k_j) + sum_j c_sj k_j / h) into R[s], with
+    the coefficients of row s of :data:`STAGE_A` and :data:`STAGE_C`; tmp keeps the argument of f."""
     for i in range(n):
-        tmp[i] = y[i] + a1 * R[0, i] + a2 * R[1, i] + a3 * R[2, i] + a4 * R[3, i] + a5 * R[4, i]
+        acc = y[i]
+        for j in range(s):
+            acc += STAGE_A[s, j] * R[j, i]
+        tmp[i] = acc
     rhs(tmp, model, R, s)
     inv_h = 1.0 / h
     for i in range(n):
-        R[s, i] += (c1 * R[0, i] + c2 * R[1, i] + c3 * R[2, i] + c4 * R[3, i] + c5 * R[4, i]) * inv_h
+        acc = 0.0
+        for j in range(s):
+            acc += STAGE_C[s, j] * R[j, i]
+        R[s, i] += acc * inv_h
     stage_solve(LU, piv, J, h, n, R[s])
 
 
@@ -176,14 +200,9 @@ def rodas_step(rhs, y, f, h, n, model, R, J, LU, piv, y_new, tmp):
         return False
     for i in range(n):
         R[0, i] = f[i]
-        for s in range(1, 5):
-            R[s, i] = 0.0
     stage_solve(LU, piv, J, h, n, R[0])
-    stage(rhs, 1, y, h, n, model, R, LU, piv, J, tmp, A21, 0.0, 0.0, 0.0, 0.0, C21, 0.0, 0.0, 0.0, 0.0)
-    stage(rhs, 2, y, h, n, model, R, LU, piv, J, tmp, A31, A32, 0.0, 0.0, 0.0, C31, C32, 0.0, 0.0, 0.0)
-    stage(rhs, 3, y, h, n, model, R, LU, piv, J, tmp, A41, A42, A43, 0.0, 0.0, C41, C42, C43, 0.0, 0.0)
-    stage(rhs, 4, y, h, n, model, R, LU, piv, J, tmp, A51, A52, A53, A54, 0.0, C51, C52, C53, C54, 0.0)
-    stage(rhs, 5, y, h, n, model, R, LU, piv, J, tmp, A51, A52, A53, A54, 1.0, C61, C62, C63, C64, C65)
+    for s in range(1, 6):
+        stage(rhs, s, y, h, n, model, R, LU, piv, J, tmp)
     for i in range(n):
         y_new[i] = tmp[i] + R[5, i]
     return True
@@ -227,12 +246,15 @@ def factor(err, after_reject):
 
 
 @kernel(inline=True, takes_functions=True)
-def attempt(rhs, n, control, model, arrays, R, J, LU, piv, Q, fsal_row, t, h, after_reject, budget):
-    """Try Rodas4 steps from (t, y), slope f, Jacobian J at y, first trial step h [s], until one is
-    accepted: the contract of ``stepper.attempt`` (same codes and returns). ``n``: the number of
-    components (a compile-time constant where the caller can make it one: the loops then unroll).
-    On ACCEPTED, y_new holds the step's end, K[fsal_row] its slope f(y_new) (where the explicit
-    methods keep theirs) and Q the dense output (no ``stepper.dense_prepare`` needed)."""
+def attempt(rhs, n, control, model, arrays, work, fsal_row, t, h, after_reject, budget):
+    """Try Rodas4 steps from (t, y), slope f, Jacobian work.J at y, first trial step h [s], until one
+    is accepted: the contract of ``stepper.attempt`` (same codes and returns). ``n``: the number of
+    components (a compile-time constant where the caller can make it one: the loops then unroll);
+    ``work``: the stages R (N_ROWS, n), the Jacobian J and LU (n, n), the pivots piv and the dense
+    output Q (n, >= 3) (``kernels.Work``). On ACCEPTED, y_new holds the step's end, K[fsal_row] its
+    slope f(y_new) (where the explicit methods keep theirs) and Q the dense output (no
+    ``stepper.dense_prepare`` needed)."""
+    R = work.R
     t_end = control.t_end
     y, f, K, y_new, tmp = arrays
     attempts = 0
@@ -252,7 +274,7 @@ def attempt(rhs, n, control, model, arrays, R, J, LU, piv, Q, fsal_row, t, h, af
             break
         attempts += 1
         err = np.inf
-        if rodas_step(rhs, y, f, h, n, model, R, J, LU, piv, y_new, tmp):
+        if rodas_step(rhs, y, f, h, n, model, R, work.J, work.LU, work.piv, y_new, tmp):
             rhs(y_new, model, K, fsal_row)
             err = error_norm(R, y, y_new, control.n_err, control.rtol, control.atol)
         finite = np.isfinite(err)
@@ -276,5 +298,5 @@ def attempt(rhs, n, control, model, arrays, R, J, LU, piv, Q, fsal_row, t, h, af
         break
     if code != ACCEPTED:
         return code, h, h, attempts, False
-    dense_coefficients(R, y, y_new, h, n, Q)
+    dense_coefficients(R, y, y_new, h, n, work.Q)
     return code, h, h_next, attempts, last

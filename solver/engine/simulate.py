@@ -29,7 +29,7 @@ from rimroll.solver.physics.steady_motion import stability
 from rimroll.solver.physics.switching import default_tolerances
 
 RTOL_RANGE = (1e-14, 1e-2)
-SLIP_METHODS = ("rodas4", "explicit")  # simulate(slip_method=...): see its docstring
+SLIP_METHODS = ("rodas4", "explicit")  # simulate(switching={"slip_method": ...}): see its docstring
 """Relative tolerances for which the error control means something: below 1e-14 the steps
 drown in round-off, above 1e-2 an accepted step can miss the dynamics entirely (at rtol = 1 a
 periodic state 'falls in')."""
@@ -73,7 +73,7 @@ def _announce_compile(scene: Scene):
 
 def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="dp5", *,
              max_steps=DEFAULT_MAX_STEPS, max_switches=DEFAULT_MAX_SWITCHES, workers=None, switching=None,
-             backend="cpu", terms=(), slip_method="rodas4"):
+             backend="cpu", terms=()):
     """Integrate rolling initial states until they fall, roll periodically or reach t_max.
 
     Parameters
@@ -91,11 +91,6 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
         counts as a steady motion and as a transversal omega1 zero (``solver.engine.rules``).
     method : {"dp5", "dop853"}
         Dormand-Prince 5(4) with 4th-order dense output, or DOP853 with 7th-order dense output.
-    slip_method : {"rodas4", "explicit"}
-        How slip phases are integrated: "rodas4" (default) takes L-stable Rodas4 steps while the
-        slipping equations are stiff (small slip speed, large mu) and ``method``'s steps otherwise
-        (``solver.engine.rosenbrock``); "explicit" takes ``method``'s steps throughout, at the
-        stability limit of the stiff slip (for comparisons).
     max_steps : int
         Budget of attempted steps per trajectory (status ``max_steps`` when spent).
     max_switches : int
@@ -103,8 +98,12 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
     workers : int or None
         Threads of the CPU backend (default: ``os.cpu_count()``); the compiled kernels release the GIL.
     switching : dict or None
-        Overrides of the switching tolerances ``delta``, ``u_stop``, ``phi_tol``, ``u_floor``
-        [m/s, m/s, rad, m/s] of ``solver.physics.switching`` (for convergence checks).
+        How slips are run. Overrides of the switching tolerances ``delta``, ``u_stop``,
+        ``phi_tol``, ``u_floor``, ``dt_max`` [m/s, m/s, rad, m/s, s] of ``solver.physics.switching``
+        (for convergence checks), and ``slip_method``: "rodas4" (default) takes L-stable Rodas4
+        steps while the slipping equations are stiff (small slip speed, large mu) and ``method``'s
+        steps otherwise (``solver.engine.rosenbrock``); "explicit" takes ``method``'s steps
+        throughout, at the stability limit of the stiff slip (for comparisons).
     backend : {"cpu", "cuda", "auto"}
         Where to run (``solver.engine.backends``): the CPU; a CUDA device, one thread per trajectory
         (needs the extra ``rimroll[gpu]`` and a device); or the device when one is usable, else
@@ -140,14 +139,17 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
     """
     x = _checked_states(states, params)
     scene = scene_of(params, tuple(terms))
+    switching = dict(switching or {})
+    slip_method = switching.pop("slip_method", "rodas4")
     if slip_method not in SLIP_METHODS:
-        raise ValueError(f"`slip_method` must be one of {', '.join(map(repr, SLIP_METHODS))}; got {slip_method!r}")
+        raise ValueError(f"switching `slip_method` must be one of {', '.join(map(repr, SLIP_METHODS))}; "
+                         f"got {slip_method!r}")
     limits = _checked_limits(t_max, rtol, atol, max_steps, max_switches)._replace(
         periodic=scene.conservative, stiff_slips=slip_method == "rodas4")
     if method not in TABLEAUS:
         raise ValueError(f"`method` must be one of {sorted(TABLEAUS)}; got {method!r}")
     workers = _count("workers", (os.cpu_count() or 1) if workers is None else workers)
-    sw = default_tolerances(**(switching or {}))
+    sw = default_tolerances(**switching)
     where = backends.resolve(backend)
 
     shape = x.shape[:-1]
