@@ -2,15 +2,15 @@
 
 A scene (docs/outcome-engine.md) is fixed by two flags, ``hybrid`` (finite mu:
 rolling/slipping switching of Sect. 5.2.2) and ``conservative`` (k_r = k_d = 0: periodic
-detection, Prop. 4). Each scene has its own named kernel (``scene_rolling_conservative``, ...)
-that runs a chunk of initial states through the inlined bodies :func:`run_scene` and
-:func:`trajectory` with its flags as literals, so a rolling-only kernel holds no slipping phase
-at all, and a process compiles only the scenes it runs. The step loop of a phase,
-:func:`run_phase`, is the expensive part of the first compile (~7 s of CPU per specialisation)
-and has three: rolling with and without the friction-cone events (``hybrid`` literal: the cone
-needs the contact forces at every step), slipping once (only hybrid scenes slip);
-``conservative`` (one sign test of omega1 per step) is a run-time argument there (the phase's
-``active`` omega1 event).
+detection, Prop. 4). Two kernels serve the four named scenes: :func:`scene_rolling` (mu = inf) and
+:func:`scene_hybrid` (finite mu), each running a chunk of initial states through the inlined bodies
+:func:`run_scene` and :func:`trajectory`, so a rolling-only kernel holds no slipping code at all
+and a process compiles only the kernels it runs. The step loop of a phase, :func:`run_phase`, is
+the expensive part of the first compile; a hybrid kernel has one step loop for both phases
+(``system.hybrid_rhs``: the phase told by the model), and whether the scene is conservative is a
+run-time setting (``Limits.periodic``: one sign test of omega1 per step). A slipping phase takes
+Rodas4 steps while it is stiff (``solver.engine.rosenbrock``, :func:`stiff_attempt`,
+:func:`next_slip_mode`) and the method's explicit steps otherwise.
 
 Functions that take a compiled function as an argument (``run_phase``, the event locator, the
 stepper's helpers) are not cached on their own (``solver._compile``): numba keys a cache entry

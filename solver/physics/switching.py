@@ -37,13 +37,14 @@ from rimroll.solver.physics.params import P_J, P_M, P_R_BALL
 DELTA = 1e-5
 """Initial slip speed when slipping starts [m/s] (delta of Sect. 5.2.2), set by a contact impulse.
 
-Why this size: while the slip is small, the slip angle relaxes to the limit direction at the
-rate |B|/u (~25 m/s^2 / u), so the slipping equations are stiff there and an explicit step
-cannot exceed ~u/|B|; the cost of a slip phase grows as delta shrinks (Fig. 11-13 sample,
-steps per slipping lane: 860 at 1e-6, 370 at 1e-5, 220 at 1e-4 m/s). The launch perturbs
-the trajectory by O(delta) (median relative change of t_end against delta -> 0: 2e-6 at
-1e-5, 2e-5 at 1e-4) and the energy by (1/2) j m delta^2/(1+j) only (see enter_slipping);
-no outcome of 4000 sampled states changed between 1e-6 and 1e-3."""
+Why this size: the paper's model is the limit delta -> 0; the launch perturbs the trajectory by
+O(delta) (on 656 slipping states of Fig. 12 at rtol 1e-10: median |t_end change| against delta =
+1e-8 of 3e-7 s at 1e-5, 3e-9 s at 1e-7; no outcome changed from 1e-4 to 1e-8) and the energy by
+(1/2) j m delta^2/(1+j) only (see enter_slipping). While the slip is small the slipping equations
+are stiff (the slip angle relaxes at |B|/u); with explicit steps the cost grew as delta shrank
+(860 steps per slipping lane at 1e-6, 370 at 1e-5), with the engine's Rosenbrock steps it hardly
+does (342 .. 375 steps per slip from 1e-4 to 1e-8). docs/outcome-engine.md, "The launch speed
+delta"; the study setting ``delta`` changes it (with u_stop = delta, u_floor = delta / 100)."""
 U_STOP = 1e-5
 """Slip speed [m/s] at or below which a slipping ball may return to rolling (= delta)."""
 PHI_TOL = 1e-2
