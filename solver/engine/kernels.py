@@ -347,7 +347,7 @@ def slip_end_cap(y, f, sw):
     return np.inf
 
 
-@kernel(inline=True, takes_functions=True)
+@kernel(takes_functions=True)
 def stiff_attempt(rhs, ret, control, model, method, arrays, work, t, h, after_reject, budget):
     """A Rosenbrock step attempt of a slipping phase (``rosenbrock.attempt``) with the Jacobian of
     (42) at the step's start, the step capped by :func:`slip_end_cap`. Returns rosenbrock.attempt's
@@ -397,7 +397,7 @@ def first_return(y, h, n, t, model, sw, t_max, work):
     return t, try_return(y, model.p, sw, t_max - t, W[W_Y_RET], model.load_fn)
 
 
-@kernel(inline=True)
+@kernel
 def next_slip_mode(stiff, rho, h, h_next, y, model, work, since_check):
     """Rosenbrock (True) or explicit steps next in a slipping phase, and the explicit steps since the
     last look at the stiffness. After a Rosenbrock step: explicit once the next step h_next [s] times
@@ -477,6 +477,7 @@ def run_phase(rhs, events, aux, ret, phase, model, method, limits, work, res_f, 
             n_searched += 1
             if not prepared:
                 dense_prepare(rhs, method, y, h, n, K, work.Q, W[W_TMP], model)
+                prepared = True
             end, t, dt_return = act_on_events(events, aux, ret, phase, model, limits, work, t, h, res_f, res_i)
             if end != END_NONE:
                 break

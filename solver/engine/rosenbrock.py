@@ -245,7 +245,7 @@ def factor(err, after_reject):
     return fac
 
 
-@kernel(inline=True, takes_functions=True)
+@kernel(takes_functions=True)  # not inlined: one compiled copy, called once per step (the compile stays small)
 def attempt(rhs, n, control, model, arrays, work, fsal_row, t, h, after_reject, budget):
     """Try Rodas4 steps from (t, y), slope f, Jacobian work.J at y, first trial step h [s], until one
     is accepted: the contract of ``stepper.attempt`` (same codes and returns). ``n``: the number of
