@@ -41,7 +41,7 @@ DEFAULT_MAX_SWITCHES = 10_000
 _CHUNKS_PER_WORKER = 8  # chunks per thread: balances fast falls against long periodic runs
 
 
-COLD_COMPILE_S = {"scene_rolling": 10, "scene_hybrid": 13}
+COLD_COMPILE_S = {"scene_rolling": 13, "scene_hybrid": 24}
 """Measured first compile of each scene's kernel on 2 cores [s], in a fresh process (printed, not
 enforced); a scene compiled after another one reuses the step loops they share."""
 _announced = set()
