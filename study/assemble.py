@@ -57,6 +57,7 @@ def assemble(plan: Plan, store: PartStore, path, attrs: dict) -> None:
             _fill(plan, store, variables)
         if plan.study.derive is not None:
             _add_derived(plan, tmp, skeleton)
+        io.seal(tmp)  # the checksum of every variable: a damaged result is never reused (study.reuse)
 
 
 def _coord_encoding(coord: xr.DataArray) -> dict:
@@ -87,7 +88,8 @@ def _create_variables(plan: Plan, nc, skeleton: xr.Dataset) -> dict:
         kind = np.dtype(v.dtype)
         fill = np.nan if kind.kind == "f" else False
         var = nc.createVariable(v.name, kind, vdims, fill_value=fill, chunksizes=chunks or None,
-                                zlib=bool(vdims), complevel=io.COMPRESSION["complevel"])
+                                zlib=bool(vdims), complevel=io.COMPRESSION["complevel"],
+                                fletcher32=bool(vdims))
         var.set_auto_maskandscale(False)
         attrs = dict(v.attrs)
         if coordinates := coordinates_of(vdims, skeleton):
@@ -137,7 +139,7 @@ def _add_derived(plan: Plan, tmp, skeleton: xr.Dataset) -> None:
             if dims == (name,) and name not in nc.dimensions:  # a new dimension and its coordinate
                 nc.createDimension(name, values.shape[0])
             chunks = plan.storage if dims == dims_all else None
-            var = nc.createVariable(name, values.dtype, dims, chunksizes=chunks, zlib=bool(dims),
+            var = nc.createVariable(name, values.dtype, dims, chunksizes=chunks, zlib=bool(dims), fletcher32=bool(dims),
                                     complevel=io.COMPRESSION["complevel"])
             var.set_auto_maskandscale(False)
             if dims != (name,) and (coordinates := coordinates_of(dims, skeleton)):

@@ -8,6 +8,7 @@ into a ``study.plan`` and every run goes through ``study.execute``. Every user e
 from __future__ import annotations
 
 import argparse
+import math
 import pathlib
 import shlex
 import sys
@@ -160,6 +161,8 @@ def _selection(words: list[str], ds) -> dict:
             out[key] = float(value)
         except ValueError:
             raise UserError(f"--select {key}={value}: VALUE must be a number") from None
+        if not math.isfinite(out[key]):
+            raise UserError(f"--select {key}={value}: VALUE must be a finite number")
     return out
 
 

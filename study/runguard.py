@@ -14,6 +14,8 @@ import tempfile
 
 import numpy as np
 
+from rimroll.study import io
+from rimroll.study.parts import PARTS
 from rimroll.study.registry import UserError
 
 log = logging.getLogger(__name__)
@@ -31,6 +33,9 @@ class RunStopped(UserError):
 
 def check_out(out: pathlib.Path) -> None:
     """``--out`` must be a directory this user can create and write; :class:`UserError` otherwise."""
+    problem = io.name_problem(out)
+    if problem:
+        raise UserError(f"cannot write into --out {out}: {problem}")
     if out.exists() and not out.is_dir():
         raise UserError(f"--out {out} exists and is not a directory")
     try:
@@ -40,6 +45,19 @@ def check_out(out: pathlib.Path) -> None:
         os.unlink(probe)
     except OSError as exc:
         raise UserError(f"cannot write into --out {out}: {exc.strerror or exc}") from None
+
+
+def check_targets(out: pathlib.Path, name: str, figure: bool) -> None:
+    """Every path a run of study ``name`` writes into ``out`` (``NAME.nc``, ``NAME.png`` when the study
+    has a ``figure``, the parts folder ``.parts`` and its lock ``.parts/NAME.lock``), checked before
+    any work: one line naming the path and what is in the way (:func:`rimroll.study.io.check_target`)."""
+    io.check_target(out / f"{name}.nc", "the result")
+    if figure:
+        io.check_target(out / f"{name}.png", "the figure")
+    parts = out / PARTS
+    if parts.exists() and not parts.is_dir():
+        raise UserError(f"cannot write the parts folder {parts}: a file is in the way (remove it)")
+    io.check_target(parts / f"{name}.lock", "the lock")
 
 
 def _saved(store, plan) -> str:

@@ -7,8 +7,11 @@ writes; every kind of damage to a file), not one test per example of the issue.
 
 from __future__ import annotations
 
+import pathlib
+
 import numpy as np
 import pytest
+import xarray as xr
 
 from rimroll.study import registry
 from rimroll.study.cli import main
@@ -71,3 +74,176 @@ def test_ordered_pairs_are_checked_before_any_work(tmp_path, capsys, low, high, 
         assert main(["run", study.name, "--quick", "--set", f"{low}={bad!r}", "--out", str(out)]) == 2
         _one_line_error(capsys.readouterr().err, low, high, "out of order")
         assert not out.exists()
+
+
+# ================================================================ 2. every path the CLI writes is guarded
+LONG = "x" * 300  # a path component longer than any file system takes (NAME_MAX 255)
+
+
+def _files(root: pathlib.Path) -> set:
+    return {p.relative_to(root) for p in root.rglob("*")} if root.exists() else set()
+
+
+def _obstacle(out: pathlib.Path, where: str, kind: str) -> None:
+    path = out / where
+    if kind == "dir":
+        (path / "inside").mkdir(parents=True)
+    else:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text("not a result")
+
+
+@pytest.mark.parametrize("where, kind, needle", [
+    ("fig8.nc", "dir", "a directory is in the way"),
+    ("fig8.png", "dir", "a directory is in the way"),
+    (".parts/fig8.lock", "dir", "a directory is in the way"),
+    (".parts", "file", "a file is in the way"),
+    ("sub", "file", "is not a directory"),
+])
+def test_run_into_a_colliding_path_is_one_line_and_writes_nothing(tmp_path, capsys, where, kind, needle):
+    out = tmp_path / "o"
+    _obstacle(out, where, kind)
+    before = _files(out)
+    target = out / "sub" if where == "sub" else out
+    assert main(["run", "fig8", "--quick", "--out", str(target), "--no-progress"]) == 2
+    _one_line_error(capsys.readouterr().err, needle, str(out / where) if where != "sub" else str(target))
+    assert _files(out) == before  # nothing half-written left behind
+
+
+@pytest.mark.parametrize("argv", [
+    ["run", "fig8", "--quick", "--no-progress", "--out", "{tmp}/" + LONG],
+    ["run", "fig8", "--quick", "--no-progress", "--out", "{tmp}/" + LONG + "/sub"],
+    ["trace", "--state", "1.2,2,0,3", "--t-max", "0.1", "--out", "{tmp}", "--name", LONG],
+    ["trace", "--state", "1.2,2,0,3", "--t-max", "0.1", "--out", "{tmp}/f.nc"],  # a file as --out
+])
+def test_names_too_long_or_files_as_folders_are_one_line(tmp_path, capsys, argv):
+    (tmp_path / "f.nc").write_text("x")
+    assert main([a.replace("{tmp}", str(tmp_path)) for a in argv]) == 2
+    _one_line_error(capsys.readouterr().err)
+    assert _files(tmp_path) == {pathlib.Path("f.nc")}
+
+
+@pytest.fixture(scope="module")
+def fig8_file(tmp_path_factory):
+    out = tmp_path_factory.mktemp("fig8")
+    assert main(["run", "fig8", "--quick", "--out", str(out), "--no-progress"]) == 0
+    return out / "fig8.nc"
+
+
+@pytest.mark.parametrize("blocked", ["fig8.png", "trace.png", "trace.nc"])
+def test_plot_and_trace_onto_a_directory_are_one_line(fig8_file, tmp_path, capsys, blocked):
+    import shutil
+
+    shutil.copy(fig8_file, tmp_path / "fig8.nc")
+    (tmp_path / blocked).mkdir()
+    if blocked == "fig8.png":
+        argv = ["plot", str(tmp_path / "fig8.nc")]
+    else:
+        argv = ["trace", "--state", "1.2,2,0,3", "--t-max", "0.1", "--out", str(tmp_path), "--force"]
+    assert main(argv) == 2
+    _one_line_error(capsys.readouterr().err, str(tmp_path / blocked), "a directory is in the way")
+    assert {p.name for p in tmp_path.iterdir()} == {"fig8.nc", blocked}
+
+
+# ================================================================ 3. damaged or foreign files: one reader validates
+def _edit(src: pathlib.Path, dst: pathlib.Path, change) -> pathlib.Path:
+    import shutil
+
+    import netCDF4
+
+    shutil.copy(src, dst)
+    with netCDF4.Dataset(dst, "a") as nc:
+        change(nc)
+    return dst
+
+
+EDITS = {  # name: (change to a fig8 file, what the one line says)
+    "no flag_meanings": (lambda nc: nc["region"].delncattr("flag_meanings"), "flag_values without flag_meanings"),
+    "scalar flag_values": (lambda nc: nc["region"].setncattr("flag_values", np.int8(0)), "flag_meanings without"),
+    "swept names a label": (lambda nc: nc.setncattr("swept", "beta0 nosuch"), "'swept' attribute names 'nosuch'"),
+    "a cube lacking its variables": (lambda nc: nc.setncattr("study", "outcome-cube"), "lacks the variable(s)"),
+    "a trace lacking its variables": (lambda nc: nc.setncattr("study", "trace"), "lacks the variable(s)"),
+    "another package's study": (lambda nc: nc.setncattr("study", "nosuch"), "no installed package registers"),
+    "a value changed": (lambda nc: nc["region"].__setitem__((0, 0), 7), "do not match the checksums"),
+    "an attribute changed": (lambda nc: nc.setncattr("param_m", 1.0), "do not match the checksums"),
+}
+
+
+@pytest.mark.parametrize("command", ["info", "plot", "verify"])
+@pytest.mark.parametrize("edit", sorted(EDITS))
+def test_foreign_or_edited_files_are_one_line(fig8_file, tmp_path, capsys, command, edit):
+    change, needle = EDITS[edit]
+    path = _edit(fig8_file, tmp_path / "fig8.nc", change)
+    assert main([command, str(path)]) == 2
+    _one_line_error(capsys.readouterr().err, str(path), needle)
+    assert not (tmp_path / "fig8.png").exists()
+
+
+def _flipped(src: pathlib.Path, dst: pathlib.Path, rng) -> pathlib.Path:
+    data = bytearray(src.read_bytes())
+    for _ in range(int(rng.integers(1, 4))):
+        data[int(rng.integers(len(data)))] ^= 1 << int(rng.integers(8))
+    dst.write_bytes(bytes(data))
+    return dst
+
+
+def test_bit_flipped_files_are_refused_or_unchanged(fig8_file, tmp_path, capsys):
+    """Seeded random bit flips anywhere in a result: each command either refuses the file in one line
+    (exit 2) or the flips hit no value or attribute (free space) and it answers as for the good file."""
+    rng = np.random.default_rng(28)
+    refused = 0
+    with xr.open_dataset(fig8_file) as good:
+        good = good.load()
+    for k in range(24):
+        path = _flipped(fig8_file, tmp_path / f"f{k}.nc", rng)
+        for command in ("info", "verify"):
+            status = main([command, str(path)])
+            captured = capsys.readouterr()
+            assert "Traceback" not in captured.err
+            if status == 2:
+                _one_line_error(captured.err, str(path))
+                refused += 1
+                continue
+            assert status == main([command, str(fig8_file)]), (k, command)
+            capsys.readouterr()
+            with xr.open_dataset(path) as ds:
+                assert ds.load().identical(good), k  # accepted only when nothing that is read changed
+    assert refused > 0
+
+
+def test_select_of_a_non_finite_value_is_one_line():
+    from rimroll.study.cli import _selection
+    from rimroll.study.registry import UserError
+
+    ds = xr.Dataset(coords={"j": ("j", [0.4, 0.5])}, attrs={"swept": "j"})
+    for value in ("nan", "inf", "-inf"):
+        with pytest.raises(UserError, match="finite"):
+            _selection([f"j={value}"], ds)
+
+
+# ================================================================ 5. a damaged result is never reused
+@pytest.mark.parametrize("edit", ["a value changed", "flipped blocks"])
+def test_a_damaged_result_is_recomputed_not_reused(fig8_file, tmp_path, capsys, edit):
+    out = tmp_path / "o"
+    out.mkdir()
+    nc = out / "fig8.nc"
+    if edit == "flipped blocks":
+        from rimroll.study.io import read_all
+
+        rng = np.random.default_rng(5)
+        for _ in range(200):  # flips until one damages what is read (most of the file is data blocks)
+            _flipped(fig8_file, nc, rng)
+            try:
+                read_all(nc)
+            except Exception:  # noqa: BLE001
+                break
+        else:
+            pytest.fail("no flip damaged the file")
+    else:
+        _edit(fig8_file, nc, EDITS[edit][0])
+    assert main(["run", "fig8", "--quick", "--out", str(out), "--no-progress"]) == 0
+    captured = capsys.readouterr()
+    assert "exists, not recomputing" not in captured.out and f"wrote {nc}" in captured.out
+    assert main(["info", str(nc)]) == 0
+    with xr.open_dataset(nc) as ds, xr.open_dataset(fig8_file) as good:
+        assert ds["region"].equals(good["region"])
