@@ -127,6 +127,7 @@ def run_to_file(plan: Plan, out, command: str, cluster: Cluster, *, force: bool 
     out = pathlib.Path(out)
     runguard.check_out(out)
     runguard.check_targets(out, plan.study.name, plan.study.plot is not None)
+    runguard.check_estimate(plan)
     nc = out / f"{plan.study.name}.nc"
     request = file_attrs(plan, command)
     sizes = {a.name: a.values.size for a in plan.axes}

@@ -258,12 +258,20 @@ def run(plan: Plan, store: PartStore, todo: list[int], c, progress: ProgressLine
     inflight = {f for f in (submit() for _ in range(window)) if f is not None}
     no_worker_since = None
     estimated = False
+    quiet_since, beat = t0, runguard.next_heartbeat(0.0)  # a "working" notice is due when nothing finished for beat s
     try:
         while inflight:
             try:
                 finished = wait(list(inflight), timeout=POLL, return_when="FIRST_COMPLETED").done
             except TimeoutError:
                 finished = set()
+            now = time.perf_counter()
+            if finished:
+                quiet_since, beat = now, runguard.next_heartbeat(0.0)
+            elif now - quiet_since >= beat:
+                if not progress.shown:  # a progress line on a terminal says it already
+                    runguard.heartbeat(plan, stats.computed, len(todo), now - t0)
+                beat = runguard.next_heartbeat(now - quiet_since)
             if not finished:
                 if _workers(c):
                     no_worker_since = None

@@ -47,8 +47,10 @@ def _run(out, *extra, name="fanout-probe"):
 
 
 def _one_line_error(err: str, *needles):
-    """One error line; before it, a run on a cluster may have given the link to its dashboard (a notice)."""
-    lines = [line for line in err.strip().splitlines() if ": dashboard of the cluster at " not in line]
+    """One error line; before it, a run on a cluster may have given the link to its dashboard, and a
+    run waiting on a chunk may have said it is working (notices)."""
+    lines = [line for line in err.strip().splitlines()
+             if ": dashboard of the cluster at " not in line and ": working, " not in line]
     assert len(lines) == 1 and lines[0].startswith("study: error:"), err
     assert "Traceback" not in err
     for needle in needles:

@@ -247,3 +247,45 @@ def test_a_damaged_result_is_recomputed_not_reused(fig8_file, tmp_path, capsys, 
     assert main(["info", str(nc)]) == 0
     with xr.open_dataset(nc) as ds, xr.open_dataset(fig8_file) as good:
         assert ds["region"].equals(good["region"])
+
+
+# ================================================================ 4. no long run is silent
+@pytest.mark.parametrize("name, sets, long", [
+    ("make-probability", ["n_samples=100000"], True),  # minutes: the plan says so up front
+    ("make-probability", [], False),
+    ("solution-types", ["t_max=1000"], True),
+    ("fig8", [], False),
+])
+def test_the_plan_of_a_long_run_is_said_up_front(name, sets, long):
+    import io as _io
+
+    from rimroll.study import runguard
+    from rimroll.study.plan import make_plan
+
+    plan = make_plan(registry.get(name), True, sets)
+    stream = _io.StringIO()
+    runguard.announce(plan, plan.n_chunks, stream)
+    text = stream.getvalue()
+    assert ("of one core by the study's cost model" in text) == long, text
+
+
+def test_absurdly_large_runs_are_refused_with_the_bound(tmp_path, capsys):
+    from rimroll.study import runguard
+
+    out = tmp_path / "o"
+    argv = ["run", "make-probability", "--set", "n_beta=20000", "--set", "n_omega1=20000",
+            "--set", "n_samples=100000", "--out", str(out)]
+    assert main(argv) == 2
+    _one_line_error(capsys.readouterr().err, "of one core", runguard._duration(runguard.MAX_CORE_SECONDS))
+    assert not (out / "make-probability.nc").exists() and not (out / ".parts").exists()
+
+
+def test_a_chunk_that_takes_long_is_not_silent(tmp_path, capsys, monkeypatch):
+    """One worker, chunks of 2.5 s: a "working" notice within the first chunk, the run ends fine."""
+    probe = str(pathlib.Path(__file__).with_name("fanout_probe.py"))
+    monkeypatch.setenv(registry.PLUGIN_ENV, probe)
+    argv = ["run", "fanout-probe", "--set", "mu=1", "--set", "v_throw=1", "--set", "delay=2.5",
+            "--workers", "1", "--no-progress", "--out", str(tmp_path)]
+    assert main(argv) == 0
+    err = capsys.readouterr().err
+    assert "fanout-probe: working, 0 of 2 chunks done after 2 s" in err, err
