@@ -34,6 +34,7 @@ from rimroll.study.dataset import coords_of, scalar_coords
 from rimroll.study.derived import derived_variables
 from rimroll.study.parts import PartStore
 from rimroll.study.plan import Plan
+from rimroll.study.registry import UserError
 
 STATUS = "status"  # the variable of the lanes' integration status, where a study has one
 
@@ -120,8 +121,9 @@ def _fill(plan: Plan, store: PartStore, variables: dict) -> None:
             k = int(np.ravel_multi_index(index, plan.counts))
             arrays = store.load(k, plan.expected(k))
             if arrays is None:
-                raise RuntimeError(f"part {store.path(k)} vanished or was damaged during assembly; "
-                                   "run again to recompute it")
+                raise UserError(f"part {store.path(k)} vanished or was damaged during the run (was the parts "
+                                f"folder removed?); {store.count()} of {plan.n_chunks} chunks saved; rerun the "
+                                "same command to recompute the missing ones")
             region = tuple(slice(r.start - b.start, r.stop - b.start) for r, b in zip(plan.region(k), block))
             for name, (_, outer) in variables.items():
                 buffers[name][region[:n_outer] if outer else region] = arrays[name]

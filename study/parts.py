@@ -156,6 +156,8 @@ class PartStore:
                 continue
             if 0 <= k < n and self.load(k, expected(k)) is not None:
                 ok.add(k)
+            elif path.is_dir() and not path.is_symlink():  # a folder in a part's place: ours to clear
+                shutil.rmtree(path, ignore_errors=True)
             else:
                 with contextlib.suppress(OSError):
                     path.unlink()

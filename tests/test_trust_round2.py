@@ -289,3 +289,84 @@ def test_a_chunk_that_takes_long_is_not_silent(tmp_path, capsys, monkeypatch):
     assert main(argv) == 0
     err = capsys.readouterr().err
     assert "fanout-probe: working, 0 of 2 chunks done after 2 s" in err, err
+
+
+# ================================================================ 5. faults around a run
+@pytest.fixture
+def probe(monkeypatch):
+    monkeypatch.setenv(registry.PLUGIN_ENV, str(pathlib.Path(__file__).with_name("fanout_probe.py")))
+    monkeypatch.delenv("FANOUT_PROBE_FAIL_MU", raising=False)
+    return registry.get("fanout-probe")
+
+
+def _probe(out, *extra):
+    return main(["run", "fanout-probe", "--out", str(out), "--no-progress", *extra])
+
+
+def test_disk_full_from_the_start_is_one_line(probe, tmp_path, capsys, monkeypatch):
+    import errno
+    import os
+
+    from rimroll.study import parts
+
+    def full(fd, data):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(parts.os, "write", full)  # the first write of a run: the lock's pid
+    assert _probe(tmp_path) == 2
+    _one_line_error(capsys.readouterr().err, "No space left on device", "0 of 12 chunks saved")
+
+
+def test_a_directory_in_a_parts_place_is_cleared_on_rerun(probe, tmp_path, capsys):
+    from rimroll.study.parts import PartStore
+    from rimroll.study.plan import make_plan
+
+    plan = make_plan(probe)
+    store = PartStore(tmp_path, "fanout-probe", plan.fingerprint)
+    (store.path(3) / "inside").mkdir(parents=True)
+    assert _probe(tmp_path) == 0
+    assert (tmp_path / "fanout-probe.nc").is_file() and not (tmp_path / ".parts").exists()
+
+
+def test_parts_folder_removed_mid_run_is_one_line_then_resumed(probe, tmp_path, capsys):
+    import shutil
+    import threading
+    import time
+
+    def remove_parts():
+        deadline = time.monotonic() + 30
+        while not list(tmp_path.glob(".parts/*/chunk-*.npz")) and time.monotonic() < deadline:
+            time.sleep(0.01)
+        for d in tmp_path.glob(".parts/fanout-probe-*"):
+            shutil.rmtree(d, ignore_errors=True)
+
+    thread = threading.Thread(target=remove_parts)
+    thread.start()
+    status = _probe(tmp_path, "--workers", "1", "--set", "delay=0.1")
+    thread.join()
+    err = capsys.readouterr().err
+    if status == 2:  # or the run recomputed what it lost: then exit 0 with a good file
+        _one_line_error(err, "vanished", "rerun the same command")
+        assert _probe(tmp_path, "--workers", "1") == 0
+    assert status in (0, 2) and main(["info", str(tmp_path / "fanout-probe.nc")]) == 0
+
+
+@pytest.mark.parametrize("delay", [0.2, 0.5, 0.9, 1.4])
+def test_ctrl_c_during_start_up_is_one_line(tmp_path, delay):
+    import shutil
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    script = shutil.which("study", path=str(pathlib.Path(sys.executable).parent)) or shutil.which("study")
+    if script is None:
+        pytest.skip("the study console script is not installed")
+    run = subprocess.Popen([script, "run", "fig8", "--quick", "--out", str(tmp_path / "o"), "--no-progress"],
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(delay)
+    run.send_signal(signal.SIGINT)
+    out, err = run.communicate(timeout=120)
+    assert "Traceback" not in err and run.returncode in (0, 130), (run.returncode, err)
+    if run.returncode == 130:
+        assert len(err.strip().splitlines()) == 1 and "interrupted" in err, err
