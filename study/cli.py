@@ -144,7 +144,11 @@ def _draw(study, nc: pathlib.Path, select: dict | None = None) -> pathlib.Path |
 
             ds = at(ds, select)
             png = nc.with_name(nc.stem + "".join(f"_{k}={float(ds[k]):g}" for k in select) + ".png")
-        fig = study.plot(ds)
+        try:
+            fig = study.plot(ds)
+        except (ValueError, ArithmeticError, LookupError) as exc:  # a figure these settings cannot make
+            raise UserError(f"{nc} holds the result, but its figure cannot be drawn: "
+                            f"{' '.join(str(exc).split()) or type(exc).__name__}") from None
     return io.write_figure(fig, png)
 
 
