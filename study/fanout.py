@@ -286,6 +286,10 @@ def run(plan: Plan, store: PartStore, todo: list[int], c, progress: ProgressLine
                     k, arrays, seconds = future.result()
                 except (KilledWorker, FuturesCancelledError) as exc:
                     raise lost(type(exc).__name__) from None
+                except ArithmeticError as exc:  # settings whose numbers leave floating point (j=1e308)
+                    raise UserError(f"{plan.study.name}: a chunk's computation failed with {type(exc).__name__} "
+                                    f"({' '.join(str(exc).split())}): the settings give numbers beyond floating "
+                                    f"point; {store.count()} of {plan.n_chunks} chunks saved") from None
                 future.release()
                 store.save(k, arrays)
                 del arrays

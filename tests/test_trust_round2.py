@@ -449,3 +449,18 @@ def test_fuzz_random_settings_and_damaged_files(fig8_file, tmp_path, capsys):
         if k >= 400:
             break
     assert k >= 8
+
+
+@pytest.mark.parametrize("sets, stops", [(["j=1e308"], True), (["j=1e200", "g=1e200"], False)])
+def test_settings_beyond_floating_point_are_one_line(tmp_path, capsys, sets, stops):
+    """Physical parameters are checked by Params' own ranges (finite, positive); a set whose numbers
+    leave floating point inside a chunk (an OverflowError of (1+j)**2) stops in one line."""
+    argv = ["run", "fig5", "--quick", "--no-progress", "--out", str(tmp_path)]
+    for item in sets:
+        argv += ["--set", item]
+    status = main(argv)
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and status in ((2,) if stops else (0, 2)), err
+    if status == 2:
+        lines = [line for line in err.strip().splitlines() if line.startswith("study:")]
+        assert len(lines) == 1 and "beyond floating point" in lines[0], err
