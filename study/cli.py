@@ -8,6 +8,7 @@ into a ``study.plan`` and every run goes through ``study.execute``. Every user e
 from __future__ import annotations
 
 import argparse
+import errno
 import math
 import pathlib
 import shlex
@@ -352,6 +353,18 @@ def _main(words: list[str], command: str) -> int:
     except BrokenPipeError:  # `study info FILE | head`: the reader has what it wanted
         _quiet_stdout()
         return 0
+    except OSError as exc:
+        if exc.errno not in _WRITE_ERRNOS:
+            raise
+        # e.g. the file size limit or a full disk between the netCDF (written) and its PNG
+        where = f" {exc.filename}" if exc.filename else ""
+        print(f"study: error: cannot write{where}: {exc.strerror or exc}; free space (or raise the limit) "
+              "and run the command again", file=sys.stderr)
+        return EXIT_USAGE
+
+
+_WRITE_ERRNOS = {errno.ENOSPC, errno.EFBIG, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EIO}
+"""Failures of a write outside a run's own guard (``runguard.saved_on_stop``): one line, exit 2."""
 
 
 def _backend_error():

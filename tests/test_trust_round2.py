@@ -464,3 +464,21 @@ def test_settings_beyond_floating_point_are_one_line(tmp_path, capsys, sets, sto
     if status == 2:
         lines = [line for line in err.strip().splitlines() if line.startswith("study:")]
         assert len(lines) == 1 and "beyond floating point" in lines[0], err
+
+
+# ================================================================ 7. damaged local state
+def test_file_size_limit_between_the_netcdf_and_the_png_is_one_line(tmp_path, capsys, monkeypatch):
+    import errno
+    import os
+
+    from rimroll.study import io as study_io
+
+    def too_large(fig, path, dpi=120):
+        raise OSError(errno.EFBIG, os.strerror(errno.EFBIG), str(path))
+
+    monkeypatch.setattr(study_io, "write_figure", too_large)
+    assert main(["run", "fig8", "--quick", "--no-progress", "--out", str(tmp_path)]) == 2
+    _one_line_error(capsys.readouterr().err, "File too large", str(tmp_path / "fig8.png"))
+    monkeypatch.undo()
+    assert main(["run", "fig8", "--quick", "--no-progress", "--out", str(tmp_path)]) == 0  # the file is kept
+    assert "exists, not recomputing" in capsys.readouterr().out and (tmp_path / "fig8.png").is_file()
