@@ -482,3 +482,49 @@ def test_file_size_limit_between_the_netcdf_and_the_png_is_one_line(tmp_path, ca
     monkeypatch.undo()
     assert main(["run", "fig8", "--quick", "--no-progress", "--out", str(tmp_path)]) == 0  # the file is kept
     assert "exists, not recomputing" in capsys.readouterr().out and (tmp_path / "fig8.png").is_file()
+
+
+# ================================================================ 6. cluster faults
+def test_scheduler_killed_mid_run_is_one_line_then_resumed(tmp_path):
+    import os
+    import signal
+    import socket
+    import subprocess
+    import sys
+    import time
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    address = f"tcp://127.0.0.1:{port}"
+    env = {**os.environ, registry.PLUGIN_ENV: str(pathlib.Path(__file__).with_name("fanout_probe.py"))}
+    dask = [sys.executable, "-m"]
+    scheduler = subprocess.Popen([*dask, "distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port", str(port),
+                                  "--no-dashboard"], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    worker = None
+    out = tmp_path / "out"
+    try:
+        worker = subprocess.Popen([*dask, "distributed.cli.dask_worker", address, "--no-nanny", "--nthreads", "1",
+                                   "--no-dashboard"], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        run = subprocess.Popen([sys.executable, "-m", "rimroll.study", "run", "fanout-probe", "--out", str(out),
+                                "--no-progress", "--scheduler", address, "--timeout", "20", "--set", "delay=0.3"],
+                               env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        deadline = time.monotonic() + 90
+        while len(list(out.glob(".parts/*/chunk-*.npz"))) < 2:
+            assert run.poll() is None and time.monotonic() < deadline, run.communicate()
+            time.sleep(0.05)
+        scheduler.send_signal(signal.SIGKILL)
+        t0 = time.monotonic()
+        _, err = run.communicate(timeout=60)
+        assert time.monotonic() - t0 < 20  # within the --timeout
+    finally:
+        for p in (scheduler, worker):
+            if p is not None:
+                p.kill()
+                p.wait(timeout=10)
+    lines = [line for line in err.strip().splitlines() if line.startswith("study: error:") or "Trace" in line]
+    assert run.returncode == 2 and len(lines) == 1, err  # notices (dashboard, working) may come before
+    assert "scheduler lost" in lines[0] and "chunks saved" in lines[0] and "Traceback" not in err
+    rerun = subprocess.run([sys.executable, "-m", "rimroll.study", "run", "fanout-probe", "--out", str(out),
+                            "--no-progress"], env=env, capture_output=True, text=True, timeout=120)
+    assert rerun.returncode == 0 and "chunks resumed" in rerun.stdout, rerun.stderr
