@@ -529,3 +529,25 @@ def test_scheduler_killed_mid_run_is_one_line_then_resumed(tmp_path):
                             "--no-progress", "--set", "delay=0.3"], env=env, capture_output=True, text=True,
                            timeout=120)  # the same inputs, locally: the saved chunks are resumed
     assert rerun.returncode == 0 and "chunks resumed" in rerun.stdout, rerun.stderr
+
+
+# ================================================================ 8. chunks of different code never mix
+def test_parts_of_other_code_are_never_assembled_into_a_result(probe, tmp_path, capsys, monkeypatch):
+    """Parts left by a run of other code (another code digest: the same inputs, other source) are not
+    resumed: every chunk of the file is computed by the code that writes it."""
+    from rimroll.study import plan as plan_module
+
+    log = tmp_path / "log"
+    monkeypatch.setenv("FANOUT_PROBE_FAIL_MU", "2.0")  # the first run stops part-way, parts kept
+    with pytest.raises(RuntimeError, match="probe asked to fail"):
+        _probe(tmp_path / "out", "--workers", "1", "--set", f"log={log}")
+    monkeypatch.delenv("FANOUT_PROBE_FAIL_MU")
+    kept = list((tmp_path / "out").glob(".parts/*/chunk-*.npz"))
+    assert kept
+    before = len(log.read_text().splitlines())
+    real = plan_module.code_digest
+    monkeypatch.setattr(plan_module, "code_digest", lambda study: "other-" + real(study))
+    assert _probe(tmp_path / "out", "--workers", "1", "--set", f"log={log}") == 0
+    assert "resumed" not in capsys.readouterr().out
+    assert len(log.read_text().splitlines()) - before == 12  # every chunk computed again, none reused
+    assert not any(p.exists() for p in kept)
