@@ -34,6 +34,7 @@ from rimroll.study.dataset import coords_of, scalar_coords
 from rimroll.study.derived import derived_variables
 from rimroll.study.parts import PartStore
 from rimroll.study.plan import Plan
+from rimroll.study.registry import UserError
 
 STATUS = "status"  # the variable of the lanes' integration status, where a study has one
 
@@ -57,6 +58,7 @@ def assemble(plan: Plan, store: PartStore, path, attrs: dict) -> None:
             _fill(plan, store, variables)
         if plan.study.derive is not None:
             _add_derived(plan, tmp, skeleton)
+        io.seal(tmp)  # the checksum of every variable: a damaged result is never reused (study.reuse)
 
 
 def _coord_encoding(coord: xr.DataArray) -> dict:
@@ -87,7 +89,8 @@ def _create_variables(plan: Plan, nc, skeleton: xr.Dataset) -> dict:
         kind = np.dtype(v.dtype)
         fill = np.nan if kind.kind == "f" else False
         var = nc.createVariable(v.name, kind, vdims, fill_value=fill, chunksizes=chunks or None,
-                                zlib=bool(vdims), complevel=io.COMPRESSION["complevel"])
+                                zlib=bool(vdims), complevel=io.COMPRESSION["complevel"],
+                                fletcher32=bool(vdims))
         var.set_auto_maskandscale(False)
         attrs = dict(v.attrs)
         if coordinates := coordinates_of(vdims, skeleton):
@@ -118,8 +121,9 @@ def _fill(plan: Plan, store: PartStore, variables: dict) -> None:
             k = int(np.ravel_multi_index(index, plan.counts))
             arrays = store.load(k, plan.expected(k))
             if arrays is None:
-                raise RuntimeError(f"part {store.path(k)} vanished or was damaged during assembly; "
-                                   "run again to recompute it")
+                raise UserError(f"part {store.path(k)} vanished or was damaged during the run (was the parts "
+                                f"folder removed?); {store.count()} of {plan.n_chunks} chunks saved; rerun the "
+                                "same command to recompute the missing ones")
             region = tuple(slice(r.start - b.start, r.stop - b.start) for r, b in zip(plan.region(k), block))
             for name, (_, outer) in variables.items():
                 buffers[name][region[:n_outer] if outer else region] = arrays[name]
@@ -137,7 +141,7 @@ def _add_derived(plan: Plan, tmp, skeleton: xr.Dataset) -> None:
             if dims == (name,) and name not in nc.dimensions:  # a new dimension and its coordinate
                 nc.createDimension(name, values.shape[0])
             chunks = plan.storage if dims == dims_all else None
-            var = nc.createVariable(name, values.dtype, dims, chunksizes=chunks, zlib=bool(dims),
+            var = nc.createVariable(name, values.dtype, dims, chunksizes=chunks, zlib=bool(dims), fletcher32=bool(dims),
                                     complevel=io.COMPRESSION["complevel"])
             var.set_auto_maskandscale(False)
             if dims != (name,) and (coordinates := coordinates_of(dims, skeleton)):

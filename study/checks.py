@@ -16,10 +16,10 @@ Sizes: a swept list or range holds at most :data:`MAX_AXIS` values and a cube at
 from __future__ import annotations
 
 from rimroll.study.registry import UserError
-from rimroll.study.setting_table import MAX_AXIS, MAX_MAGNITUDE, lookup
+from rimroll.study.setting_table import MAX_AXIS, MAX_MAGNITUDE, ORDERED, lookup
 
 __all__ = ["MAX_AXIS", "MAX_CHUNKS", "MAX_MAGNITUDE", "MAX_POINTS", "MAX_WORKERS", "check_setting",
-           "check_settings", "check_size", "check_values", "check_workers"]
+           "check_order", "check_settings", "check_size", "check_values", "check_workers"]
 
 MAX_CHUNKS = 200_000  # chunks of one cube (one part file each)
 MAX_POINTS = 10**10  # grid points of one cube
@@ -53,6 +53,19 @@ def check_settings(study: str, settings: dict) -> None:
             check_values(study, key, value)
         elif value is not None:
             check_setting(study, key, value)
+    check_order(study, settings)
+
+
+def check_order(study: str, settings: dict) -> None:
+    """The ordered pairs of the setting table (:data:`ORDERED`): ``beta0_min <= beta0_max``, ..."""
+    for low, high, strict in ORDERED:
+        a, b = settings.get(low), settings.get(high)
+        if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in (a, b)):
+            continue
+        if a > b or (strict and a == b):
+            sign = "<" if strict else "<="
+            raise UserError(f"settings {low}={a!r} and {high}={b!r} of study {study!r} are out of order: "
+                            f"{low} {sign} {high} is required")
 
 
 def check_size(study: str, n_chunks: int, n_points: int) -> None:

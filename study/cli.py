@@ -8,6 +8,8 @@ into a ``study.plan`` and every run goes through ``study.execute``. Every user e
 from __future__ import annotations
 
 import argparse
+import errno
+import math
 import pathlib
 import shlex
 import sys
@@ -143,7 +145,11 @@ def _draw(study, nc: pathlib.Path, select: dict | None = None) -> pathlib.Path |
 
             ds = at(ds, select)
             png = nc.with_name(nc.stem + "".join(f"_{k}={float(ds[k]):g}" for k in select) + ".png")
-        fig = study.plot(ds)
+        try:
+            fig = study.plot(ds)
+        except (ValueError, ArithmeticError, LookupError) as exc:  # a figure these settings cannot make
+            raise UserError(f"{nc} holds the result, but its figure cannot be drawn: "
+                            f"{' '.join(str(exc).split()) or type(exc).__name__}") from None
     return io.write_figure(fig, png)
 
 
@@ -160,6 +166,8 @@ def _selection(words: list[str], ds) -> dict:
             out[key] = float(value)
         except ValueError:
             raise UserError(f"--select {key}={value}: VALUE must be a number") from None
+        if not math.isfinite(out[key]):
+            raise UserError(f"--select {key}={value}: VALUE must be a finite number")
     return out
 
 
@@ -345,6 +353,18 @@ def _main(words: list[str], command: str) -> int:
     except BrokenPipeError:  # `study info FILE | head`: the reader has what it wanted
         _quiet_stdout()
         return 0
+    except OSError as exc:
+        if exc.errno not in _WRITE_ERRNOS:
+            raise
+        # e.g. the file size limit or a full disk between the netCDF (written) and its PNG
+        where = f" {exc.filename}" if exc.filename else ""
+        print(f"study: error: cannot write{where}: {exc.strerror or exc}; free space (or raise the limit) "
+              "and run the command again", file=sys.stderr)
+        return EXIT_USAGE
+
+
+_WRITE_ERRNOS = {errno.ENOSPC, errno.EFBIG, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EIO}
+"""Failures of a write outside a run's own guard (``runguard.saved_on_stop``): one line, exit 2."""
 
 
 def _backend_error():

@@ -126,6 +126,8 @@ def run_to_file(plan: Plan, out, command: str, cluster: Cluster, *, force: bool 
     """
     out = pathlib.Path(out)
     runguard.check_out(out)
+    runguard.check_targets(out, plan.study.name, plan.study.plot is not None)
+    runguard.check_estimate(plan)
     nc = out / f"{plan.study.name}.nc"
     request = file_attrs(plan, command)
     sizes = {a.name: a.values.size for a in plan.axes}
@@ -133,7 +135,7 @@ def run_to_file(plan: Plan, out, command: str, cluster: Cluster, *, force: bool 
     if not force and _reusable(plan, nc, request, sizes):
         _tidy(store)
         return Outcome(nc, None)
-    with store.lock(), runguard.saved_on_stop(store, plan):
+    with runguard.saved_on_stop(store, plan), store.lock():  # a full disk already at the lock: one line
         if not force and _reusable(plan, nc, request, sizes, quiet=True):
             return Outcome(nc, None)  # a run that held the lock just finished it
         stats = produce(plan, store, nc, command, progress=progress, cluster=cluster)

@@ -175,6 +175,8 @@ def client(workers: int | None = None, scheduler: str | None = None, timeout: fl
     for name in ("distributed", "distributed.scheduler", "distributed.nanny"):
         logging.getLogger(name).setLevel(logging.ERROR)
     logging.getLogger("distributed.worker").setLevel(logging.CRITICAL)  # the client re-raises task errors
+    for name in ("distributed.client", "distributed.utils"):  # a lost scheduler: our one line says it (run)
+        logging.getLogger(name).setLevel(logging.CRITICAL)
     if scheduler_file:
         scheduler = scheduler_address(scheduler_file, timeout)
     if scheduler:
@@ -232,6 +234,7 @@ def run(plan: Plan, store: PartStore, todo: list[int], c, progress: ProgressLine
     for ``timeout`` s, or a chunk's worker died too often (``KilledWorker``)."""
     from distributed import wait
     from distributed.client import FuturesCancelledError
+    from distributed.comm.core import CommClosedError
     from distributed.scheduler import KilledWorker
 
     from rimroll.study import runguard
@@ -250,20 +253,30 @@ def run(plan: Plan, store: PartStore, todo: list[int], c, progress: ProgressLine
             return None
         return c.submit(timed_chunk, plan.job(k), key=f"chunk-{plan.fingerprint}-{k}-{token}", pure=False)
 
-    def lost(why: str) -> UserError:
-        return UserError(f"worker lost ({why}); {store.count()} of {plan.n_chunks} chunks saved, "
+    def lost(why: str, what: str = "worker") -> UserError:
+        return UserError(f"{what} lost ({why}); {store.count()} of {plan.n_chunks} chunks saved, "
                          "rerun the same command to resume")
 
     t0 = time.perf_counter()
     inflight = {f for f in (submit() for _ in range(window)) if f is not None}
     no_worker_since = None
     estimated = False
+    quiet_since, beat = t0, runguard.next_heartbeat(0.0)  # a "working" notice is due when nothing finished for beat s
     try:
         while inflight:
             try:
                 finished = wait(list(inflight), timeout=POLL, return_when="FIRST_COMPLETED").done
             except TimeoutError:
                 finished = set()
+            except FuturesCancelledError:  # the scheduler went away: the client cancels every future
+                raise lost("the client lost its connection", "scheduler") from None
+            now = time.perf_counter()
+            if finished:
+                quiet_since, beat = now, runguard.next_heartbeat(0.0)
+            elif now - quiet_since >= beat:
+                if not progress.shown:  # a progress line on a terminal says it already
+                    runguard.heartbeat(plan, stats.computed, len(todo), now - t0)
+                beat = runguard.next_heartbeat(now - quiet_since)
             if not finished:
                 if _workers(c):
                     no_worker_since = None
@@ -278,6 +291,10 @@ def run(plan: Plan, store: PartStore, todo: list[int], c, progress: ProgressLine
                     k, arrays, seconds = future.result()
                 except (KilledWorker, FuturesCancelledError) as exc:
                     raise lost(type(exc).__name__) from None
+                except ArithmeticError as exc:  # settings whose numbers leave floating point (j=1e308)
+                    raise UserError(f"{plan.study.name}: a chunk's computation failed with {type(exc).__name__} "
+                                    f"({' '.join(str(exc).split())}): the settings give numbers beyond floating "
+                                    f"point; {store.count()} of {plan.n_chunks} chunks saved") from None
                 future.release()
                 store.save(k, arrays)
                 del arrays
@@ -291,6 +308,8 @@ def run(plan: Plan, store: PartStore, todo: list[int], c, progress: ProgressLine
                 estimated = True
                 runguard.estimate(plan, stats.compute_s / stats.computed,
                                   len(todo) - stats.computed, threads)
+    except CommClosedError:
+        raise lost("its connection closed", "scheduler") from None
     except BaseException:
         for f in inflight:
             f.cancel()

@@ -9,15 +9,20 @@ any new file gets under the user's umask (0666 & ~umask), not the 0600 of a temp
 from __future__ import annotations
 
 import contextlib
+import hashlib
+import itertools
 import os
 import pathlib
 import tempfile
 
+import numpy as np
 import xarray as xr
 
 from rimroll.study.registry import UserError
 
-COMPRESSION = {"zlib": True, "complevel": 4}
+COMPRESSION = {"zlib": True, "complevel": 4, "fletcher32": True}
+"""Filters of every array written: zlib, and a Fletcher-32 checksum of each storage chunk, so that
+a damaged block is an error on reading (:func:`read_all`), never numbers."""
 
 
 def current_umask() -> int:
@@ -32,11 +37,59 @@ def current_umask() -> int:
     return mask
 
 
+def _name_max(directory: pathlib.Path) -> int:
+    """The longest file name the file system of ``directory`` (or its nearest existing parent) takes."""
+    for d in (directory, *directory.parents):
+        with contextlib.suppress(OSError, ValueError, AttributeError):
+            return int(os.pathconf(d, "PC_NAME_MAX"))  # fails for a folder that is not there
+    return 255
+
+
+def name_problem(path) -> str | None:
+    """A component of ``path`` too long for the file system, in words; None if there is none."""
+    path = pathlib.Path(path)
+    limit = _name_max(path.parent)
+    for part in path.parts:
+        if len(os.fsencode(part)) > limit:
+            return f"the name {part[:20]}... is {len(os.fsencode(part))} bytes long, the file system takes {limit}"
+    return None
+
+
+def _in_the_way(path: pathlib.Path) -> str | None:
+    """What keeps a file from being written at ``path``, in words; None if nothing does."""
+    problem = name_problem(path)
+    if problem:
+        return problem
+    try:
+        for d in reversed(path.parents):
+            if d.exists() and not d.is_dir():
+                return f"{d} is a file, not a directory"
+        if path.is_dir():
+            return "a directory is in the way"
+        if path.exists() and not path.is_file():
+            return "something that is not a regular file is in the way"
+    except OSError as exc:  # a loop of links, a folder we may not search
+        return exc.strerror or str(exc)
+    return None
+
+
+def check_target(path, what: str = "") -> pathlib.Path:
+    """The one guard of a path the command line writes (results, figures, parts, locks): a
+    :class:`UserError` naming the path and what is in the way (a directory at the file's place, a
+    file at a directory's place, a name too long for the file system); else ``path``. ``what``: the
+    role of the path in the message ("the lock")."""
+    path = pathlib.Path(path)
+    problem = _in_the_way(path)
+    if problem:
+        raise UserError(f"cannot write {what + ' ' if what else ''}{path}: {problem}")
+    return path
+
+
 @contextlib.contextmanager
 def atomic_path(path: pathlib.Path, tmp_dir=None):
     """Yield a temporary path next to ``path`` (or in ``tmp_dir``, same file system); on success
-    move it onto ``path``, else delete it."""
-    path = pathlib.Path(path)
+    move it onto ``path``, else delete it. ``path`` is checked first (:func:`check_target`)."""
+    path = check_target(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=tmp_dir or path.parent)
     os.close(fd)
@@ -66,6 +119,7 @@ def write_dataset(ds: xr.Dataset, path, chunks: tuple[int, ...]) -> pathlib.Path
     path = pathlib.Path(path)
     with atomic_path(path) as tmp:
         ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=encoding_for(ds, chunks))
+        seal(tmp)
     return path
 
 
@@ -77,24 +131,194 @@ def write_figure(fig, path, dpi: int = 120) -> pathlib.Path:
     return path
 
 
-def open_result(path, lazy: bool = False) -> xr.Dataset:
-    """Open a rimroll results file; UserError if it is not one.
+TRACE_VARIABLES = ("beta", "omega1", "omega2", "omega3", "F2", "friction_use", "energy", "x", "y", "z",
+                   "phase", "event_time", "event_kind")
+"""What a file of ``study trace`` holds (``study.trace.dataset``) and its figure draws."""
 
+
+CHECKSUM_ATTR = "data_sha256"
+"""Global attribute of a result: ``NAME:DIGEST`` words, the SHA-256 (first 32 hex digits) of every
+variable's stored values, and of the global attributes that give the file its meaning (``.attrs``;
+:func:`seal`);
+:func:`read_all` recomputes and compares them, so that a
+damaged file is refused or recomputed, never read as numbers (a flipped byte in a chunk index
+makes the netCDF library return fill values without an error)."""
+
+
+class DamagedFile(ValueError):
+    """A variable of a file no longer matches its checksum."""
+
+
+_SLAB = 1 << 22  # values read at once when a variable is hashed
+
+
+def _slabs(var):
+    """The values of netCDF4 variable ``var`` in C order, in slabs of at most about :data:`_SLAB`
+    values (whatever its storage chunks: the digest does not depend on how the file is chunked)."""
+    var.set_auto_maskandscale(False)
+    shape = var.shape
+    if var.ndim == 0 or var.size == 0:
+        yield np.asarray(var[...])
+        return
+    lead = 0  # leading dimensions iterated one index at a time
+    while lead < len(shape) - 1 and int(np.prod(shape[lead:], dtype=float)) > _SLAB:
+        lead += 1
+    for prefix in itertools.product(*(range(n) for n in shape[:lead])):
+        yield np.asarray(var[prefix] if prefix else var[...])
+
+
+def _attrs_digest(nc) -> str:
+    """SHA-256 of the global attributes that give a result its meaning (the study, its swept axes,
+    the run's fingerprint, every parameter and setting)."""
+    keys = sorted(k for k in nc.ncattrs() if k in ("study", "swept", "run_fingerprint")
+                  or k.startswith(("param_", "setting_")))
+    pairs = [(k, np.asarray(nc.getncattr(k)).tolist()) for k in keys]
+    return hashlib.sha256(repr(pairs).encode()).hexdigest()[:32]
+
+
+def _digests(nc) -> dict[str, str]:
+    """Variable name -> the SHA-256 of its dtype, shape and stored values in C order (reads every
+    value); ``.attrs``: of the global attributes that give the file its meaning."""
+    out = {".attrs": _attrs_digest(nc)}
+    for name, var in nc.variables.items():
+        h = hashlib.sha256(f"{name}|{var.dtype}|{var.shape}|".encode())
+        for slab in _slabs(var):
+            h.update(np.ascontiguousarray(slab).tobytes())
+        out[name] = h.hexdigest()[:32]
+    return out
+
+
+def seal(path) -> None:
+    """Record the checksum of every variable of the netCDF file ``path`` (:data:`CHECKSUM_ATTR`);
+    call on the finished temporary file, before it is moved into place."""
+    import netCDF4
+
+    with netCDF4.Dataset(path, "a") as nc:
+        nc.setncattr(CHECKSUM_ATTR, " ".join(f"{k}:{v}" for k, v in sorted(_digests(nc).items())))
+
+
+def read_all(path) -> None:
+    """Read every value of every variable of the netCDF file ``path``, a slab at a time (memory: a
+    few million values), so that damage anywhere raises here: a block failing its Fletcher-32
+    checksum (:data:`COMPRESSION`) or its decompression (``RuntimeError: NetCDF: HDF error``), or a
+    variable whose values no longer match the checksum the file records (:class:`DamagedFile`;
+    files written before checksums were recorded have none to compare)."""
+    import netCDF4
+
+    with netCDF4.Dataset(path, "r") as nc:
+        found = _digests(nc)
+        recorded = str(nc.getncattr(CHECKSUM_ATTR)) if CHECKSUM_ATTR in nc.ncattrs() else None
+    if recorded is None:
+        return
+    expected = dict(word.split(":", 1) for word in recorded.split() if ":" in word)
+    # a variable missing or added (a file edited with xarray) is for the checks of its content (problems)
+    bad = sorted(k for k in set(expected) & set(found) if expected[k] != found[k])
+    if bad:
+        bad = ["the global attributes" if k == ".attrs" else k for k in bad]
+        raise DamagedFile(f"the values of {', '.join(bad[:5])}{' ...' if len(bad) > 5 else ''} do not match "
+                          f"the checksums the file records ({CHECKSUM_ATTR}): the file is damaged (a file "
+                          f"changed on purpose must drop the attribute {CHECKSUM_ATTR})")
+
+
+def open_result(path, lazy: bool = False) -> xr.Dataset:
+    """Open a rimroll results file, the one reader that validates before anything interprets it:
+    :class:`UserError` (one line: what the file lacks or where it is damaged) if it is not one.
+
+    Checked: it opens as netCDF, the ``study`` and ``rimroll_version`` attributes, the variables of
+    the study it names, its flags and swept axes (:func:`problems`), then every value reads and
+    matches the checksums the file records (:func:`read_all`).
     Default: loaded into memory, file closed. ``lazy``: dask-backed in the file's chunks
     (``chunks={}``), for cubes larger than memory; close it (``with``) when done.
     """
     path = pathlib.Path(path)
     if not path.is_file():
         raise UserError(f"no such results file: {path}")
+    damaged = (OSError, ValueError, RuntimeError, KeyError, IndexError, TypeError, AttributeError)
     try:
         if lazy:
             ds = xr.open_dataset(path, engine="netcdf4", chunks={})
         else:
             with xr.open_dataset(path, engine="netcdf4") as ds:
                 ds = ds.load()
-    except (OSError, ValueError) as exc:
-        raise UserError(f"cannot read {path} as netCDF: {exc}") from None
+    except damaged as exc:
+        raise _unreadable(path, exc) from None
     if "study" not in ds.attrs or "rimroll_version" not in ds.attrs:
         ds.close()
         raise UserError(f"{path} is not a rimroll results file (no 'study'/'rimroll_version' attributes)")
+    problem = problems(ds)
+    if problem:
+        ds.close()
+        raise UserError(f"{path} is not a valid rimroll results file: {problem}")
+    try:
+        read_all(path)  # what it holds is what was written: every block, every recorded checksum
+    except damaged as exc:
+        ds.close()
+        raise _unreadable(path, exc) from None
     return ds
+
+
+def _unreadable(path: pathlib.Path, exc: BaseException) -> UserError:
+    return UserError(f"cannot read {path}: it is damaged or not netCDF: "
+                     f"{' '.join(str(exc).split()) or type(exc).__name__}")
+
+
+def problems(ds: xr.Dataset) -> str | None:
+    """What a dataset with a ``study`` attribute lacks to be a file of that study, in words (None:
+    nothing): the study's variables (a registered study's, or :data:`TRACE_VARIABLES`), flags that
+    pair a 1-D list of integer ``flag_values`` with as many ``flag_meanings``, and ``swept`` names
+    that are numeric axes of the file."""
+    from rimroll.study import registry
+
+    name = ds.attrs["study"]
+    if not isinstance(name, str) or not name:
+        return f"its 'study' attribute is {name!r}, not a study name"
+    if name == "trace":
+        required, axes = TRACE_VARIABLES, ("time", "event")
+    else:
+        try:
+            study = registry.get(name)
+        except UserError:
+            return f"it names study {name!r}, which no installed package registers"
+        required, axes = [v.name for v in study.variables], _grid_names(study)
+    missing = [v for v in required if v not in ds.data_vars]
+    if missing:
+        return f"it lacks the variable(s) {', '.join(missing)} of study {name}"
+    allowed = {*axes, *str(ds.attrs.get("swept", "")).split()}
+    for v in required:
+        extra = [d for d in ds[v].dims if d not in allowed]
+        if extra:
+            return (f"its variable {v} has the dimension(s) {', '.join(extra)}, which study {name} does not have "
+                    f"(its axes: {', '.join(sorted(allowed))})")
+    for var_name, var in ds.variables.items():
+        flag = _flag_problem(var.attrs)
+        if flag:
+            return f"variable {var_name}: {flag}"
+    for axis in str(ds.attrs.get("swept", "")).split():
+        if axis not in ds.dims or axis not in ds.coords or ds[axis].dtype.kind not in "iuf":
+            return f"its 'swept' attribute names {axis!r}, which is not a numeric axis of the file"
+    return None
+
+
+def _grid_names(study) -> tuple:
+    """Names of the study's grid axes at its default settings (they do not depend on the settings);
+    empty when they cannot be made."""
+    from rimroll.study.settings import base_settings, default_settings
+
+    try:
+        return tuple(a.name for a in study.axes(base_settings(default_settings(study))))
+    except Exception:  # noqa: BLE001  a study whose axes need other settings: no check of dimensions
+        return ()
+
+
+def _flag_problem(attrs: dict) -> str | None:
+    if "flag_values" not in attrs and "flag_meanings" not in attrs:
+        return None
+    values, meanings = attrs.get("flag_values"), attrs.get("flag_meanings")
+    if not isinstance(meanings, str):
+        return "flag_values without flag_meanings (a string of words)"
+    values = np.asarray(values) if values is not None else None
+    if values is None or values.ndim != 1 or values.dtype.kind not in "iu":
+        return "flag_meanings without flag_values (a list of integers)"
+    if values.size != len(meanings.split()):
+        return f"{values.size} flag_values but {len(meanings.split())} flag_meanings"
+    return None

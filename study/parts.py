@@ -26,6 +26,7 @@ import tempfile
 
 import numpy as np
 
+from rimroll.study import io
 from rimroll.study.registry import UserError
 
 PARTS = ".parts"
@@ -60,7 +61,11 @@ class PartStore:
     @contextlib.contextmanager
     def lock(self):
         """Hold the exclusive lock of the output file; :class:`UserError` if another run holds it.
-        The lock file is deleted on leaving."""
+        The lock file is deleted on leaving; a file in the place of the parts folder, or a
+        directory in the lock's, is a :class:`UserError` naming it."""
+        if self.root.exists() and not self.root.is_dir():
+            raise UserError(f"cannot write the parts folder {self.root}: a file is in the way (remove it)")
+        io.check_target(self.lock_path, "the lock")
         self.root.mkdir(parents=True, exist_ok=True)
         while True:
             fd = os.open(self.lock_path, os.O_RDWR | os.O_CREAT, 0o644)
@@ -151,6 +156,8 @@ class PartStore:
                 continue
             if 0 <= k < n and self.load(k, expected(k)) is not None:
                 ok.add(k)
+            elif path.is_dir() and not path.is_symlink():  # a folder in a part's place: ours to clear
+                shutil.rmtree(path, ignore_errors=True)
             else:
                 with contextlib.suppress(OSError):
                     path.unlink()

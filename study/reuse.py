@@ -26,17 +26,17 @@ class Existing:
 
 
 def _read_header(path: pathlib.Path) -> tuple[dict, dict]:
-    """Global attributes and dimension sizes of a netCDF file; touches the last element of every
-    variable so that a file cut short raises here. Any failure raises."""
+    """Global attributes and dimension sizes of a netCDF file, after reading every data block of
+    it (``study.io.read_all``: each block's checksum), so that a file cut short or damaged anywhere
+    raises here and is recomputed, never reused. Any failure raises."""
     import netCDF4
 
+    from rimroll.study.io import read_all
+
+    read_all(path)
     with netCDF4.Dataset(path, "r") as nc:
         attrs = {k: nc.getncattr(k) for k in nc.ncattrs()}
         sizes = {k: len(d) for k, d in nc.dimensions.items()}
-        for var in nc.variables.values():
-            if var.size:
-                var.set_auto_maskandscale(False)
-                var[tuple(n - 1 for n in var.shape)]
     return attrs, sizes
 
 

@@ -14,11 +14,16 @@ import tempfile
 
 import numpy as np
 
+from rimroll.study import io
+from rimroll.study.parts import PARTS
 from rimroll.study.registry import UserError
 
 log = logging.getLogger(__name__)
 
 ANNOUNCE_CHUNKS = 100  # runs of at least this many chunks print their plan before starting
+ANNOUNCE_SECONDS = 5.0  # and runs the study's cost model puts at this many seconds of one core or more
+MAX_CORE_SECONDS = 365 * 86400.0  # a run the cost model puts above a year of one core is refused
+HEARTBEATS = (2.0, 10.0, 30.0, 60.0)  # [s] "working" notices while no chunk finishes; then every minute
 
 
 class RunStopped(UserError):
@@ -31,6 +36,9 @@ class RunStopped(UserError):
 
 def check_out(out: pathlib.Path) -> None:
     """``--out`` must be a directory this user can create and write; :class:`UserError` otherwise."""
+    problem = io.name_problem(out)
+    if problem:
+        raise UserError(f"cannot write into --out {out}: {problem}")
     if out.exists() and not out.is_dir():
         raise UserError(f"--out {out} exists and is not a directory")
     try:
@@ -40,6 +48,19 @@ def check_out(out: pathlib.Path) -> None:
         os.unlink(probe)
     except OSError as exc:
         raise UserError(f"cannot write into --out {out}: {exc.strerror or exc}") from None
+
+
+def check_targets(out: pathlib.Path, name: str, figure: bool) -> None:
+    """Every path a run of study ``name`` writes into ``out`` (``NAME.nc``, ``NAME.png`` when the study
+    has a ``figure``, the parts folder ``.parts`` and its lock ``.parts/NAME.lock``), checked before
+    any work: one line naming the path and what is in the way (:func:`rimroll.study.io.check_target`)."""
+    io.check_target(out / f"{name}.nc", "the result")
+    if figure:
+        io.check_target(out / f"{name}.png", "the figure")
+    parts = out / PARTS
+    if parts.exists() and not parts.is_dir():
+        raise UserError(f"cannot write the parts folder {parts}: a file is in the way (remove it)")
+    io.check_target(parts / f"{name}.lock", "the lock")
 
 
 def _saved(store, plan) -> str:
@@ -101,13 +122,64 @@ def _say(text: str, stream=None) -> None:
     stream.flush()
 
 
+def core_seconds(plan, n_todo: int | None = None) -> float | None:
+    """The study's cost model (``Study.cost`` seconds per grid point on one core, in proportion to
+    its ``cost_scale`` setting, measured at that setting's ``--quick`` value) for ``n_todo`` chunks
+    of ``plan`` (default: all of them); None for a study without a cost."""
+    study = plan.study
+    if study.cost is None:
+        return None
+    points = float(np.prod(plan.shape, dtype=float))
+    if n_todo is not None:
+        points *= n_todo / max(plan.n_chunks, 1)
+    seconds = study.cost * points
+    key = study.cost_scale
+    if key:
+        value = plan.settings.get(key)
+        value = max(value) if isinstance(value, tuple) else value
+        measured = study.quick.get(key, study.settings[key])
+        with contextlib.suppress(TypeError, ValueError, ZeroDivisionError):
+            seconds *= float(value) / float(measured)
+    return seconds
+
+
+def check_estimate(plan) -> None:
+    """Refuse, before any work, a run whose cost model says more than :data:`MAX_CORE_SECONDS` of
+    one core (settings that make a run absurdly large), with the bound in the message."""
+    seconds = core_seconds(plan)
+    if seconds is not None and seconds > MAX_CORE_SECONDS:
+        raise UserError(f"study {plan.study.name!r}: these settings need about {_duration(seconds)} of one core "
+                        f"(the study's cost model); at most {_duration(MAX_CORE_SECONDS)} per run: use fewer points "
+                        f"or samples, or split the run into several with different --out")
+
+
 def announce(plan, n_todo: int, stream=None) -> None:
-    """One notice with the plan of a run of at least :data:`ANNOUNCE_CHUNKS` chunks to do."""
-    if n_todo < ANNOUNCE_CHUNKS:
+    """One notice with the plan of a run of at least :data:`ANNOUNCE_CHUNKS` chunks to do, or of
+    one the study's cost model puts at :data:`ANNOUNCE_SECONDS` or more of one core."""
+    seconds = core_seconds(plan, n_todo)
+    long = seconds is not None and seconds >= ANNOUNCE_SECONDS
+    if n_todo < ANNOUNCE_CHUNKS and not long:
         return
     points = int(np.prod(plan.shape, dtype=float))
+    model = f"about {_duration(seconds)} of one core by the study's cost model; " if seconds is not None else ""
     _say(f"{plan.study.name}: {n_todo} of {plan.n_chunks} chunks to compute, {points:.3g} grid "
-         f"points; an estimate of the time follows the first chunks (Ctrl-C stops, a rerun resumes)", stream)
+         f"points; {model}an estimate of the time follows the first chunks (Ctrl-C stops, a rerun resumes)", stream)
+
+
+def heartbeat(plan, done: int, n_todo: int, elapsed: float, stream=None) -> None:
+    """A notice that a run is still working (chunks done, time so far): said by ``study.fanout``
+    when no chunk has finished for :data:`HEARTBEATS` seconds, then every minute, so that a long
+    chunk is not taken for a hang."""
+    _say(f"{plan.study.name}: working, {done} of {n_todo} chunks done after {_duration(elapsed)} "
+         "(Ctrl-C stops, a rerun resumes)", stream)
+
+
+def next_heartbeat(elapsed: float) -> float:
+    """When the next :func:`heartbeat` is due, for a run ``elapsed`` seconds in."""
+    for t in HEARTBEATS:
+        if elapsed < t:
+            return t
+    return (elapsed // 60 + 1) * 60
 
 
 def estimate(plan, seconds_per_chunk: float, n_left: int, threads: int, stream=None) -> None:
@@ -120,6 +192,8 @@ def estimate(plan, seconds_per_chunk: float, n_left: int, threads: int, stream=N
 
 
 def _duration(seconds: float) -> str:
+    if seconds < 60:
+        return f"{seconds:.0f} s"
     if seconds < 3600:
         return f"{seconds / 60:.0f} min"
     if seconds < 48 * 3600:

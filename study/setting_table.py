@@ -123,12 +123,11 @@ _ENTRIES = (
     # ---- physical parameters: units, long_name, doc and range from solver.physics.params
     *(_physical(q) for q in physical.QUANTITIES.values()),
     # ---- initial state and steady motions
-    # (the swept ones are not capped at 1e12: a test drives simulate to non-finite lanes with omega2=1e308)
     # (a swept setting's long_name labels its axis in plots: at most 24 characters, one line in xarray's)
     S("v_throw", "m s-1", "throw speed whose kinetic energy bounds the steady motion (59)",
-      Range(0.0, math.inf, high_open=True), sweep=True, long_name="throw speed"),
-    S("omega2", "s-1", "initial orthogonal angular velocity", FINITE, sweep=True, long_name="initial omega2"),
-    S("omega3", "s-1", "initial circular angular velocity", FINITE, sweep=True, long_name="initial omega3"),
+      NONNEGATIVE, sweep=True, long_name="throw speed"),
+    S("omega2", "s-1", "initial orthogonal angular velocity", NUMBER, sweep=True, long_name="initial omega2"),
+    S("omega3", "s-1", "initial circular angular velocity", NUMBER, sweep=True, long_name="initial omega3"),
     S("omega30", "s-1", "circular angular velocity of the steady motion", NUMBER),
     S("omega30_max", "s-1", "grid: omega30 in [-omega30_max, omega30_max]", NUMBER),
     S("omega1_max", "s-1", "grid/sample: omega1 in [-omega1_max, omega1_max]", NUMBER),
@@ -177,7 +176,7 @@ _ENTRIES = (
     S("n_fine", "", "eps below one grid step: 1/2 ... 1/2^n_fine (simulated)", COUNT0),
     S("n_coarse", "", "eps of whole grid steps: 1 ... 2^n_coarse (read from the grid)", COUNT0),
     S("n_sample", "", "states away from the grid's boundaries simulated for eps < 1", COUNT0),
-    S("sigma", "1", "noise level: multiplies sigma_beta ... sigma_omega3", Range(0.0, math.inf, high_open=True),
+    S("sigma", "1", "noise level: multiplies sigma_beta ... sigma_omega3", NONNEGATIVE,
       sweep=True, long_name="noise level"),
     S("sigma_beta", "rad", "standard deviation of the arriving beta at sigma = 1", NONNEGATIVE),
     S("sigma_omega1", "s-1", "standard deviation of the arriving omega1 at sigma = 1", NONNEGATIVE),
@@ -202,6 +201,10 @@ def _table(entries) -> dict[str, Setting]:
 
 TABLE: dict[str, Setting] = _table(_ENTRIES)
 """Every setting of rimroll's studies, by name."""
+
+ORDERED = (("beta0_min", "beta0_max", False), ("rtol_min", "rtol_max", True))
+"""Pairs of settings ``(low, high, strict)`` whose values must be ordered, ``low <= high`` (``low <
+high`` when ``strict``), checked with the ranges before any work (a sample uniform in [low, high])."""
 
 WILDCARDS = (("t_max", Setting("t_max*", "s", "", POSITIVE)), ("n_", Setting("n_*", "", "", COUNT)))
 """Rules by name prefix for setting names that :data:`TABLE` does not declare (another package's studies)."""

@@ -365,7 +365,8 @@ def run(args, command: str) -> int:
         raise UserError(f"--samples must be >= 2; got {args.samples}")
     if not 0 <= args.periods <= MAX_PERIODS:
         raise UserError(f"--periods must be an integer 0 <= N <= {MAX_PERIODS}; got {args.periods}")
-    nc = pathlib.Path(args.out) / f"{args.name}.nc"
+    nc = io.check_target(pathlib.Path(args.out) / f"{args.name}.nc", "the trace")
+    io.check_target(nc.with_suffix(".png"), "the figure")
     if nc.exists() and not args.force:
         raise UserError(f"{nc} exists; use --force to replace it or --name to write another")
     res = tr.trace(state, params, t_max=t_max, rtol=args.rtol, atol=args.atol, n=args.samples)

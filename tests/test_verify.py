@@ -8,6 +8,7 @@ import xarray as xr
 
 from rimroll.study import reference
 from rimroll.study.cli import main
+from rimroll.study.io import CHECKSUM_ATTR
 
 
 @pytest.fixture(scope="module")
@@ -32,6 +33,7 @@ def test_perturbed_file_exits_1(good_fig12, tmp_path, capsys):
         bad = ds.load()
     bad["t_end"].values[...] *= 1.01  # 1 % off: 10x the default tolerance of t_end
     bad["outcome"].values[1, 0, 0] = 3 - bad["outcome"].values[1, 0, 0]  # a corner, far from boundaries
+    del bad.attrs[CHECKSUM_ATTR]  # changed on purpose: no longer what rimroll wrote (else: damaged, exit 2)
     path = tmp_path / "fig12.nc"
     bad.to_netcdf(path)
     assert main(["verify", str(path)]) == 1
@@ -43,6 +45,7 @@ def test_other_settings_have_no_common_points(good_fig12, tmp_path, capsys):
     with xr.open_dataset(good_fig12) as ds:
         other = ds.load()
     other.attrs["setting_omega2"] = 70.0
+    del other.attrs[CHECKSUM_ATTR]
     path = tmp_path / "fig12.nc"
     other.to_netcdf(path)
     assert main(["verify", str(path)]) == 1
@@ -175,3 +178,13 @@ def test_the_quick_slices_show_what_the_quick_runs_should(capsys):
         assert int(n.sel(integrator="scipy_rk45").min()) == 3
     with xr.open_dataset(reference.reference_path("predictability", grid="quick")) as ds:
         assert not np.isnan(ds["box_entropy"].values).any()
+
+
+def test_edited_file_that_keeps_its_checksums_is_damaged(good_fig12, tmp_path, capsys):
+    with xr.open_dataset(good_fig12) as ds:
+        bad = ds.load()
+    bad["t_end"].values[0, 0, 0] += 1.0
+    bad.to_netcdf(tmp_path / "fig12.nc")
+    assert main(["verify", str(tmp_path / "fig12.nc")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "the values of t_end do not match the checksums" in err

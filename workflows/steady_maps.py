@@ -119,18 +119,29 @@ def _fig5_plot(ds):
     ax.contour(b, w, h, levels=[0.0], colors="k", linewidths=1.0)
     P.label_parts(ax, b, w, stable == 1, "S", min_fraction=0.01, split=True)
     P.label_parts(ax, b, w, stable == 0, "U", min_fraction=0.01, split=True)
-    bs = steady.beta_star(p)
-    for x in (-bs, bs):
-        ax.axvline(x, color="tab:red", ls="--", lw=1.2)
-    for x, text, ha in ((bs, r" $\beta^*$", "left"), (-bs, r"$-\beta^*$ ", "right")):
-        if b.min() <= x <= b.max():
-            ax.text(x, w.max() * 0.93, text, color="tab:red", fontsize=12, ha=ha)
-    bh, w_tip = _beta_hat_points(p, float(np.abs(w).max()))
-    ax.plot([bh, bh], w_tip, "o", color="k", ms=6, zorder=8)
-    ax.annotate(r"$\hat\beta$", (bh, w_tip[1]), xytext=(8, 6), textcoords="offset points", fontsize=12)
+    marks = []  # beta* and beta_hat exist only for R > (1+j) rho (another --set j or r: the map alone)
+    try:
+        bs = steady.beta_star(p)
+    except ValueError:
+        bs = None
+    if bs is not None:
+        for x in (-bs, bs):
+            ax.axvline(x, color="tab:red", ls="--", lw=1.2)
+        for x, text, ha in ((bs, r" $\beta^*$", "left"), (-bs, r"$-\beta^*$ ", "right")):
+            if b.min() <= x <= b.max():
+                ax.text(x, w.max() * 0.93, text, color="tab:red", fontsize=12, ha=ha)
+        marks.append(rf"$\beta^*$={bs:.3f}")
+    try:
+        bh, w_tip = _beta_hat_points(p, float(np.abs(w).max()))
+    except ValueError:
+        bh = None
+    if bh is not None:
+        ax.plot([bh, bh], w_tip, "o", color="k", ms=6, zorder=8)
+        ax.annotate(r"$\hat\beta$", (bh, w_tip[1]), xytext=(8, 6), textcoords="offset points", fontsize=12)
+        marks.append(rf"$\hat\beta$={bh:.3f} rad")
     P.singular_lines(ax, circles=False)
-    P.beta_omega_axes(ax, ds, rf"Stability (54): shaded S = neutrally stable ($h<0$), U = unstable; "
-                              rf"$\beta^*$={bs:.3f}, $\hat\beta$={bh:.3f} rad")
+    P.beta_omega_axes(ax, ds, r"Stability (54): shaded S = neutrally stable ($h<0$), U = unstable"
+                              + "".join(f"; {m}" for m in marks[:1]) + "".join(f", {m}" for m in marks[1:]))
     return fig
 
 
