@@ -94,3 +94,18 @@ def test_a_term_needs_a_load_defined_at_the_top_of_a_module():
             solver.simulate(_states(2), solver.Params(), terms=("toy_local",))
     finally:
         scenes.TERMS.pop("toy_local")
+
+
+def test_a_damaged_generated_module_in_the_cache_is_rewritten(tmp_path, monkeypatch):
+    """A generated scene module that is not valid text any more (a damaged cache) is written again,
+    not a UnicodeDecodeError."""
+    from rimroll.solver import _jit
+
+    monkeypatch.setattr(_jit, "cache_dir", lambda: tmp_path)
+    monkeypatch.setattr(scene_code, "_MODULES", {})
+    scene = scenes.scene_of(solver.Params(mu=1.0), ("toy_drilling",))
+    path = tmp_path / "scenes" / f"{scene_code.module_name(scene)}.py"
+    path.parent.mkdir(parents=True)
+    path.write_bytes(b"\xff\xfe\x00damaged")
+    assert scene_code.module(scene).load is not None
+    assert path.read_text(encoding="utf-8") == scene_code.source(scene)

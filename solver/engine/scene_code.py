@@ -91,6 +91,15 @@ def _terms_digest(scene: Scene) -> str:
     return h.hexdigest()
 
 
+def _stored_text(path) -> str | None:
+    """The text of a generated module in the cache, or None where it is missing or unreadable (a
+    damaged cache file is rewritten, not a traceback)."""
+    try:
+        return path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        return None
+
+
 def module(scene: Scene):
     """The imported module of a scene with load terms (written into the kernel cache on first use)."""
     if not scene.loads:
@@ -107,9 +116,9 @@ def module(scene: Scene):
     folder = _jit.cache_dir() / "scenes"
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / f"{name}.py"
-    if not path.is_file() or path.read_text() != text:
+    if _stored_text(path) != text:
         fd, tmp = tempfile.mkstemp(dir=folder, suffix=".tmp")
-        with os.fdopen(fd, "w") as fh:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
             fh.write(text)
         os.replace(tmp, path)  # atomic: processes that write it at once write the same text
     spec = importlib.util.spec_from_file_location(name, path)
