@@ -96,9 +96,9 @@ def test_a_term_needs_a_load_defined_at_the_top_of_a_module():
         scenes.TERMS.pop("toy_local")
 
 
-def test_a_damaged_generated_module_in_the_cache_is_rewritten(tmp_path, monkeypatch):
+def test_a_damaged_generated_module_in_the_cache_is_rewritten(tmp_path, monkeypatch, caplog):
     """A generated scene module that is not valid text any more (a damaged cache) is written again,
-    not a UnicodeDecodeError."""
+    with one warning, not a UnicodeDecodeError."""
     from rimroll.solver import _jit
 
     monkeypatch.setattr(_jit, "cache_dir", lambda: tmp_path)
@@ -109,3 +109,4 @@ def test_a_damaged_generated_module_in_the_cache_is_rewritten(tmp_path, monkeypa
     path.write_bytes(b"\xff\xfe\x00damaged")
     assert scene_code.module(scene).load is not None
     assert path.read_text(encoding="utf-8") == scene_code.source(scene)
+    assert [r.levelname for r in caplog.records if "could not be read" in r.getMessage()] == ["WARNING"]

@@ -15,6 +15,7 @@ from __future__ import annotations
 import hashlib
 import importlib.util
 import inspect
+import logging
 import os
 import sys
 import tempfile
@@ -96,7 +97,11 @@ def _stored_text(path) -> str | None:
     damaged cache file is rewritten, not a traceback)."""
     try:
         return path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError):
+    except FileNotFoundError:
+        return None
+    except (OSError, UnicodeDecodeError) as err:
+        logging.getLogger(__name__).warning("the cached scene module %s could not be read (%s); writing it "
+                                            "again", path, type(err).__name__)
         return None
 
 
