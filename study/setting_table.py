@@ -150,6 +150,10 @@ _ENTRIES = (
     S("method", "", "integrator of solver.simulate (dp5: Dormand-Prince 5(4))", choices=_methods, what="methods"),
     S("backend", "", "where solver.simulate runs (cuda: a GPU, extra rimroll[gpu]; auto: the GPU when usable)",
       choices=_backends, what="backends"),
+    S("adaptive", "", "adaptive outcome map: simulate a coarse lattice, refine only non-uniform blocks down to the "
+      "grid, fill uniform blocks from their corners (docs/outcome-studies.md#adaptive-maps)"),
+    S("adaptive_coarse", "", "adaptive map: grid cells between the points of the coarse lattice (a power of 2)",
+      COUNT),
     S("rtol_max", "1", "loosest rtol of the sweep", TOLERANCE),
     S("rtol_min", "1", "tightest rtol of the sweep", TOLERANCE),
     S("n_rtol", "", "number of tolerances", COUNT),
