@@ -57,12 +57,27 @@ def check_coarse(coarse: int) -> int:
     return c
 
 
+def _rectangle(a: int, c: int, perimeter: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Offsets (rows, columns) of the cells of an a x c block [0, a] x [0, c]: its perimeter or all."""
+    r, q = np.meshgrid(np.arange(a + 1), np.arange(c + 1), indexing="ij")
+    keep = ((r == 0) | (r == a) | (q == 0) | (q == c)) if perimeter else np.ones(r.shape, dtype=bool)
+    return r[keep], q[keep]
+
+
+def _by_shape(blocks: np.ndarray):
+    """Groups of ``blocks`` (B, 4: i0, i1, j0, j1) of one shape: (selection, a, c) with a = i1 - i0, c = j1 - j0."""
+    shape = blocks[:, [1, 3]] - blocks[:, [0, 2]]
+    for a, c in np.unique(shape, axis=0):
+        yield np.nonzero((shape[:, 0] == a) & (shape[:, 1] == c))[0], int(a), int(c)
+
+
 class _Grid:
     """The target grid being filled: the fields, the level of each simulated cell, the callback."""
 
     def __init__(self, run: Callable, shape: tuple, weight: float):
         self.run, self.shape, self.weight = run, shape, weight
         self.level = np.full(shape, FILLED, dtype=np.int8)
+        self.klass = np.zeros(shape, dtype=np.int64)
         self.fields: dict[str, np.ndarray] = {}
 
     def simulate(self, i: np.ndarray, j: np.ndarray, level: int) -> None:
@@ -81,58 +96,59 @@ class _Grid:
                 self.fields[name] = np.full(self.shape, fill, dtype=values.dtype)
             self.fields[name][ii, jj] = values
         self.level[ii, jj] = level
-
-    def klass(self, sl) -> np.ndarray:
-        """The class of each simulated cell of ``sl`` (int64 code: outcome, on_rim_reason, slipped)."""
+        # the class: outcome, on_rim_reason, slipped at all
         f = self.fields
-        code = f["outcome"][sl].astype(np.int64) * 1000
+        code = f["outcome"][ii, jj].astype(np.int64) * 1000
         if "on_rim_reason" in f:
-            code = code + f["on_rim_reason"][sl].astype(np.int64) * 10
+            code += f["on_rim_reason"][ii, jj].astype(np.int64) * 10
         if "slip_phases" in f:
-            code = code + (f["slip_phases"][sl] > 0)
-        return code
+            code += f["slip_phases"][ii, jj] > 0
+        self.klass[ii, jj] = code
 
-    def uniform(self, i0: int, i1: int, j0: int, j1: int) -> bool:
-        """Whether the simulated cells on the perimeter of block [i0, i1] x [j0, j1] agree."""
-        edges = [(slice(i0, i1 + 1), j0), (slice(i0, i1 + 1), j1), (i0, slice(j0, j1 + 1)), (i1, slice(j0, j1 + 1))]
-        sim = np.concatenate([np.atleast_1d(self.level[e] != FILLED) for e in edges])
-        codes = np.concatenate([np.atleast_1d(self.klass(e)) for e in edges])[sim]
-        if np.unique(codes).size > 1:
-            return False
-        return not self._indicated(edges, sim)
+    def uniform(self, blocks: np.ndarray) -> np.ndarray:
+        """Per block (B, 4): whether the simulated cells on its perimeter agree in class and indicators."""
+        ok = np.ones(len(blocks), dtype=bool)
+        for sel, a, c in _by_shape(blocks):
+            tr, tc = _rectangle(a, c, perimeter=True)
+            ii, jj = blocks[sel, 0][:, None] + tr, blocks[sel, 2][:, None] + tc
+            sim = self.level[ii, jj] != FILLED
+            k = self.klass[ii, jj]
+            same = np.where(sim, k, np.iinfo(np.int64).max).min(1) == np.where(sim, k, np.iinfo(np.int64).min).max(1)
+            ok[sel] = same & ~self._indicated(ii, jj, sim)
+        return ok
 
-    def _indicated(self, edges, sim) -> bool:
-        """Whether a cheap indicator changes by more than its threshold across the cells ``sim``."""
-        def spread(name):
+    def _indicated(self, ii, jj, sim) -> np.ndarray:
+        """Per row: whether a cheap indicator changes by more than its threshold across the cells ``sim``."""
+        hit = np.zeros(ii.shape[0], dtype=bool)
+        for name, key in (("revolutions", "revolutions"), ("half_period", "half_period_rel"), ("f2_min", "f2_rel")):
             if name not in self.fields:
-                return None
-            v = np.concatenate([np.atleast_1d(self.fields[name][e]) for e in edges])[sim]
-            v = v[np.isfinite(v)]
-            return (v.min(), v.max()) if v.size else None
-        rev, hp, f2 = spread("revolutions"), spread("half_period"), spread("f2_min")
-        if rev is not None and rev[1] - rev[0] > INDICATORS["revolutions"]:
-            return True
-        if hp is not None and hp[1] - hp[0] > INDICATORS["half_period_rel"] * abs(hp[0]):
-            return True
-        return f2 is not None and f2[1] - f2[0] > INDICATORS["f2_rel"] * self.weight
+                continue
+            v = self.fields[name][ii, jj]
+            valid = sim & np.isfinite(v)
+            lo, hi = np.where(valid, v, np.inf).min(1), np.where(valid, v, -np.inf).max(1)
+            scale = {"revolutions": 1.0, "half_period": np.abs(lo), "f2_min": self.weight}[name]
+            with np.errstate(invalid="ignore"):
+                hit |= valid.any(1) & (hi - lo > INDICATORS[key] * scale)
+        return hit
 
-    def fill(self, i0: int, i1: int, j0: int, j1: int) -> None:
-        """Fill the cells of a uniform block not simulated: nearest corner, bilinear for floats."""
-        ii, jj = np.meshgrid(np.arange(i0, i1 + 1), np.arange(j0, j1 + 1), indexing="ij")
-        todo = self.level[ii, jj] == FILLED
-        if not todo.any():
-            return
-        ii, jj = ii[todo], jj[todo]
-        u = (ii - i0) / max(i1 - i0, 1)
-        v = (jj - j0) / max(j1 - j0, 1)
-        ni = np.where(u <= 0.5, i0, i1)  # nearest corner (ties to the lower index)
-        nj = np.where(v <= 0.5, j0, j1)
-        for arr in self.fields.values():
-            if arr.dtype.kind == "f":
-                c = arr[[i0, i0, i1, i1], [j0, j1, j0, j1]]
-                arr[ii, jj] = ((1 - u) * (1 - v) * c[0] + (1 - u) * v * c[1] + u * (1 - v) * c[2] + u * v * c[3])
-            else:
-                arr[ii, jj] = arr[ni, nj]
+    def fill(self, blocks: np.ndarray) -> None:
+        """Fill the cells of uniform blocks not simulated: nearest corner, bilinear for floats."""
+        for sel, a, c in _by_shape(blocks):
+            tr, tc = _rectangle(a, c, perimeter=False)
+            i0, j0 = blocks[sel, 0][:, None], blocks[sel, 2][:, None]
+            ii, jj = i0 + tr, j0 + tc
+            todo = self.level[ii, jj] == FILLED
+            if not todo.any():
+                continue
+            u, v = tr / max(a, 1), tc / max(c, 1)
+            ni, nj = i0 + np.where(u <= 0.5, 0, a), j0 + np.where(v <= 0.5, 0, c)  # nearest corner
+            for arr in self.fields.values():
+                if arr.dtype.kind == "f":
+                    c00, c01, c10, c11 = (arr[i0 + p, j0 + q] for p, q in ((0, 0), (0, c), (a, 0), (a, c)))
+                    values = (1 - u) * (1 - v) * c00 + (1 - u) * v * c01 + u * (1 - v) * c10 + u * v * c11
+                else:
+                    values = arr[ni, nj]
+                arr[ii[todo], jj[todo]] = values[todo]
 
 
 def _children(block, rows: np.ndarray, cols: np.ndarray) -> list:
@@ -157,26 +173,26 @@ def _points(blocks, rows: np.ndarray, cols: np.ndarray) -> tuple[np.ndarray, np.
     return np.concatenate(ii), np.concatenate(jj)
 
 
-def _level(grid: _Grid, blocks: list, kept: list, stride: int) -> list:
+def _level(grid: _Grid, blocks: np.ndarray, kept: list, stride: int) -> np.ndarray:
     """One level: refine the blocks that are not uniform (simulate their points of the lattice of
-    stride ``stride // 2``) and add the others to ``kept``; a kept block (of any level) that then
-    sees a differing point on its edge is refined too, until none does. Returns the children of
-    the refined blocks, the blocks of the next level."""
+    stride ``stride // 2``) and add the others to ``kept`` (arrays of blocks); a kept block (of any
+    level) that then sees a differing point on its edge is refined too, until none does. Returns
+    the children of the refined blocks, the blocks of the next level."""
     half = stride // 2
     rows, cols = lattice(grid.shape[0], half), lattice(grid.shape[1], half)
     level = int(np.log2(half))
-    refine = [b for b in blocks if not grid.uniform(*b)]
-    opened = set(refine)
-    kept += [b for b in blocks if b not in opened]
-    todo = refine
-    while todo:
+    ok = grid.uniform(blocks)
+    refine, todo = [blocks[~ok]], blocks[~ok]
+    kept.append(blocks[ok])
+    while len(todo):
         grid.simulate(*_points(todo, rows, cols), level)
-        todo = [b for b in kept if not grid.uniform(*b)]
-        if todo:
-            moved = set(todo)
-            kept[:] = [b for b in kept if b not in moved]
-            refine += todo
-    return [c for b in refine for c in _children(b, rows, cols)]
+        old = np.concatenate(kept)
+        ok = grid.uniform(old)
+        kept[:] = [old[ok]]
+        todo = old[~ok]
+        refine.append(todo)
+    refine = np.concatenate(refine)
+    return np.array([c for b in refine for c in _children(b, rows, cols)], dtype=np.intp).reshape(-1, 4)
 
 
 def _inner_neighbours(grid: _Grid, periodic_code: int, falls: tuple) -> int:
@@ -227,14 +243,13 @@ def adaptive_map(run: Callable, shape: tuple, coarse: int = DEFAULT_COARSE, *, w
     rows, cols = lattice(shape[0], coarse), lattice(shape[1], coarse)
     a, b = np.meshgrid(rows, cols, indexing="ij")
     grid.simulate(a, b, int(np.log2(coarse)))
-    blocks = _children((0, shape[0] - 1, 0, shape[1] - 1), rows, cols)
-    kept: list = []
+    blocks = np.array(_children((0, shape[0] - 1, 0, shape[1] - 1), rows, cols), dtype=np.intp).reshape(-1, 4)
+    kept: list = [np.zeros((0, 4), dtype=np.intp)]
     stride = coarse
     while stride > 1:
         blocks = _level(grid, blocks, kept, stride)
         stride //= 2
-    for block in kept:
-        grid.fill(*block)
+    grid.fill(np.concatenate(kept))
     _inner_neighbours(grid, periodic_code, falls)
     return grid.fields, grid.level
 
