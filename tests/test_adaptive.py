@@ -168,3 +168,14 @@ def test_paper_panels_adaptive_equal_full_at_360_by_240(name, tmp_path):
     for scene, (d_out, d_bnd, _, _) in result.items():
         assert d_out == 0 and d_bnd == 0, (name, scene, d_out, d_bnd)
     assert sum(r[2] for r in result.values()) <= 0.25 * sum(r[3] for r in result.values()), result
+
+
+def test_quick_outcome_cube_adaptive_equals_full(tmp_path):
+    full = _run("outcome-cube", tmp_path / "full", "n_beta=12", "n_omega1=18", "mu=1,2", "k_r=0,0.02", "k_d=0",
+                "omega2=65,105")
+    adapt = _run("outcome-cube", tmp_path / "adaptive", "n_beta=12", "n_omega1=18", "mu=1,2", "k_r=0,0.02", "k_d=0",
+                 "omega2=65,105", "adaptive=true", "adaptive_coarse=4")
+    assert (adapt["outcome"] == full["outcome"]).all()
+    assert adapt["n_simulated"].dims == ("mu", "k_r", "omega2")
+    assert (adapt["n_simulated"] < 12 * 18).all() and (full["n_simulated"] == 12 * 18).all()
+    assert (adapt["n_simulated"] == (adapt["refine_level"] >= 0).sum(("beta", "omega1"))).all()
