@@ -36,7 +36,9 @@ PAPER_OMEGA2 = (35.0, 65.0, 105.0)
 """The omega2 [1/s] of the paper's sections (Figs. 11-13): vertical lines in the plot."""
 FRACTIONS = (("fall_in", (outcomes.FALL_IN,)), ("fall_out", (outcomes.FALL_OUT,)),
              ("periodic", (outcomes.PERIODIC_ROLLING,)), ("on_rim", (outcomes.ON_RIM_AT_T_MAX, outcomes.STEADY_MOTION)))
-EVENTS = {0: "none", 1: "born", 2: "split", 3: "merged", 4: "vanished"}
+BORN, SPLIT, MERGED, VANISHED = 1, 2, 4, 8
+EVENTS = {BORN: "born", SPLIT: "split", MERGED: "merged", VANISHED: "vanished"}
+"""Bit flags of ``island_event`` (CF flag_masks): several may happen between two values."""
 
 
 def _axes(s: dict) -> list[Axis]:
@@ -65,14 +67,23 @@ def islands(periodic: np.ndarray) -> tuple[int, int]:
     return int(n), int(periodic.sum())
 
 
-def island_events(counts: np.ndarray) -> np.ndarray:
-    """Event codes (:data:`EVENTS`) along axis 0 of island counts: at index k, what changed from k - 1."""
-    counts = np.asarray(counts)
-    ev = np.zeros(counts.shape, dtype=np.int8)
-    before, now = counts[:-1], counts[1:]
-    ev[1:] = np.select([(before == 0) & (now > 0), (before > 0) & (now > before), (now > 0) & (now < before),
-                        (before > 0) & (now == 0)], [1, 2, 3, 4], 0)
-    return ev
+def island_events(periodic: np.ndarray) -> np.ndarray:
+    """Bit flags (:data:`EVENTS`) along axis 0 of periodic masks (n, beta, omega1): at index k, what
+    the islands of map k are to those of map k - 1, by overlap on the common grid: born (an island
+    overlapping none before), split (one before overlapping several now), merged (one now overlapping
+    several before), vanished (one before overlapping none now)."""
+    periodic = np.asarray(periodic, dtype=bool)
+    events = np.zeros(periodic.shape[0], dtype=np.int8)
+    for k in range(1, periodic.shape[0]):
+        before, n_before = ndimage.label(periodic[k - 1])
+        now, n_now = ndimage.label(periodic[k])
+        both = (before > 0) & (now > 0)
+        pairs = np.unique(np.stack([before[both], now[both]]), axis=1) if both.any() else np.zeros((2, 0), int)
+        per_before = np.bincount(pairs[0], minlength=n_before + 1)[1:]
+        per_now = np.bincount(pairs[1], minlength=n_now + 1)[1:]
+        events[k] = (BORN * (per_now == 0).any() | SPLIT * (per_before > 1).any()
+                     | MERGED * (per_now > 1).any() | VANISHED * (per_before == 0).any())
+    return events
 
 
 def _steady(ds, outer: list) -> dict:
@@ -110,10 +121,15 @@ def _derive(ds) -> dict:
     out["island_count"] = (tuple(outer), count, {"units": "1", "long_name": "number of periodic islands "
                                                  "(4-connected regions of periodic rolling in the section)"})
     out["island_area"] = (tuple(outer), area, {"units": "rad s-1", "long_name": "area of the periodic islands"})
-    events = island_events(count) if outer else np.zeros(shape, dtype=np.int8)
+    events = np.zeros(shape, dtype=np.int8)
+    if outer:  # along the first swept axis, at every point of the others
+        moved = np.moveaxis(codes == outcomes.PERIODIC_ROLLING, 0, -3)
+        for idx in np.ndindex(moved.shape[:-3]):
+            np.moveaxis(events, 0, -1)[idx] = island_events(moved[idx])
     out["island_event"] = (tuple(outer), events, {
         "units": "1", "long_name": "change of the periodic islands from the previous value of the first swept axis",
-        "flag_values": np.array(tuple(EVENTS), dtype="int8"), "flag_meanings": " ".join(EVENTS.values())})
+        "flag_masks": np.array(tuple(EVENTS), dtype="int8"), "flag_meanings": " ".join(EVENTS.values()),
+        "comment": "by overlap of the islands of consecutive maps on the common grid (0: no change)"})
     st = _steady(ds, outer)
     out["steady_beta0"] = (tuple(outer), st["beta0"], {"units": "rad", "long_name": "beta0 of the steady motion "
                                                        "(48) with omega20 = omega2, omega30 = omega3 (NaN: none)"})
@@ -143,8 +159,8 @@ def _plot(ds):
         ax.plot(xs, sel[f"fraction_{name}"].values, "-o", ms=2.5, color=P.OUTCOME_PALETTE.colour(values[0]),
                 label=P.OUTCOME_PALETTE.label(values[0]))
     ev = sel["island_event"].values
-    for code, marker in ((1, "^"), (2, "v"), (3, "s"), (4, "x")):
-        hit = ev == code
+    for code, marker in ((BORN, "^"), (SPLIT, "v"), (MERGED, "s"), (VANISHED, "x")):
+        hit = (ev & code) != 0
         if hit.any():
             ax.plot(xs[hit], sel["fraction_periodic"].values[hit], marker, ms=9, mfc="none", mec="k", ls="",
                     label=f"island {EVENTS[code]}")
@@ -175,7 +191,7 @@ DERIVED_DOCS = (
      "share of the section's initial states with each outcome (on_rim: still on the rim at t_max or steady)"),
     ("island_count", "1", "periodic islands: 4-connected regions of periodic rolling"),
     ("island_area", "rad s-1", "their total area"),
-    ("island_event", "1", "flags along the first swept axis: none, born, split, merged, vanished"),
+    ("island_event", "1", "bit flags along the first swept axis (flag_masks): born, split, merged, vanished"),
     (("steady_beta0", "steady_h", "steady_friction", "steady_region"), "rad, s-2, 1, 1",
      "the steady motion (48) with omega20 = omega2: beta0, h (54), friction to roll (56), region of Fig. 8"),
 )
