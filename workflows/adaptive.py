@@ -276,13 +276,18 @@ def chunks(s: dict, full: dict) -> dict:
     return full
 
 
-def section(run: Callable, beta: np.ndarray, omega1: np.ndarray, s: dict, weight: float) -> dict:
+NEEDED = ("outcome", "on_rim_reason", "slip_phases", "revolutions", "half_period", "f2_min")
+"""The fields the refinement reads (the class and the indicators), kept whatever a study stores."""
+
+
+def section(run: Callable, beta: np.ndarray, omega1: np.ndarray, s: dict, weight: float, keep=None) -> dict:
     """Every field of the (beta, omega1) grid of one chunk, plus ``refine_level``.
 
     ``run(beta, omega1) -> {field: values}``: ``solver.simulate`` of these states (1-D arrays);
     ``beta``, ``omega1``: the chunk's coordinates broadcast to its shape (leading axes of length 1);
-    ``s``: the settings (``adaptive``, ``adaptive_coarse``); ``weight``: m g [N]. A full map
-    (adaptive off) simulates every cell, its ``refine_level`` 0.
+    ``s``: the settings (``adaptive``, ``adaptive_coarse``); ``weight``: m g [N]; ``keep``: the
+    fields the study stores (None: all; the others are not filled, which saves memory and time on
+    large grids). A full map (adaptive off) simulates every cell, its ``refine_level`` 0.
     """
     from rimroll.solver.engine import outcomes
 
@@ -295,7 +300,12 @@ def section(run: Callable, beta: np.ndarray, omega1: np.ndarray, s: dict, weight
     if beta.size != b2.size:
         raise ValueError(f"an adaptive map needs one whole (beta, omega1) grid per chunk; got shape {shape}")
     falls = (outcomes.FALL_IN, outcomes.FALL_OUT, outcomes.ON_RIM_AT_T_MAX)
-    fields, level = adaptive_map(lambda i, j: run(b2[i, j], w2[i, j]), b2.shape, int(s["adaptive_coarse"]),
+    names = None if keep is None else set(keep) | set(NEEDED)
+
+    def cells(i, j):
+        out = run(b2[i, j], w2[i, j])
+        return out if names is None else {k: v for k, v in out.items() if k in names}
+    fields, level = adaptive_map(cells, b2.shape, int(s["adaptive_coarse"]),
                                  weight=weight, periodic_code=outcomes.PERIODIC_ROLLING, falls=falls)
     out = {name: values.reshape(shape) for name, values in fields.items()}
     out["refine_level"] = level.reshape(shape)

@@ -57,7 +57,7 @@ def _compute(coords, p, s):
         states = np.stack([b, w, np.full_like(b, s["omega2"]), np.full_like(b, s["omega3"])], axis=-1)
         return solver.simulate(states, p, t_max=s["t_max"], rtol=s["rtol"], atol=s["atol"], method=s["method"],
                                workers=1, backend=s["backend"])
-    res = adaptive.section(run, beta, omega1, s, p.m * p.g)
+    res = adaptive.section(run, beta, omega1, s, p.m * p.g, keep=("outcome", "t_end", "status"))
     return {name: res[name] for name in ("outcome", "t_end", "status", "refine_level")}
 
 
