@@ -124,6 +124,16 @@ def test_adaptive_and_full_runs_never_share_a_fingerprint():
     assert big.block == (1, 240, 360) and make_plan(study).block == (1, 24, 360)
 
 
+def test_code_digest_covers_the_adaptive_module():
+    """A change of workflows/adaptive.py (or sections.py) changes the fingerprint of fig11-13, so no
+    part of an older adaptive map is reused."""
+    from rimroll.study import plan, registry
+
+    names = {p.name for p in plan._sibling_sources(registry.get("fig12").compute)}
+    assert {"adaptive.py", "sections.py"} <= names
+    assert "adaptive.py" in {p.name for p in plan._sibling_sources(registry.get("outcome-cube").compute)}
+
+
 def _compare(full: xr.Dataset, adapt: xr.Dataset) -> dict:
     """{scene: (outcome differences, boundary_type differences, n_simulated, cells)}."""
     out = {}
