@@ -27,7 +27,7 @@ from rimroll.solver.engine import outcomes
 from rimroll.study import cubeplots as C
 from rimroll.study import plotting as P
 from rimroll.study.dataset import params_of, setting_of
-from rimroll.study.registry import Axis, Study, Var, output_var, register
+from rimroll.study.registry import Axis, ReferenceSpec, Study, Var, output_var, register
 from rimroll.workflows import adaptive
 from rimroll.workflows.sections import BETA_COMMENT, OMEGA1_COMMENT, steady_beta0
 
@@ -57,8 +57,8 @@ def _compute(coords, p, s):
         states = np.stack([b, w, np.full_like(b, s["omega2"]), np.full_like(b, s["omega3"])], axis=-1)
         return solver.simulate(states, p, t_max=s["t_max"], rtol=s["rtol"], atol=s["atol"], method=s["method"],
                                workers=1, backend=s["backend"])
-    res = adaptive.section(run, beta, omega1, s, p.m * p.g, keep=("outcome", "t_end", "status"))
-    return {name: res[name] for name in ("outcome", "t_end", "status", "refine_level")}
+    res = adaptive.section(run, beta, omega1, s, p.m * p.g, keep=("outcome", "status"))
+    return {name: res[name] for name in ("outcome", "status", "refine_level")}
 
 
 def islands(periodic: np.ndarray) -> tuple[int, int]:
@@ -129,7 +129,8 @@ def _derive(ds) -> dict:
     out["island_event"] = (tuple(outer), events, {
         "units": "1", "long_name": "change of the periodic islands from the previous value of the first swept axis",
         "flag_masks": np.array(tuple(EVENTS), dtype="int8"), "flag_meanings": " ".join(EVENTS.values()),
-        "comment": "by overlap of the islands of consecutive maps on the common grid (0: no change)"})
+        "comment": "by overlap of the islands of consecutive maps on the common grid (0: no change)",
+        "rimroll_compared": 0})  # flags along the swept axis only: `study verify` compares the outcomes they come from
     st = _steady(ds, outer)
     out["steady_beta0"] = (tuple(outer), st["beta0"], {"units": "rad", "long_name": "beta0 of the steady motion "
                                                        "(48) with omega20 = omega2, omega30 = omega3 (NaN: none)"})
@@ -139,7 +140,8 @@ def _derive(ds) -> dict:
                                                              "steady motion needs to roll (56)"})
     out["steady_region"] = (tuple(outer), st["region"], {
         "units": "1", "long_name": "realisable region of that steady motion (Fig. 8), with the setting v_throw",
-        "flag_values": np.array(steady.REGION_FLAG_VALUES, dtype="int8"), "flag_meanings": steady.REGION_FLAG_MEANINGS})
+        "flag_values": np.array(steady.REGION_FLAG_VALUES, dtype="int8"), "flag_meanings": steady.REGION_FLAG_MEANINGS,
+        "rimroll_compared": 0})  # a closed form (steady.realisable_region), no simulation to verify
     return out
 
 
@@ -208,7 +210,7 @@ register(Study(
     sweepable=SWEEPS,
     cost=3e-5, compiles=True,
     axes=_axes,
-    variables=[output_var(name) for name in ("outcome", "t_end", "status")] + [
+    variables=[output_var(name) for name in ("outcome", "status")] + [
         Var("refine_level", "1", adaptive.LEVEL_ATTRS["long_name"], dtype="int8",
             comment=adaptive.LEVEL_ATTRS["comment"], compared=False)],
     compute=_compute,
@@ -216,4 +218,9 @@ register(Study(
     derive=_derive,
     derived_docs=DERIVED_DOCS,
     plot=_plot,
+    # a 12 x 18 sub-grid of the full map (adaptive=false) at the paper's three sections, DOP853 at rtol 1e-12:
+    # `study verify` of an adaptive file then checks its outcomes against simulated ones
+    reference=ReferenceSpec({"beta": 12, "omega1": 18},
+                            precise=("rtol=1e-12", "atol=1e-14", "method=dop853", "adaptive=false"),
+                            sets=("omega2=35,65,105",)),
 ))
