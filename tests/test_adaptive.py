@@ -189,3 +189,20 @@ def test_quick_outcome_cube_adaptive_equals_full(tmp_path):
     assert adapt["n_simulated"].dims == ("mu", "k_r", "omega2")
     assert (adapt["n_simulated"] < 12 * 18).all() and (full["n_simulated"] == 12 * 18).all()
     assert (adapt["n_simulated"] == (adapt["refine_level"] >= 0).sum(("beta", "omega1"))).all()
+
+
+def test_an_adaptive_file_verifies_against_the_full_reference_at_its_simulated_cells(tmp_path):
+    from rimroll.study import compare, reference
+    from rimroll.study.cli import main
+    from rimroll.study.io import open_result
+
+    assert main(["run", "fig12", "--quick", "--set", "adaptive=true", "--set", "adaptive_coarse=4", "--out",
+                 str(tmp_path), "--no-progress"]) == 0
+    ds = open_result(tmp_path / "fig12.nc")
+    ref = open_result(reference.reference_path("fig12", grid="quick"))
+    report = compare.compare(ds, ref)
+    assert report.ok, compare.format_report(report, "adaptive", "reference")
+    filled = int((ds["refine_level"] == -1).sum())
+    t_end = next(v for v in report.variables if v.name == "t_end")
+    outcome = next(v for v in report.variables if v.name == "outcome")
+    assert filled > 0 and outcome.n_compared == report.n_common and t_end.n_compared <= report.n_common - filled
