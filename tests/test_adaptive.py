@@ -111,6 +111,16 @@ def test_full_map_is_one_call_with_level_zero():
     assert adaptive.chunks({"adaptive": False}, {"scene": 1, "beta": 24}) == {"scene": 1, "beta": 24}
 
 
+@pytest.mark.parametrize("name", ["fig11", "outcome-cube", "continuation"])
+def test_a_coarse_stride_not_a_power_of_two_is_a_user_error(name):
+    from rimroll.study import registry
+    from rimroll.study.plan import make_plan
+    from rimroll.study.registry import UserError
+
+    with pytest.raises(UserError, match="power of 2"):
+        make_plan(registry.get(name), quick=True, sets=["adaptive=true", "adaptive_coarse=6"])
+
+
 def test_adaptive_and_full_runs_never_share_a_fingerprint():
     from rimroll.study import registry
     from rimroll.study.plan import make_plan

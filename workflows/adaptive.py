@@ -269,6 +269,16 @@ LEVEL_ATTRS = {
 """Attributes of the per-cell variable ``refine_level``."""
 
 
+def checked_axes(axes: Callable) -> Callable:
+    """A study's ``axes(settings)`` that first checks ``adaptive_coarse`` (a ValueError there is a user error
+    before any work, not a failed chunk)."""
+    def checked(s: dict):
+        check_coarse(s.get("adaptive_coarse", DEFAULT_COARSE))
+        return axes(s)
+    checked.__doc__ = axes.__doc__
+    return checked
+
+
 def chunks(s: dict, full: dict) -> dict:
     """The chunks of a study: ``full`` for a full map, the whole (beta, omega1) grid for an adaptive one."""
     if s.get("adaptive"):

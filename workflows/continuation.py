@@ -209,7 +209,7 @@ register(Study(
            "adaptive_coarse": 4},
     sweepable=SWEEPS,
     cost=3e-5, compiles=True,
-    axes=_axes,
+    axes=adaptive.checked_axes(_axes),
     variables=[output_var(name) for name in ("outcome", "status")] + [
         Var("refine_level", "1", adaptive.LEVEL_ATTRS["long_name"], dtype="int8",
             comment=adaptive.LEVEL_ATTRS["comment"], compared=False)],

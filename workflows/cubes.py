@@ -238,7 +238,7 @@ register(Study(
            "n_beta": 12, "n_omega1": 18},
     sweepable=OUTCOME_SWEEPS,
     cost=2e-4, compiles=True,  # seconds per grid point on one core, warm (--quick on 2 shared cores, 2026-11)
-    axes=_outcome_axes,
+    axes=adaptive.checked_axes(_outcome_axes),
     variables=[output_var(name) for name in ("outcome", "t_end", "revolutions", "status")] + [
         Var("refine_level", "1", adaptive.LEVEL_ATTRS["long_name"], dtype="int8",
             comment=adaptive.LEVEL_ATTRS["comment"], compared=False)],
