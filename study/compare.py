@@ -34,7 +34,12 @@ import xarray as xr
 
 COORD_RTOL = 1e-6
 # settings that only set grid size or precision: they may differ between a file and the reference
-NUMERICAL_SETTINGS = ("rtol", "atol", "method", "max_steps", "backend")  # how, not what, is computed
+NUMERICAL_SETTINGS = ("rtol", "atol", "method", "max_steps", "backend", "adaptive", "adaptive_coarse")
+"""How, not what, is computed (an adaptive map is the same map: its filled cells are not compared as
+continuous values, ``SIMULATED``)."""
+SIMULATED = "refine_level"
+"""A file's per-cell variable saying which cells were simulated (>= 0) and which were filled from a
+uniform block's corners (-1, workflows/adaptive.py): continuous variables are compared at the first only."""
 DEFAULT_TOLERANCE = (1e-9, 1e-9)
 """(atol, rtol) of a continuous variable whose study declares no tolerance of its own (``Var.tolerance``;
 the outputs of ``simulate`` declare theirs in ``solver.engine.outputs``)."""
@@ -254,6 +259,8 @@ def compare(ds: xr.Dataset, ref: xr.Dataset, tolerances: dict | None = None) -> 
             n, "categorical", same.size, identical=float(same.mean()), identical_away=frac_away,
             n_away=int(away.sum()), ok=not away.any() or frac_away >= MIN_AGREEMENT_AWAY))
     mask = away & agree_all
+    if SIMULATED in a.data_vars and tuple(a[SIMULATED].dims) == tuple(cat_dims):  # filled cells hold interpolations
+        mask = mask & (a[SIMULATED].transpose(*cat_dims).values >= 0)
     for n in continuous:
         order = [d for d in cat_dims if d in a[n].dims]  # an outer variable (an area) lacks the grid's axes
         x = a[n].transpose(*order, ...).values.astype(float)

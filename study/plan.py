@@ -21,6 +21,7 @@ import json
 import math
 import pathlib
 import re
+import sys
 
 import numpy as np
 
@@ -209,7 +210,31 @@ def code_digest(study: Study) -> str:
         return h.hexdigest()
     h.update(f.name.encode())
     h.update(f.read_bytes())
+    for path in _sibling_sources(study.compute):
+        h.update(path.name.encode())
+        h.update(path.read_bytes())
     return h.hexdigest()
+
+
+def _sibling_sources(compute) -> list[pathlib.Path]:
+    """Source files of the modules of the same package whose names the module of ``compute`` imported
+    (e.g. ``workflows.sections``, ``workflows.adaptive`` for ``workflows.outcome_grids``): their code
+    decides the numbers too."""
+    module = inspect.getmodule(compute)
+    if module is None or "." not in module.__name__:
+        return []
+    package = module.__name__.rsplit(".", 1)[0] + "."
+    names = set()
+    for obj in vars(module).values():
+        name = obj.__name__ if inspect.ismodule(obj) else getattr(obj, "__module__", None)
+        if isinstance(name, str) and name.startswith(package) and name != module.__name__:
+            names.add(name)
+    files = []
+    for name in sorted(names):
+        source = getattr(sys.modules.get(name), "__file__", None)
+        if source and source.endswith(".py"):
+            files.append(pathlib.Path(source))
+    return files
 
 
 def resolve_backend(settings: dict, local: bool = True) -> str | None:
@@ -243,10 +268,11 @@ def make_plan(study: Study, quick: bool = False, sets=(), local: bool = True) ->
     r = resolve(study, quick, sets)
     backend = resolve_backend(r.settings, local)
     whole = any(v.outer for v in study.variables)
+    chunks = study.chunks(base_settings(r.settings)) if callable(study.chunks) else study.chunks
     block = []
     for i, a in enumerate(r.grid):
         n = a.values.size
-        size = n if whole else study.chunks.get(a.name, DEFAULT_CHUNK if i == 0 else n)
+        size = n if whole else chunks.get(a.name, DEFAULT_CHUNK if i == 0 else n)
         if backend == "cuda" and not a.categorical:
             size = n  # a whole section per chunk: one launch
         block.append(max(1, min(int(size), n)))

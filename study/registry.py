@@ -190,7 +190,8 @@ class Study:
 
     ``axes(settings) -> [Axis]``; ``compute(coords, params, settings) -> {var: array}`` with
     coords the chunk's coordinates broadcast to the chunk's shape (axis order as declared);
-    ``plot(dataset) -> matplotlib Figure``; ``chunks``: chunk length per axis name.
+    ``plot(dataset) -> matplotlib Figure``; ``chunks``: chunk length per axis name, or a function of
+    the scalar settings returning that dict (an adaptive map needs its whole grid in one chunk).
     ``sweepable``: settings (of :data:`SWEEP_KEYS`) that ``--set KEY=a,b,c`` or
     ``KEY=start:stop:num`` turns into outer axes; a tuple default in ``settings`` sweeps by default.
     A variable with ``outer=True`` has the swept axes only, so the study's grid is one chunk.
@@ -215,7 +216,7 @@ class Study:
     compute: Callable
     plot: Callable | None = None
     quick: dict = dataclasses.field(default_factory=dict)
-    chunks: dict = dataclasses.field(default_factory=dict)
+    chunks: dict | Callable[[dict], dict] = dataclasses.field(default_factory=dict)
     sweepable: tuple = ()
     derive: Callable | None = None
     ignores: dict = dataclasses.field(default_factory=dict)  # physical key -> why the study does not use it

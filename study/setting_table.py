@@ -153,6 +153,10 @@ _ENTRIES = (
       Range(1e-10, 1e-2)),
     S("slip_method", "", "slip phases: rodas4 (Rosenbrock steps while stiff) or explicit (the method's steps)",
       choices=SLIP_METHODS, what="slip methods"),
+    S("adaptive", "", "adaptive outcome map: simulate a coarse lattice, refine only non-uniform blocks down to the "
+      "grid, fill uniform blocks from their corners (docs/outcome-studies.md#adaptive-maps)"),
+    S("adaptive_coarse", "", "adaptive map: grid cells between the points of the coarse lattice (a power of 2)",
+      COUNT),
     S("rtol_max", "1", "loosest rtol of the sweep", TOLERANCE),
     S("rtol_min", "1", "tightest rtol of the sweep", TOLERANCE),
     S("n_rtol", "", "number of tolerances", COUNT),

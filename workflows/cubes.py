@@ -27,7 +27,7 @@ from rimroll.study import cubeplots as C
 from rimroll.study import plotting as P
 from rimroll.study.dataset import params_of, setting_of
 from rimroll.study.registry import Axis, ReferenceSpec, Study, Var, output_var, register
-from rimroll.workflows import sections
+from rimroll.workflows import adaptive, sections
 from rimroll.workflows.sections import BETA_COMMENT, OMEGA1_COMMENT, steady_beta0
 
 STANDARD = solver.Params()
@@ -152,10 +152,22 @@ def _outcome_axes(s: dict) -> list[Axis]:
 
 def _outcome_compute(coords, p, s):
     beta, omega1 = coords
-    states = np.stack([beta, omega1, np.full_like(beta, s["omega2"]), np.full_like(beta, s["omega3"])], axis=-1)
-    res = solver.simulate(states, p, t_max=s["t_max"], rtol=s["rtol"], atol=s["atol"], method=s["method"],
-                          workers=1, backend=s["backend"], **sections.engine_options(s))
-    return {name: res[name] for name in ("outcome", "t_end", "revolutions", "status")}
+
+    def run(b, w):
+        states = np.stack([b, w, np.full_like(b, s["omega2"]), np.full_like(b, s["omega3"])], axis=-1)
+        return solver.simulate(states, p, t_max=s["t_max"], rtol=s["rtol"], atol=s["atol"], method=s["method"],
+                               workers=1, backend=s["backend"], **sections.engine_options(s))
+    res = adaptive.section(run, beta, omega1, s, p.m * p.g, keep=("outcome", "t_end", "revolutions", "status"))
+    return {name: res[name] for name in ("outcome", "t_end", "revolutions", "status", "refine_level")}
+
+
+def _outcome_derive(ds) -> dict:
+    """``n_simulated``: the trajectories simulated for each slice's map (``workflows.adaptive``)."""
+    dims = tuple(d for d in ds["refine_level"].dims if d not in ("beta", "omega1"))
+    counts = adaptive.n_simulated(ds["refine_level"].transpose(*dims, "beta", "omega1").values)
+    return {"n_simulated": (dims, np.asarray(counts, dtype=np.int32), {
+        "units": "1", "long_name": "trajectories simulated for the map of this slice (initial states)",
+        "comment": "a full map: every cell; an adaptive map (setting adaptive = 1): the cells with refine_level >= 0"})}
 
 
 def _outcome_plot(ds):
@@ -221,15 +233,21 @@ register(Study(
     title="Outcomes of rolling initial states (Figs. 11-13, reduced grid) over mu x k_r x k_d x omega2",
     settings={"mu": (0.5, 1.0, 2.0), "k_r": (0.0, 0.01, 0.02), "k_d": (0.0, 0.01, 0.02),
               "omega2": (35.0, 65.0, 105.0), "omega3": 10.0, "n_beta": 36, "n_omega1": 60,
-              "t_max": 20.0, "rtol": 1e-6, "atol": 1e-9, "method": "dp5", "backend": "cpu",
+              "t_max": 20.0, "rtol": 1e-6, "atol": 1e-9, "method": "dp5", "backend": "cpu", **adaptive.SETTINGS,
               "delta": sections.SETTINGS["delta"], "slip_method": sections.SETTINGS["slip_method"]},
     quick={"mu": (0.5, 1.0), "k_r": (0.0, 0.02), "k_d": (0.0, 0.02), "omega2": (65.0, 105.0),
            "n_beta": 12, "n_omega1": 18},
     sweepable=OUTCOME_SWEEPS,
     cost=2e-4, compiles=True,  # seconds per grid point on one core, warm (--quick on 2 shared cores, 2026-11)
-    axes=_outcome_axes,
-    variables=[output_var(name) for name in ("outcome", "t_end", "revolutions", "status")],
+    axes=adaptive.checked_axes(_outcome_axes),
+    variables=[output_var(name) for name in ("outcome", "t_end", "revolutions", "status")] + [
+        Var("refine_level", "1", adaptive.LEVEL_ATTRS["long_name"], dtype="int8",
+            comment=adaptive.LEVEL_ATTRS["comment"], compared=False)],
     compute=_outcome_compute,
+    chunks=lambda s: adaptive.chunks(s, {}),  # an adaptive map: the whole (beta, omega1) grid of a slice
+    derive=_outcome_derive,
+    derived_docs=(("n_simulated", "1", "trajectories simulated per slice (an adaptive map: the cells with "
+                   "refine_level >= 0; [outcome-studies.md](outcome-studies.md#adaptive-maps))"),),
     plot=_outcome_plot,
     # the default slice: mu = 1, 2 and k_r = 0, 0.02 at k_d = 0, omega2 = 65 1/s, on a 12 x 20 sub-grid
     reference=ReferenceSpec({"beta": 12, "omega1": 20}, precise=("rtol=1e-12", "atol=1e-14", "method=dop853"),

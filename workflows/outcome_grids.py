@@ -33,21 +33,34 @@ from rimroll.solver.analysis import boundaries
 from rimroll.solver.engine import outcomes
 from rimroll.study import plotting as P
 from rimroll.study.dataset import params_of, setting_of
-from rimroll.study.registry import ReferenceSpec, Study, output_var, register
+from rimroll.study.registry import ReferenceSpec, Study, Var, output_var, register
+from rimroll.workflows import adaptive
 from rimroll.workflows.sections import QUICK, SETTINGS, engine_options, scene_params, section_axes, steady_beta0
 
+REFINE_LEVEL = Var("refine_level", "1", adaptive.LEVEL_ATTRS["long_name"], dtype="int8",
+                   comment=adaptive.LEVEL_ATTRS["comment"], compared=False)
+"""Per cell: the level of the adaptive map at which it was simulated, or -1 where filled (a full map: 0)."""
 VARIABLES = [output_var(name) for name in (
     "outcome", "t_end", "f2_min", "half_period", "revolutions", "slip_time", "energy_drift", "beta_end", "omega1_end",
-    "omega2_end", "omega3_end", "steady_h", "slip_phases", "n_steps", "status", "on_rim_reason")]
-"""The outputs of ``simulate`` stored for every cell (``solver.engine.outputs``), in file order."""
+    "omega2_end", "omega3_end", "steady_h", "slip_phases", "n_steps", "status", "on_rim_reason")] + [REFINE_LEVEL]
+"""The outputs of ``simulate`` stored for every cell (``solver.engine.outputs``), in file order, and
+``refine_level`` (``workflows.adaptive``)."""
 
 
 def _compute(coords, p: solver.Params, s: dict) -> dict:
     scene, beta, omega1 = coords
     params, t_max = scene_params(p, s, scene.flat[0])  # chunks hold one scene (chunks={"scene": 1})
-    states = np.stack([beta, omega1, np.full_like(beta, s["omega2"]), np.full_like(beta, s["omega3"])], axis=-1)
-    return solver.simulate(states, params, t_max=t_max, rtol=s["rtol"], atol=s["atol"], method=s["method"],
-                           workers=1, backend=s["backend"], **engine_options(s))
+
+    def run(b, w):
+        states = np.stack([b, w, np.full_like(b, s["omega2"]), np.full_like(b, s["omega3"])], axis=-1)
+        return solver.simulate(states, params, t_max=t_max, rtol=s["rtol"], atol=s["atol"], method=s["method"],
+                               workers=1, backend=s["backend"], **engine_options(s))
+    return adaptive.section(run, beta, omega1, s, params.m * params.g)
+
+
+def _chunks(s: dict) -> dict:
+    """One scene per chunk, 24 rows of beta (an adaptive map: its whole grid)."""
+    return adaptive.chunks(s, {"scene": 1, "beta": 24})
 
 
 BOUNDARY_ATTRS = {
@@ -170,8 +183,18 @@ def _derive(ds) -> dict:
         labels[k] = _boundary_labels(ds, k, outcome, f2, hp, t_end, p.m * p.g, rolling)
     flags, fates = former_periodic(outcome, mu, conservative)
     former = np.broadcast_to(flags, outcome.shape).copy()
-    return {"boundary_type": (dims, labels, BOUNDARY_ATTRS),
-            "former_periodic": (dims, former, _former_attrs(ds, flags, fates))}
+    out = {"boundary_type": (dims, labels, BOUNDARY_ATTRS),
+           "former_periodic": (dims, former, _former_attrs(ds, flags, fates))}
+    if "refine_level" in ds:  # files written before adaptive maps have none
+        out["n_simulated"] = (("scene",), adaptive.n_simulated(get("refine_level")).astype(np.int32),
+                              N_SIMULATED_ATTRS)
+    return out
+
+
+N_SIMULATED_ATTRS = {"units": "1", "long_name": "trajectories simulated for the map of the scene (initial states)",
+                     "comment": "a full map: every cell; an adaptive map (setting adaptive = 1): the cells with "
+                                "refine_level >= 0 (the boundary typing of boundary_type simulates more, along the "
+                                "boundary pairs, in either map)"}
 
 
 BOUNDARY_STYLES = {  # how the plot draws each boundary type: a thin line along the cell edges
@@ -407,6 +430,8 @@ def _plot(ds):
 DERIVED_DOCS = (
     ("boundary_type", "1", "kind of boundary of periodic rolling at this cell, each boundary pair refined by "
      "simulation ([outcome-studies.md](outcome-studies.md#outputs))"),
+    ("n_simulated", "1", "trajectories simulated per scene (an adaptive map: the cells with refine_level >= 0; "
+     "[outcome-studies.md](outcome-studies.md#adaptive-maps))"),
     ("former_periodic", "1", "the periodic islands of the conservative scenes (rolling only, slipping); "
      "attributes: what each dissipative scene does with each island's states, counts and fractions "
      "([outcome-studies.md](outcome-studies.md#outputs))"),
@@ -420,13 +445,13 @@ for _name, _omega2, _fig in (("fig11", 35.0, 11), ("fig12", 65.0, 12), ("fig13",
     register(Study(
         name=_name,
         title=f"Outcome of a ball on the rim (paper Fig. {_fig})",
-        settings={**SETTINGS, "omega2": _omega2},
+        settings={**SETTINGS, "omega2": _omega2, **adaptive.SETTINGS},
         quick=QUICK,
-        axes=section_axes,
+        axes=adaptive.checked_axes(section_axes),
         variables=VARIABLES,
         compute=_compute,
         plot=_plot,
-        chunks={"scene": 1, "beta": 24},
+        chunks=_chunks,
         derive=_derive,
         derived_docs=DERIVED_DOCS,
         ignores={k: "each of the four scenes sets its own mu, k_r and k_d; change mu_slip or k_dissipation"
