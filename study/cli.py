@@ -166,8 +166,9 @@ def _selection(words: list[str], ds) -> dict:
             out[key] = float(value)
         except ValueError:
             raise UserError(f"--select {key}={value}: VALUE must be a number") from None
-        if not math.isfinite(out[key]):
-            raise UserError(f"--select {key}={value}: VALUE must be a finite number")
+        if not math.isfinite(out[key]) and not (key in ds.coords and out[key] in ds[key].values):
+            # inf is a value of an axis such as mu (rolling only), where the file holds it
+            raise UserError(f"--select {key}={value}: VALUE must be a finite number (or inf where the axis holds it)")
     return out
 
 

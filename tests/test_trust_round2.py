@@ -219,6 +219,10 @@ def test_select_of_a_non_finite_value_is_one_line():
     for value in ("nan", "inf", "-inf"):
         with pytest.raises(UserError, match="finite"):
             _selection([f"j={value}"], ds)
+    mu = xr.Dataset(coords={"mu": ("mu", [1.0, np.inf])}, attrs={"swept": "mu"})
+    assert _selection(["mu=inf"], mu) == {"mu": np.inf}  # an axis that holds inf (rolling only)
+    with pytest.raises(UserError, match="finite"):
+        _selection(["mu=nan"], mu)
 
 
 # ================================================================ 5. a damaged result is never reused

@@ -8,6 +8,7 @@ ignored. This module imports nothing heavy itself.
 
 from __future__ import annotations
 
+import os
 import sys
 
 EXIT_INTERRUPTED = 130
@@ -20,8 +21,13 @@ def main() -> int:
 
         return command()
     except KeyboardInterrupt:
+        # Ctrl-C can land while a compiled extension (numba, llvmlite, netCDF4) is half imported, and
+        # the interpreter's shutdown then aborts (a fatal error on the GIL, exit -6): nothing has been
+        # computed yet that is not already on disk, so leave at once, skipping that shutdown
         print("study: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(EXIT_INTERRUPTED)
     finally:
         _quiet_exit()
 
