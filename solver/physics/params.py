@@ -78,8 +78,11 @@ class Quantity:
     doc: str
 
 
-_POSITIVE = Range(0.0, math.inf, low_open=True, high_open=True, text="a positive finite number")
-_RATE = Range(0.0, math.inf, high_open=True, text="a finite rate >= 0 [1/s]")
+MAX_MAGNITUDE = 1e12
+"""Largest magnitude of a finite physical parameter: far beyond any physical use, and low enough that
+the equations' products of parameters and rates stay inside floating point (j = 1e308 overflowed)."""
+_POSITIVE = Range(0.0, MAX_MAGNITUDE, low_open=True, high_open=True, text="a positive number below 1e12")
+_RATE = Range(0.0, MAX_MAGNITUDE, high_open=True, text="a rate >= 0 and below 1e12 [1/s]")
 _RATE_83 = "rate C_{}/(j m R^2) of (83)"
 
 QUANTITIES = {q.name: q for q in (
@@ -88,7 +91,7 @@ QUANTITIES = {q.name: q for q in (
     Quantity("a", "m", "minor radius of the rim", _POSITIVE, "minor radius of the rim (tube)"),
     Quantity("m", "kg", "mass of the ball", _POSITIVE, "mass of the ball"),
     Quantity("j", "1", "dimensionless moment of inertia of the ball, J = j m r^2",
-             Range(0.0, math.inf, low_open=True, high_open=True), "moment of inertia J = j m r^2"),
+             _POSITIVE, "moment of inertia J = j m r^2"),
     Quantity("mu", "1", "Coulomb friction coefficient", Range(0.0, math.inf),
              "Coulomb friction coefficient (inf: never slips)"),
     Quantity("g", "m s-2", "gravitational acceleration", _POSITIVE, "gravitational acceleration"),
