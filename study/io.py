@@ -311,14 +311,34 @@ def _grid_names(study) -> tuple:
 
 
 def _flag_problem(attrs: dict) -> str | None:
-    if "flag_values" not in attrs and "flag_meanings" not in attrs:
+    """What is wrong with a variable's CF flags (flag_meanings with flag_values or flag_masks, CF 3.5),
+    or None."""
+    keys = [key for key in ("flag_values", "flag_masks") if key in attrs]
+    if not keys and "flag_meanings" not in attrs:
         return None
-    values, meanings = attrs.get("flag_values"), attrs.get("flag_meanings")
+    meanings = attrs.get("flag_meanings")
     if not isinstance(meanings, str):
-        return "flag_values without flag_meanings (a string of words)"
-    values = np.asarray(values) if values is not None else None
-    if values is None or values.ndim != 1 or values.dtype.kind not in "iu":
+        return f"{(keys or ['flag_values'])[0]} without flag_meanings (a string of words)"
+    if not keys:
         return "flag_meanings without flag_values (a list of integers)"
-    if values.size != len(meanings.split()):
-        return f"{values.size} flag_values but {len(meanings.split())} flag_meanings"
+    for key in keys:
+        values = np.asarray(attrs[key])
+        if values.ndim != 1 or values.dtype.kind not in "iu":
+            return f"flag_meanings without {key} (a list of integers)"
+        if values.size != len(meanings.split()):
+            return f"{values.size} {key} but {len(meanings.split())} flag_meanings"
+    return None
+    meanings = attrs.get("flag_meanings")
+    if not isinstance(meanings, str):
+        return "flag_values or flag_masks without flag_meanings (a string of words)"
+    for key in ("flag_values", "flag_masks"):
+        if key not in attrs:
+            continue
+        values = np.asarray(attrs[key])
+        if values.ndim != 1 or values.dtype.kind not in "iu":
+            return f"{key} is not a list of integers"
+        if values.size != len(meanings.split()):
+            return f"{values.size} {key} but {len(meanings.split())} flag_meanings"
+    if "flag_values" not in attrs and "flag_masks" not in attrs:
+        return "flag_meanings without flag_values or flag_masks (a list of integers)"
     return None
