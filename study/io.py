@@ -279,7 +279,8 @@ def problems(ds: xr.Dataset) -> str | None:
             study = registry.get(name)
         except UserError:
             return f"it names study {name!r}, which no installed package registers"
-        required, axes = [v.name for v in study.variables], _grid_names(study)
+        # a variable never compared (refine_level, timings) may be missing from an older file
+        required, axes = [v.name for v in study.variables if v.compared], _grid_names(study)
     missing = [v for v in required if v not in ds.data_vars]
     if missing:
         return f"it lacks the variable(s) {', '.join(missing)} of study {name}"

@@ -163,6 +163,8 @@ def _outcome_compute(coords, p, s):
 
 def _outcome_derive(ds) -> dict:
     """``n_simulated``: the trajectories simulated for each slice's map (``workflows.adaptive``)."""
+    if "refine_level" not in ds:  # files written before adaptive maps have none
+        return {}
     dims = tuple(d for d in ds["refine_level"].dims if d not in ("beta", "omega1"))
     counts = adaptive.n_simulated(ds["refine_level"].transpose(*dims, "beta", "omega1").values)
     return {"n_simulated": (dims, np.asarray(counts, dtype=np.int32), {
