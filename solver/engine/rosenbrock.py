@@ -33,9 +33,9 @@ from rimroll.solver.engine.stepper import (
     MAX_NONFINITE_RETRIES,
     MIN_FACTOR,
     NON_FINITE,
-    SAFETY,
     UNDERFLOW,
     min_step,
+    step_factor,
 )
 
 GAMMA = 0.25
@@ -233,18 +233,6 @@ def dense_coefficients(R, y, y_new, h, n, Q):
             Q[i, q] = 0.0
 
 
-@kernel(inline=True)
-def factor(err, after_reject):
-    """Factor for the next step from the error norm of an accepted (err <= 1) or rejected step."""
-    if err == 0.0:
-        fac = MAX_FACTOR
-    else:
-        fac = min(MAX_FACTOR, max(MIN_FACTOR, SAFETY * err ** ERROR_EXPONENT))
-    if after_reject:
-        fac = min(1.0, fac)
-    return fac
-
-
 @kernel(takes_functions=True)  # not inlined: one compiled copy, called once per step (the compile stays small)
 def attempt(rhs, n, control, model, arrays, work, fsal_row, t, h, after_reject, budget):
     """Try Rodas4 steps from (t, y), slope f, Jacobian work.J at y, first trial step h [s], until one
@@ -291,10 +279,10 @@ def attempt(rhs, n, control, model, arrays, work, fsal_row, t, h, after_reject, 
             continue
         n_bad = 0
         if err > 1.0:
-            h *= factor(err, after_reject)
+            h *= step_factor(err, ERROR_EXPONENT, after_reject, MAX_FACTOR)
             after_reject = True
             continue
-        h_next = h * factor(err, after_reject)
+        h_next = h * step_factor(err, ERROR_EXPONENT, after_reject, MAX_FACTOR)
         break
     if code != ACCEPTED:
         return code, h, h, attempts, False

@@ -94,15 +94,16 @@ def error_norm(K, E, err_mode, n_stages, h, y, y_new, n_err, rtol, atol):
 
 
 @kernel(inline=True)
-def step_factor(err, exponent, after_reject):
-    """Factor for the next step from the error norm of an accepted (err <= 1) or rejected step."""
+def step_factor(err, exponent, after_reject, max_factor):
+    """Factor for the next step from the error norm of an accepted (err <= 1) or rejected step; at
+    most ``max_factor`` (MAX_FACTOR for the explicit methods, ``rosenbrock.MAX_FACTOR`` for Rodas4)."""
     if err == 0.0:
-        factor = MAX_FACTOR
+        factor = max_factor
     else:
         factor = SAFETY * err**exponent
     if err > 1.0:
         return max(MIN_FACTOR, min(factor, 1.0))
-    factor = min(MAX_FACTOR, factor)
+    factor = min(max_factor, factor)
     if after_reject:
         factor = min(1.0, factor)
     return factor
@@ -275,10 +276,10 @@ def attempt(rhs, method, control, p, arrays, t, h, after_reject, budget):
             continue
         n_bad = 0
         if err > 1.0:
-            h *= step_factor(err, exponent, after_reject)
+            h *= step_factor(err, exponent, after_reject, MAX_FACTOR)
             after_reject = True
             continue
-        h_next = h * step_factor(err, exponent, after_reject)
+        h_next = h * step_factor(err, exponent, after_reject, MAX_FACTOR)
         break
     if code != ACCEPTED:
         return code, h, h, attempts, False
