@@ -98,7 +98,7 @@ def _trace_parser(sub) -> None:
     t.add_argument("--at", default=None, metavar="DIM=VALUE,...",
                    help="the point of FILE, e.g. omega1=2,beta=1.1,scene=slipping (nearest grid point)")
     t.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
-                   help="a physical parameter (r R a m j mu g k_r k_d); repeatable")
+                   help=f"a physical parameter ({' '.join(registry.PHYSICAL_KEYS)}); repeatable")
     t.add_argument("--t-max", type=float, default=None, help="end of the run [s] (default 20, or the map's)")
     t.add_argument("--rtol", type=float, default=1e-10, help="relative tolerance (default 1e-10)")
     t.add_argument("--atol", type=float, default=1e-12, help="absolute tolerance (default 1e-12)")

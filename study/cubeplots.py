@@ -23,10 +23,13 @@ from matplotlib.patches import Patch
 MAX_MAPS = 6
 """A cube with at most this many slices also shows the section's map of each."""
 UNIT_TEXT = {"s-1": "1/s", "m s-1": "m/s", "1": "-", "": "-", "rad": "rad", "s": "s"}
-SYMBOLS = {"mu": r"$\mu$", "k_r": r"$k_r$", "k_d": r"$k_d$", "omega2": r"$\omega_2$", "omega3": r"$\omega_3$",
+SYMBOLS = {"mu": r"$\mu$", "k_r": r"$k_r$", "k_d": r"$k_d$", "c_r": r"$c_r$", "c_d": r"$c_d$",
+           "rho_air": r"$\rho_{air}$", "C_D": r"$C_D$", "omega2": r"$\omega_2$", "omega3": r"$\omega_3$",
            "j": r"$j$", "rho_over_R": r"$\rho/R$", "v_throw": r"$v_{throw}$", "sigma": r"$\sigma$"}
 """How a figure writes a swept setting."""
 WORDS = {"mu": "friction coefficient", "k_r": "rolling resistance", "k_d": "drilling resistance",
+         "c_r": "Coulomb rolling resistance", "c_d": "Coulomb drilling resistance", "rho_air": "air density",
+         "C_D": "drag coefficient",
          "omega2": "initial", "omega3": "initial", "j": "inertia factor", "rho_over_R": "ball size",
          "v_throw": "throw speed", "sigma": "noise level"}
 """The words before the symbol in an axis label (the coordinate's long_name otherwise)."""

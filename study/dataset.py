@@ -196,10 +196,21 @@ def params_of(ds: xr.Dataset) -> solver.Params:
     e.g. ``params_of(ds.sel(mu=1.0))``, and its scalar coordinate is used.
     """
     swept = str(ds.attrs.get("swept", "")).split()
+    values = {k: float(setting_of(ds, k)) for k in PHYSICAL_KEYS if k in _TERM_KEYS_LATER and _recorded(ds, k)
+              or k not in _TERM_KEYS_LATER}
     if "rho_over_R" in swept:
-        x = float(setting_of(ds, "rho_over_R"))
-        return solver.Params.from_rho_over_R(x, **{k: float(setting_of(ds, k)) for k in PHYSICAL_KEYS if k != "r"})
-    return solver.Params(**{k: float(setting_of(ds, k)) for k in PHYSICAL_KEYS})
+        values.pop("r")
+        return solver.Params.from_rho_over_R(float(setting_of(ds, "rho_over_R")), **values)
+    return solver.Params(**values)
+
+
+_TERM_KEYS_LATER = ("c_r", "c_d", "rho_air", "C_D")
+"""Physical parameters added after the first files were written (their terms did not exist then: a
+file without them ran with the terms off, and :func:`params_of` takes the Params defaults)."""
+
+
+def _recorded(ds: xr.Dataset, name: str) -> bool:
+    return name in ds.coords or name in ds.dims or f"setting_{name}" in ds.attrs or f"param_{name}" in ds.attrs
 
 
 def setting_of(ds: xr.Dataset, name: str):

@@ -4,7 +4,7 @@ Each setting name has one :class:`Setting`: its CF units (``""`` for counts, lab
 switches), a one-line doc, and what it allows: a :class:`~rimroll.solver.physics.params.Range` of
 numbers or a set of labels (``choices``). ``sweep`` marks the settings a study may declare
 ``sweepable`` (a list or range of values becomes an outer axis of the cube, with the units and
-``long_name`` given here). The physical parameters (``r R a m j mu g k_r k_d`` and
+``long_name`` given here). The physical parameters (``r R a m j mu g k_r k_d c_r c_d rho_air C_D`` and
 ``rho_over_R``) are not restated here: their entries are made from the table of
 ``rimroll.solver.physics.params``, which ``Params`` validates with.
 
@@ -113,7 +113,7 @@ def _physical(q: physical.Quantity) -> Setting:
                    long_name=q.long_name, physical=True)
 
 
-_SWEPT_PHYSICAL = ("mu", "j", "rho_over_R", "k_r", "k_d")
+_SWEPT_PHYSICAL = ("mu", "j", "rho_over_R", *physical.DISSIPATION_KEYS, "C_D")  # every term's strength
 _DOC_MORE = {  # what the study layer adds to a physical parameter's doc
     "mu": "; a swept list may hold inf too: --set mu=1,inf puts slipping and rolling only on one axis (mu is "
           "the only setting that takes inf)",

@@ -12,7 +12,7 @@ allows: ``study.setting_table``, read by ``study.checks``); every problem is a o
 the setting's default), ``KEY=0.5,1,2`` (a list, in the order given) or ``KEY=start:stop:num``
 (``num >= 2`` points of an inclusive linspace). A list or range is allowed for the study's ``sweepable`` settings
 (outer axes, in the study's order, then in the order of ``--set``) and for the names of its grid
-axes (new grid values). The physical keys (r R a m j mu g k_r k_d, SI units) and ``rho_over_R``
+axes (new grid values). The physical keys (r R a m j mu g k_r k_d c_r c_d rho_air C_D, SI units) and ``rho_over_R``
 build a :class:`solver.Params`; a set of them Params refuses (rho >= R, ...) gives Params'
 ValueError message as the error.
 """

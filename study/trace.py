@@ -129,8 +129,8 @@ def from_map(path, at_text: str, sets: dict) -> tuple[np.ndarray, solver.Params,
             raise UserError(f"--at needs a value for {dim!r} of {path} (e.g. {values})")
     point = ds.isel(pick)
     values = params_of(ds).as_dict()
-    for key in ("mu", "k_r", "k_d", "j"):
-        if key in point.coords:
+    for key in values:  # the scene's own parameters (a scene's mu, k_r, k_d; a swept one)
+        if key in point.coords and point[key].ndim == 0:
             values[key] = float(point[key])
     values.update(sets)
     if "rho_over_R" in point.coords:

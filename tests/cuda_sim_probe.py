@@ -20,6 +20,8 @@ SCENES = {  # label: (Params changes, t_max [s]) as the outcome sections (workfl
     "slipping": ({"mu": 1.0}, 20.0),
     "drilling": ({"mu": 1.0, "k_d": 0.02}, 60.0),
     "rolling_resistance": ({"mu": 1.0, "k_r": 0.02}, 60.0),
+    # the load terms of Sect. 5.3's question (a generated scene kernel): Coulomb resistances and air drag
+    "coulomb_air": ({"mu": 1.0, "c_r": 1e-3, "c_d": 1e-3, "rho_air": 1.2}, 60.0),
 }
 
 

@@ -68,7 +68,7 @@ def test_simulator_gives_the_cpu_engines_results_in_every_scene(simulated_run):
     saved = simulated_run
     assert str(saved["device"]) == f"cuda ({backends.SIMULATOR_NAME})"
     labels = sorted({k.split("/")[0] for k in saved if k.count("/") == 2})
-    assert labels == ["drilling", "rolling_only", "rolling_resistance", "slipping"]
+    assert labels == ["coulomb_air", "drilling", "rolling_only", "rolling_resistance", "slipping"]
     kinds = set()
     for label in labels:
         cpu = {o.name: saved[f"{label}/cpu/{o.name}"] for o in OUTPUTS}

@@ -23,6 +23,7 @@ from matplotlib.lines import Line2D
 
 from rimroll import solver
 from rimroll.solver.analysis import steady
+from rimroll.solver.physics.params import DISSIPATION_KEYS
 from rimroll.study import cubeplots as C
 from rimroll.study import plotting as P
 from rimroll.study.dataset import params_of, setting_of
@@ -60,7 +61,7 @@ def _realisable_compute(coords, p, s):
 
 
 REALISABLE_SWEEPS = ("mu", "v_throw", "j", "rho_over_R")
-OUTCOME_SWEEPS = ("mu", "k_r", "k_d", "omega2", "omega3", "j", "rho_over_R")
+OUTCOME_SWEEPS = ("mu", *DISSIPATION_KEYS, "C_D", "omega2", "omega3", "j", "rho_over_R")  # every term's strength
 
 
 def _realisable_plot(ds):
@@ -207,7 +208,7 @@ def _section_panel(ax, sel, small: bool = False) -> bool:
     P.outcome_map(ax, w1, beta, sel["outcome"].transpose("beta", "omega1").values, b0,
                   star_size=7 if small else None)
     extras = {}
-    if float(setting_of(sel, "k_r")) != 0 or float(setting_of(sel, "k_d")) != 0:
+    if p.dissipative:
         extras = P.time_on_rim(ax, w1, beta, sel["t_end"].transpose("beta", "omega1").values,
                                float(setting_of(sel, "t_max")), b0, labels=not small)
     ax.set_xlabel(r"initial $\omega_1$ [1/s]", fontsize=8 if small else 10)

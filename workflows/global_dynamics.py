@@ -18,6 +18,7 @@ from matplotlib.patches import Patch
 from rimroll import solver
 from rimroll.solver.analysis import floquet, reduced, steady, trajectory
 from rimroll.solver.analysis import solution_types as st
+from rimroll.solver.physics.params import DISSIPATION_KEYS
 from rimroll.study import plotting as P
 from rimroll.study.dataset import setting_of
 from rimroll.study.registry import Axis, ReferenceSpec, Study, Var, register
@@ -148,7 +149,7 @@ register(Study(
     plot=_fig9_plot,
     chunks={"rho_over_R": 50},
     ignores={"mu": "the Floquet problem (62) is about rolling, without friction limits",
-             "k_r": "the Floquet problem (62) is conservative", "k_d": "the Floquet problem (62) is conservative",
+             **{k: "the Floquet problem (62) is conservative" for k in DISSIPATION_KEYS},
              "j": "j is an axis of the map (give a list or range to change its values)"},
     cost=1.5e-4,  # seconds per grid point on one core, warm (--quick on 2 shared cores, 2026-11)
     reference=ReferenceSpec({"rho_over_R": 40, "j": 30},
@@ -162,9 +163,10 @@ MIXED = "mixed"  # the four subsets in turn: every type of Theorem 1 in one samp
 
 
 def _conservative(s: dict) -> None:
-    if s["k_r"] != 0 or s["k_d"] != 0:
-        raise ValueError(f"Theorem 1 is about the conservative rolling equations: need k_r = k_d = 0; "
-                         f"got k_r={s['k_r']}, k_d={s['k_d']}")
+    on = {k: s[k] for k in DISSIPATION_KEYS if s[k] != 0}
+    if on:
+        raise ValueError("Theorem 1 is about the conservative rolling equations: need "
+                         + " = ".join(DISSIPATION_KEYS) + " = 0; got " + ", ".join(f"{k}={v}" for k, v in on.items()))
 
 
 def _types_axes(s: dict) -> list[Axis]:

@@ -35,7 +35,15 @@ from rimroll.study import plotting as P
 from rimroll.study.dataset import params_of, setting_of
 from rimroll.study.registry import ReferenceSpec, Study, Var, output_var, register
 from rimroll.workflows import adaptive
-from rimroll.workflows.sections import QUICK, SETTINGS, engine_options, scene_params, section_axes, steady_beta0
+from rimroll.workflows.sections import (
+    QUICK,
+    SCENE_IGNORES,
+    SETTINGS,
+    engine_options,
+    scene_params,
+    section_axes,
+    steady_beta0,
+)
 
 REFINE_LEVEL = Var("refine_level", "1", adaptive.LEVEL_ATTRS["long_name"], dtype="int8",
                    comment=adaptive.LEVEL_ATTRS["comment"], compared=False)
@@ -454,8 +462,7 @@ for _name, _omega2, _fig in (("fig11", 35.0, 11), ("fig12", 65.0, 12), ("fig13",
         chunks=_chunks,
         derive=_derive,
         derived_docs=DERIVED_DOCS,
-        ignores={k: "each of the four scenes sets its own mu, k_r and k_d; change mu_slip or k_dissipation"
-                 for k in ("mu", "k_r", "k_d")},
+        ignores=SCENE_IGNORES,
         cost=3e-4, compiles=True,  # seconds per grid point on one core, warm (--quick on 2 shared cores, 2026-11)
         reference=REFERENCE,
     ))

@@ -28,6 +28,7 @@ from matplotlib.ticker import FixedLocator, FuncFormatter, NullLocator
 from rimroll import solver
 from rimroll.solver.analysis import predictability as pred
 from rimroll.solver.engine import outcomes
+from rimroll.solver.physics.params import DISSIPATION_KEYS
 from rimroll.study import cubeplots as C
 from rimroll.study import plotting as P
 from rimroll.study.dataset import setting_of
@@ -264,8 +265,7 @@ register(Study(
     ),
     # README "Predictability of a shot": ~250 s CPU for the 12 sections x scenes of 86,400 points
     cost=2.5e-4, compiles=True,
-    ignores={k: "each of the four scenes sets its own mu, k_r and k_d; change mu_slip or k_dissipation"
-             for k in ("mu", "k_r", "k_d")},
+    ignores=sections.SCENE_IGNORES,
     # a regression reference at the study's own settings: box entropies and eps-uncertain flags count
     # outcome changes within a grid step, so a tighter rtol moves them only where the outcomes differ;
     # the default slice is a 24 x 36 sub-grid of every section and scene
@@ -397,7 +397,7 @@ register(Study(
     title="Make probability of a throw with a normal spread of the arriving state over the (beta, omega1) section",
     settings=PROB_SETTINGS,
     quick=PROB_QUICK,
-    sweepable=("sigma", "mu", "k_r", "k_d", "omega2", "omega3"),
+    sweepable=("sigma", "mu", *DISSIPATION_KEYS, "C_D", "omega2", "omega3"),
     # README "Predictability of a shot": ~50 s CPU for 86,400 states x 64 samples; per point at the
     # --quick 16 samples: 1.5e-4 s
     cost=1.5e-4, cost_scale="n_samples", compiles=True,

@@ -12,6 +12,7 @@ import numpy as np
 from rimroll import solver
 from rimroll.solver.engine import scenes
 from rimroll.solver.physics import switching
+from rimroll.solver.physics.params import DISSIPATION_KEYS
 from rimroll.study.registry import Axis
 
 SCENES = tuple(s.name for s in scenes.NAMED)
@@ -104,8 +105,14 @@ def steady_beta0(omega2: float, omega3: float, p: solver.Params, lo: float, hi: 
 
 
 def scene_params(p: solver.Params, s: dict, label) -> tuple[solver.Params, float]:
-    """The parameters of the named scene ``label`` (the run's physical ones with the scene's mu,
-    k_r, k_d) and its t_max [s], from the settings ``s``."""
+    """The parameters of the named scene ``label`` (the run's physical ones with the scene's mu and
+    term parameters: k_r, k_d, and 0 for every other term's) and its t_max [s], from the settings ``s``."""
     k = scene_index(label)
-    table = scene_table(s)
-    return p.replace(mu=table["mu"][k], k_r=table["k_r"][k], k_d=table["k_d"][k]), float(table["t_max"][k])
+    scene = scenes.NAMED[k]
+    t_max = s["t_max"] if scene.conservative else s["t_max_dissipative"]
+    return p.replace(**scene.parameters(s["mu_slip"], s["k_dissipation"])), float(t_max)
+
+
+SCENE_IGNORES = {k: "each of the four scenes sets its own mu and term parameters (k_r, k_d; the other terms off); "
+                    "change mu_slip or k_dissipation" for k in ("mu", *DISSIPATION_KEYS)}
+"""The physical parameters a study of the four named scenes ignores (``Study.ignores``)."""

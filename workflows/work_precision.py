@@ -31,7 +31,7 @@ from rimroll.solver.analysis import reference
 from rimroll.study import plotting as P
 from rimroll.study.registry import Axis, ReferenceSpec, Study, Var, register
 from rimroll.workflows import heyoka_rolling
-from rimroll.workflows.sections import scene_axis, scene_index, scene_table
+from rimroll.workflows.sections import SCENES, scene_axis, scene_index, scene_params
 
 INTEGRATORS = ("rimroll_dp5", "rimroll_dop853", "scipy_rk45", "scipy_dop853", "scipy_lsoda") + (
     (heyoka_rolling.LABEL,) if heyoka_rolling.available() else ())
@@ -92,8 +92,7 @@ def _axes(s: dict) -> list[Axis]:
 
 
 def _scene_params(p: solver.Params, s: dict, k: int) -> tuple[solver.Params, float]:
-    table = scene_table(s)
-    return p.replace(mu=table["mu"][k], k_r=table["k_r"][k], k_d=table["k_d"][k]), float(table["t_max"][k])
+    return scene_params(p, s, SCENES[k])
 
 
 def _ours(states, params, t_max, rtol, method, min_seconds=0.05):

@@ -204,7 +204,8 @@ class _System:
         self.p = params.as_array()
         self.sw = switching.default_tolerances(**(switching_tolerances or {}))
         scene = scene_of(params, tuple(terms))
-        self.hybrid, self.conservative = scene.flags
+        self.hybrid = scene.slips
+        self.conservative = not scene.dissipates(params)  # periodic rolling detected
         self.load_fn = scene_code.load_of(scene)  # the scene's external load (compiled), None without terms
         self.u_stop = self.sw[switching.SW_U_STOP]
         self.t_max, self.rtol, self.atol, self.method = t_max, rtol, atol, method

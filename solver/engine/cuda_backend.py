@@ -123,13 +123,14 @@ else:
 def launcher(scene: Scene, method: str):
     """The Python source of the kernel of a scene and method: one trajectory per thread.
 
-    ``launch(states, m, p, t_max, rtol, atol, max_steps, max_switches, stiff_slips, sw, res_f, res_i)`` (the
-    fields of ``kernels.Limits`` as scalars): thread k < m integrates row k of ``states`` (m, 4) and
+    ``launch(states, m, p, t_max, rtol, atol, max_steps, max_switches, switches, sw, res_f, res_i)`` (the
+    fields of ``kernels.Limits`` as scalars, its two booleans as the bits of ``switches``: 1 periodic,
+    2 stiff_slips): thread k < m integrates row k of ``states`` (m, 4) and
     writes rows k of ``res_f`` (m, N_RF) and ``res_i`` (m, N_RI), exactly as the CPU scene kernels
     do for one row.
     """
     trajectory = kernels.trajectory  # the CPU engine's trajectory body
-    slips, conservative = scene.flags  # compile-time constants, as in the scene kernels
+    slips = scene.slips  # a compile-time constant, as in the scene kernels
     tab = TABLEAUS[method]
     A, E, P = tab.A, tab.E, tab.P  # constants of the kernel
     n_stages, err_mode, error_order = tab.n_stages, tab.err_mode, tab.error_order
@@ -141,7 +142,7 @@ def launcher(scene: Scene, method: str):
     # the Rosenbrock arrays of slip phases (kernels.Work): 1 x 1 where the scene never slips
     n_ro, n_j = (rosenbrock.N_ROWS, N_MAX) if slips else (1, 1)
 
-    def launch(states, m, p, t_max, rtol, atol, max_steps, max_switches, stiff_slips, sw, res_f, res_i):
+    def launch(states, m, p, t_max, rtol, atol, max_steps, max_switches, switches, sw, res_f, res_i):
         k = cuda.grid(1)
         if k >= m:
             return
@@ -172,7 +173,7 @@ def launcher(scene: Scene, method: str):
                 G[r, e] = 0.0
         work = Work(W, K, Q, G, sign, search, active, R, J, LU, piv)
         method = Method(A, E, P, n_stages, err_mode, error_order)
-        limits = Limits(t_max, rtol, atol, max_steps, max_switches, conservative, stiff_slips)
+        limits = Limits(t_max, rtol, atol, max_steps, max_switches, (switches & 1) != 0, (switches & 2) != 0)
         if has_load:  # a constant of the kernel, as slips: numba compiles one branch
             model = Model(native(p), terms.load, False)
         else:
@@ -189,7 +190,7 @@ def launcher(scene: Scene, method: str):
 
 
 SIGNATURE = (types.float64[:, ::1], types.int64, types.float64[::1], types.float64, types.float64, types.float64,
-             types.int64, types.int64, types.boolean, types.float64[::1], types.float64[:, ::1], types.int64[:, ::1])
+             types.int64, types.int64, types.int64, types.float64[::1], types.float64[:, ::1], types.int64[:, ::1])
 """Argument types of a launcher (the kernel is compiled for these only)."""
 
 _KERNELS: dict = {}
@@ -309,6 +310,7 @@ def run(scene: Scene, method: str, states: np.ndarray, p: np.ndarray, limits: ke
         slots = _slots(batch)
         d_p = cuda.to_device(np.ascontiguousarray(p, dtype=np.float64), stream=slots[0].stream)
         d_sw = cuda.to_device(np.ascontiguousarray(sw, dtype=np.float64), stream=slots[0].stream)
+        switches = (1 if limits.periodic else 0) | (2 if limits.stiff_slips else 0)  # launch's flag bits
         slots[0].stream.synchronize()  # the parameters are on the device before any launch
 
         def drain(slot):
@@ -328,8 +330,7 @@ def run(scene: Scene, method: str, states: np.ndarray, p: np.ndarray, limits: ke
                 slot.h_states[:n] = states[lo:hi]
                 slot.d_states[:n].copy_to_device(slot.h_states[:n], stream=slot.stream)
                 launch = _configure(k, -(-n // THREADS_PER_BLOCK), slot.stream)
-                # periodic: a constant of the kernel
-                launch(slot.d_states, n, d_p, *limits[:5], limits.stiff_slips, d_sw, slot.d_f, slot.d_i)
+                launch(slot.d_states, n, d_p, *limits[:5], switches, d_sw, slot.d_f, slot.d_i)
                 slot.d_f[:n].copy_to_host(slot.h_f[:n], stream=slot.stream)
                 slot.d_i[:n].copy_to_host(slot.h_i[:n], stream=slot.stream)
                 slot.rows = (lo, hi)

@@ -25,6 +25,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable
 
+from rimroll.solver.physics import air, resistance
 from rimroll.solver.physics.params import Params
 
 
@@ -68,6 +69,10 @@ def register_term(term: Term) -> Term:
 
 register_term(Term("drilling", "drilling resistance (83)", parameter="k_d"))
 register_term(Term("rolling_resistance", "rolling resistance (83)", parameter="k_r"))
+register_term(Term("coulomb_rolling", "Coulomb rolling resistance", parameter="c_r", load=resistance.coulomb_rolling))
+register_term(Term("coulomb_drilling", "Coulomb drilling resistance", parameter="c_d",
+                   load=resistance.coulomb_drilling))
+register_term(Term("air_drag", "air drag", parameter="rho_air", load=air.air_drag))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -93,6 +98,13 @@ class Scene:
     def conservative(self) -> bool:
         """No term removes energy: periodic rolling is detected (Prop. 4)."""
         return not any(TERMS[t].dissipative for t in self.terms)
+
+    def dissipates(self, params: Params) -> bool:
+        """Whether a term of the scene removes energy in a run with these parameters: a dissipative
+        term that is not switched by a parameter, or one whose parameter is nonzero. Periodic rolling
+        is detected otherwise (a term named at zero strength leaves the run conservative)."""
+        return any(TERMS[t].dissipative and (TERMS[t].parameter is None or getattr(params, TERMS[t].parameter) > 0)
+                   for t in self.terms)
 
     @property
     def loads(self) -> tuple[Term, ...]:

@@ -81,8 +81,9 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
     states : array_like, shape (..., 4)
         Rolling initial states (beta [rad], omega1, omega2, omega3 [1/s]), u1 = u3 = 0.
     params : Params
-        Physical parameters; they pick the scene (mu = inf: rolling only; k_r, k_d > 0:
-        dissipative, no periodic detection).
+        Physical parameters; they pick the scene (mu = inf: rolling only; a term's parameter > 0
+        switches it on: k_r, k_d (83), c_r, c_d (Coulomb resistance), rho_air (air drag); with any
+        of them the run is dissipative, without periodic detection).
     t_max : float [s]
         End of the run for states that stay on the rim (> 0).
     rtol, atol : float
@@ -111,7 +112,8 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
     terms : sequence of str
         Load terms of the scene table (``solver.engine.scenes.TERMS``, e.g. one registered with
         ``register_term``) added to the equations of both phases; the terms switched on by a
-        parameter (``k_r``, ``k_d``) come from ``params``.
+        parameter (``k_r``, ``k_d``, ``c_r``, ``c_d``, ``rho_air``) come from ``params`` (naming one
+        of those with a load runs its kernel at the parameter's value, zero included).
 
     Returns
     -------
@@ -145,7 +147,7 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
         raise ValueError(f"switching `slip_method` must be one of {', '.join(map(repr, SLIP_METHODS))}; "
                          f"got {slip_method!r}")
     limits = _checked_limits(t_max, rtol, atol, max_steps, max_switches)._replace(
-        periodic=scene.conservative, stiff_slips=slip_method == "rodas4")
+        periodic=not scene.dissipates(params), stiff_slips=slip_method == "rodas4")
     if method not in TABLEAUS:
         raise ValueError(f"`method` must be one of {sorted(TABLEAUS)}; got {method!r}")
     workers = _count("workers", (os.cpu_count() or 1) if workers is None else workers)

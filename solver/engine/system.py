@@ -207,7 +207,7 @@ def slipping_rhs(y, model, K, s):
 def rolling_events(y, f, model, aux, g, gr):
     """Rolling event values into g, their time derivatives along the rates f into gr (see the table);
     the friction margin only where the ball can slip (aux not None). With an external load the
-    derivatives are central differences along f (:func:`_rolling_event_rates`)."""
+    derivatives of what it adds are central differences along f (:func:`_rolling_event_rates`)."""
     beta = y[0]
     w1 = y[1]
     w3 = y[3]
@@ -234,7 +234,10 @@ rolling events' rates in a scene with an external load (whose own rates the load
 
 @kernel(inline=True)
 def _rolling_event_rates(y, f, model, aux, gr):
-    """The rates of F2 and of the friction margin along f by central differences, loads included."""
+    """Adds to the analytic rates of F2 and of the friction margin (of the equations without the
+    load, along the rates f) the rates of what the load adds to them, by central differences along f.
+    Only the load's part is differenced: it is exactly zero for a load of zero strength, which then
+    gives the rates of the scene without it bit for bit."""
     p = model.p
     scale = max(max(abs(f[0]), abs(f[1])), max(abs(f[2]), abs(f[3])))
     dt = FD_STEP / max(scale, 1.0)
@@ -242,11 +245,14 @@ def _rolling_event_rates(y, f, model, aux, gr):
     b1, w11, w21, w31 = y[0] - dt * f[0], y[1] - dt * f[1], y[2] - dt * f[2], y[3] - dt * f[3]
     load0 = loads.at(model.load_fn, b0, w10, w20, w30, 0.0, 0.0, p)
     load1 = loads.at(model.load_fn, b1, w11, w21, w31, 0.0, 0.0, p)
-    gr[EV_FALL] = (rolling.normal_force(b0, w10, w30, p, load0)
-                   - rolling.normal_force(b1, w11, w31, p, load1)) / (2.0 * dt)
+    gr[EV_FALL] += ((rolling.normal_force(b0, w10, w30, p, load0) - rolling.normal_force(b0, w10, w30, p))
+                    - (rolling.normal_force(b1, w11, w31, p, load1) - rolling.normal_force(b1, w11, w31, p))
+                    ) / (2.0 * dt)
     if aux is not None:
-        gr[EV_SWITCH] = (rolling.friction_margin(b0, w10, w20, w30, p, load0)
-                         - rolling.friction_margin(b1, w11, w21, w31, p, load1)) / (2.0 * dt)
+        gr[EV_SWITCH] += ((rolling.friction_margin(b0, w10, w20, w30, p, load0)
+                           - rolling.friction_margin(b0, w10, w20, w30, p))
+                          - (rolling.friction_margin(b1, w11, w21, w31, p, load1)
+                             - rolling.friction_margin(b1, w11, w21, w31, p))) / (2.0 * dt)
 
 
 @kernel(inline=True)

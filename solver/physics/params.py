@@ -23,7 +23,11 @@ P_G = 6  # g   [m/s^2]
 P_K_R = 7  # k_r [1/s]
 P_K_D = 8  # k_d [1/s]
 P_RHO = 9  # rho = r + a [m]
-N_PARAMS = 10
+P_C_R = 10  # c_r [m]: Coulomb rolling-resistance arm (solver.physics.resistance)
+P_C_D = 11  # c_d [m]: Coulomb drilling-resistance contact length (solver.physics.resistance)
+P_RHO_AIR = 12  # rho_air [kg/m^3] (0: no air; solver.physics.air)
+P_C_DRAG = 13  # C_D [-]: drag coefficient of the ball (solver.physics.air)
+N_PARAMS = 14
 
 
 @dataclasses.dataclass(frozen=True)
@@ -84,6 +88,8 @@ the equations' products of parameters and rates stay inside floating point (j = 
 _POSITIVE = Range(0.0, MAX_MAGNITUDE, low_open=True, high_open=True, text="a positive number below 1e12")
 _RATE = Range(0.0, MAX_MAGNITUDE, high_open=True, text="a rate >= 0 and below 1e12 [1/s]")
 _RATE_83 = "rate C_{}/(j m R^2) of (83)"
+_LENGTH = Range(0.0, MAX_MAGNITUDE, high_open=True, text="a length >= 0 and below 1e12 [m]")
+_DENSITY = Range(0.0, MAX_MAGNITUDE, high_open=True, text="a density >= 0 and below 1e12 [kg/m^3]")
 
 QUANTITIES = {q.name: q for q in (
     Quantity("r", "m", "radius of the ball", _POSITIVE, "radius of the ball"),
@@ -99,12 +105,19 @@ QUANTITIES = {q.name: q for q in (
              "rolling-resistance rate, paper (83)"),
     Quantity("k_d", "s-1", "drilling-resistance " + _RATE_83.format("d"), _RATE,
              "drilling-resistance rate, paper (83)"),
+    Quantity("c_r", "m", "Coulomb rolling-resistance arm: moment c_r F2 against the rolling rotation", _LENGTH,
+             "Coulomb rolling resistance, moment -c_r F2 omega_t/|omega_t| (0: off)"),
+    Quantity("c_d", "m", "Coulomb drilling-resistance contact length: moment c_d F2 against the spin omega2",
+             _LENGTH, "Coulomb drilling resistance, moment -c_d F2 sign(omega2) (0: off)"),
+    Quantity("rho_air", "kg m-3", "density of the air (quadratic drag on the ball; 0: no air)", _DENSITY,
+             "air density of the drag -1/2 rho_air C_D pi r^2 |v| v (0: no air; air: 1.2)"),
+    Quantity("C_D", "1", "drag coefficient of the ball", _POSITIVE, "drag coefficient of the ball (air drag)"),
     # not a field of Params: Params.from_rho_over_R(rho_over_R, ...) sets r = rho_over_R R - a
     Quantity("rho_over_R", "1", "ratio rho/R of the ball centre's distance from the rim's middle circle to "
                                 "the rim's major radius (R and a fixed, r = rho - a)",
              Range(0.0, 1.0, low_open=True, high_open=True), "rho/R with R and a fixed (r = rho - a)"),
 )}
-"""The physical parameters: the nine fields of :class:`Params`, then ``rho_over_R``. ``Params``
+"""The physical parameters: the fields of :class:`Params`, then ``rho_over_R``. ``Params``
 validates with these ranges; the study layer's setting table takes their units, names and ranges
 from here."""
 
@@ -138,6 +151,15 @@ class Params:
         rolling equations (83) as printed (rimroll's reading; :func:`moment_normalised` gives the
         alternative one)
     k_d : drilling-resistance rate C_d/(j m R^2) of (83) [1/s]: the rate of omega2 in (83)
+    c_r : Coulomb rolling-resistance arm [m]: the moment -c_r F2 omega_t/|omega_t| against the
+        rolling components omega_t = (omega1, 0, omega3) (``solver.physics.resistance``; 0: off)
+    c_d : Coulomb drilling-resistance contact length [m]: the moment -c_d F2 sign(omega2) about the
+        normal n2 (0: off)
+    rho_air : density of the air [kg/m^3]: quadratic drag -1/2 rho_air C_D pi r^2 |v| v on the
+        centre, on the rim and in the flight after separation (``solver.physics.air``); 0 (the
+        default): no air, as in the paper; 1.2 for air at 20 C
+    C_D : drag coefficient of the ball [-] (0.5: a sphere at the Reynolds numbers of a shot);
+        used only with rho_air > 0
 
     Raises
     ------
@@ -155,6 +177,10 @@ class Params:
     g: float = 9.81
     k_r: float = 0.0
     k_d: float = 0.0
+    c_r: float = 0.0
+    c_d: float = 0.0
+    rho_air: float = 0.0
+    C_D: float = 0.5
 
     def __post_init__(self):
         for name in FIELDS:
@@ -182,15 +208,16 @@ class Params:
 
     @property
     def dissipative(self) -> bool:
-        """True when a contact moment (83) removes energy (k_r > 0 or k_d > 0)."""
-        return self.k_r > 0 or self.k_d > 0
+        """True when a term removes energy: a contact moment (83) (k_r > 0 or k_d > 0), a Coulomb
+        resistance (c_r > 0 or c_d > 0) or air drag (rho_air > 0)."""
+        return any(getattr(self, name) > 0 for name in DISSIPATION_KEYS)
 
     def replace(self, **changes) -> Params:
         """A copy with some values changed (validated again)."""
         return dataclasses.replace(self, **changes)
 
     def as_dict(self) -> dict[str, float]:
-        """The nine defining values, keyed by name."""
+        """The defining values (:data:`FIELDS`), keyed by name."""
         return dataclasses.asdict(self)
 
     def as_array(self) -> np.ndarray:
@@ -206,6 +233,10 @@ class Params:
         out[P_K_R] = self.k_r
         out[P_K_D] = self.k_d
         out[P_RHO] = self.rho
+        out[P_C_R] = self.c_r
+        out[P_C_D] = self.c_d
+        out[P_RHO_AIR] = self.rho_air
+        out[P_C_DRAG] = self.C_D
         return out
 
     @classmethod
@@ -228,7 +259,9 @@ class Params:
 
 
 FIELDS = tuple(f.name for f in dataclasses.fields(Params))
-"""The nine defining values of :class:`Params`, in order."""
+"""The defining values of :class:`Params`, in order."""
+DISSIPATION_KEYS = ("k_r", "k_d", "c_r", "c_d", "rho_air")
+"""The parameters that switch on a dissipative term (0: off): a conservative run has them all 0."""
 if FIELDS != tuple(QUANTITIES)[: len(FIELDS)]:
     raise ImportError(f"QUANTITIES must declare every field of Params, in order: {FIELDS}")
 
