@@ -141,6 +141,8 @@ _ENTRIES = (
     # ---- scenes
     S("mu_slip", "1", "friction coefficient of the slipping scenes", FRICTION),
     S("k_dissipation", "s-1", "rate k_d / k_r of the drilling / rolling-resistance scene", NONNEGATIVE),
+    S("k_equivalent", "s-1", "strength of every dissipation model: the rate of (83) that removes energy at the same "
+      "mean rate on the paper's steady motions", NONNEGATIVE, sweep=True, long_name="strength k_eq"),
     # ---- the integration
     S("t_max", "s", "end of a run still on the rim (conservative scenes)", POSITIVE),
     S("t_max_dissipative", "s", "end of a run still on the rim (dissipative scenes)", POSITIVE),

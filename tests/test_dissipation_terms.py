@@ -103,7 +103,10 @@ def _gradient(f, x):
     return grad
 
 
-def _centre_velocity(x, u1=0.0, u3=0.0, r=solver.Params().r):
+R_BALL = solver.Params().r
+
+
+def _centre_velocity(x, u1=0.0, u3=0.0, r=R_BALL):
     return u1 - r * x[3], 0.0, u3 + r * x[1]
 
 
@@ -202,7 +205,7 @@ def test_the_flight_with_drag_agrees_with_scipy_and_tends_to_the_parabola():
         v = kinematics.centre_velocity(beta, w1, w3, u1, u3, pa)
         k = air.drag_rate(pa)
 
-        def rhs(t, s):
+        def rhs(t, s, k=k):
             vv = s[3:]
             return [*vv, *(-k * np.linalg.norm(vv) * vv - np.array([0, 0, p0.g]))]
 
