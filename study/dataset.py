@@ -196,10 +196,10 @@ def params_of(ds: xr.Dataset) -> solver.Params:
     e.g. ``params_of(ds.sel(mu=1.0))``, and its scalar coordinate is used.
     """
     swept = str(ds.attrs.get("swept", "")).split()
-    values = {k: float(setting_of(ds, k)) for k in PHYSICAL_KEYS if k in _TERM_KEYS_LATER and _recorded(ds, k)
-              or k not in _TERM_KEYS_LATER}
-    if "rho_over_R" in swept:
-        values.pop("r")
+    by_rho = "rho_over_R" in swept  # r follows from rho/R (not recorded)
+    values = {k: float(setting_of(ds, k)) for k in PHYSICAL_KEYS
+              if not (by_rho and k == "r") and (k not in _TERM_KEYS_LATER or _recorded(ds, k))}
+    if by_rho:
         return solver.Params.from_rho_over_R(float(setting_of(ds, "rho_over_R")), **values)
     return solver.Params(**values)
 

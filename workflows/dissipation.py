@@ -29,7 +29,7 @@ from rimroll.solver.physics import air, loads, resistance, rolling, switching
 from rimroll.solver.physics.params import QUANTITIES
 from rimroll.study import plotting as P
 from rimroll.study.dataset import setting_of
-from rimroll.study.registry import Axis, Study, Var, register
+from rimroll.study.registry import Axis, ReferenceSpec, Study, Var, register
 from rimroll.workflows.sections import BETA_COMMENT, OMEGA1_COMMENT, engine_options, steady_beta0
 
 LOAD_TERMS = ("coulomb_rolling", "coulomb_drilling", "air_drag")
@@ -309,4 +309,7 @@ register(Study(
     ignores={k: "each model sets its own dissipation parameters; change k_equivalent"
              for k in ("k_r", "k_d", "c_r", "c_d", "rho_air", "mu")},
     cost=4e-4, compiles=True,
+    # a regression reference at the study's own settings: the fate of an island state near the edge
+    # between in and out may change with the tolerance, which is the study's setting to choose
+    reference=ReferenceSpec({"beta": 24, "omega1": 36}, sets=("omega2=65", "k_equivalent=0,0.02")),
 ))
