@@ -355,6 +355,14 @@ def test_predictability_study_file(studies):
                 assert np.array_equal((bits[k] >> j) & 1, P.grid_uncertain(codes[k], int(e)))
         assert (np.diff(ds["f"].isel(scene=k).values) > 0).all()  # f grows with eps
     assert np.allclose(ds["D"], 2 - ds["alpha"])
+    # the bootstrap of alpha (solver.analysis.exponent_bootstrap): finite where alpha is, an interval
+    for name in ("alpha_err_states", "alpha_err_bootstrap", "alpha_low", "alpha_high"):
+        assert ds[name].attrs["units"] == "1" and ds[name].attrs["long_name"] and ds[name].dims == ("scene",)
+        assert np.array_equal(np.isfinite(ds[name].values), np.isfinite(ds["alpha"].values))
+    finite = np.isfinite(ds["alpha"].values)
+    assert finite.any()
+    assert (ds["alpha_low"].values[finite] < ds["alpha_high"].values[finite]).all()
+    assert (ds["alpha_err_states"].values[finite] > 0).all()
     roll = ds.isel(scene=0)
     assert float(roll["S_bb"]) < np.log(2) and abs(float(roll["alpha"]) - 1) < 3 * float(roll["alpha_err"])
 
