@@ -204,3 +204,18 @@ def test_the_plot_draws_the_stored_curves(fig12):
         "boundary_") for seg in c.get_segments()]
     stored = [p for p, _ in curves.of_scene(ds, "rolling_only")]
     assert sorted(map(lambda a: a.tobytes(), drawn)) == sorted(map(lambda a: a.tobytes(), stored))
+
+
+def test_a_map_without_boundaries_stores_no_curves_and_untyped_sections_trace_as_not_boundary():
+    from rimroll.workflows import curves
+
+    beta, w1 = np.linspace(0.8, 1.8, 6), np.linspace(-20, 20, 8)
+    uniform = np.full((2, 6, 8), outcomes.FALL_IN)
+    assert curves.variables(uniform, np.zeros_like(uniform), beta, w1, ["a", "b"]) == {}
+    two = uniform.copy()
+    two[1, :, 4:] = outcomes.FALL_OUT  # a boundary in the second scene only
+    v = curves.variables(two, np.zeros_like(two), beta, w1, ["a", "b"])
+    assert v["boundary_curve_scene"][1].tolist() == [1] and v["boundary_node_count"][1].tolist() == [8]
+    assert set(v["boundary_omega1"][1]) == {0.0} and v["boundary_beta"][1][[0, -1]] == pytest.approx([0.7, 1.9])
+    t = curves.trace_scene(two[1], None, beta, w1)  # no boundary types (an outcome-cube slice)
+    assert t["type"].tolist() == [boundaries.NOT_BOUNDARY]
