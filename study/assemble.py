@@ -138,8 +138,9 @@ def _add_derived(plan: Plan, tmp, skeleton: xr.Dataset) -> None:
     dims_all = tuple(a.name for a in plan.axes)
     with netCDF4.Dataset(tmp, "a") as nc:
         for name, (dims, values, attrs) in extra.items():
-            if dims == (name,) and name not in nc.dimensions:  # a new dimension and its coordinate
-                nc.createDimension(name, values.shape[0])
+            for d, n in zip(dims, values.shape):  # a new dimension (with its coordinate, or a ragged array's)
+                if d not in nc.dimensions:
+                    nc.createDimension(d, n)
             chunks = plan.storage if dims == dims_all else None
             var = nc.createVariable(name, values.dtype, dims, chunksizes=chunks, zlib=bool(dims), fletcher32=bool(dims),
                                     complevel=io.COMPRESSION["complevel"])

@@ -21,7 +21,9 @@ A result passes only if it holds every variable of the reference (but those its 
 compares: ``Var.compared`` False, such as ``n_steps`` and timings, or a derived variable with the
 attribute ``rimroll_compared = 0``; the report names them), and if its common points cover at
 least :data:`MIN_COVERAGE` of the reference's points: a coarse grid that shares a few corners
-with the slice has checked almost nothing.
+with the slice has checked almost nothing. Polylines (a ragged array along dimensions without
+coordinates, such as the boundary curves of an outcome map) are not compared: they are drawn from the categorical
+variables, which are.
 """
 
 from __future__ import annotations
@@ -206,6 +208,13 @@ def _cut(swept: xr.Dataset, held: xr.Dataset, name: str, other: str) -> tuple[xr
     return swept, ""
 
 
+def _grid_only(ds: xr.Dataset) -> xr.Dataset:
+    """``ds`` without its ragged arrays (the boundary curves of an outcome map): the variables along
+    a dimension that has no coordinate (points or curves, not an axis of the grid). They are drawn
+    from the grid's categorical variables, which are compared."""
+    return ds.drop_dims([d for d in ds.dims if d not in ds.coords])
+
+
 def compare(ds: xr.Dataset, ref: xr.Dataset, tolerances: dict | None = None) -> Report:
     """Agreement of ``ds`` with the reference slice ``ref`` (see the module docstring); ``tolerances``
     (name -> (atol, rtol)) override those the study declares."""
@@ -215,6 +224,7 @@ def compare(ds: xr.Dataset, ref: xr.Dataset, tolerances: dict | None = None) -> 
     mismatch = _setting_mismatch(ds, ref)
     if mismatch:
         return Report(study, 0, "settings differ, so no point is common: " + "; ".join(mismatch))
+    ds, ref = _grid_only(ds), _grid_only(ref)
     n_reference = int(np.prod(list(ref.sizes.values())))
     ds, ref, why = _align(ds, ref)
     if why:

@@ -23,7 +23,9 @@ def derived_variables(study: Study, ds: xr.Dataset) -> dict[str, tuple[tuple, np
     ``long_name``, and not reuse the name of a variable or coordinate of ``ds``. A dimension
     that ``ds`` lacks (e.g. ``eps`` of an f(eps) curve) is allowed when ``derive`` also returns
     its coordinate, a 1-D variable of that name along it; coordinates come first in the
-    result. The attribute
+    result. A new dimension without a coordinate (the points or curves of a CF ragged array
+    or geometry) takes its size from the first variable along it, and every other must agree.
+    The attribute
     ``rimroll_derived = 1`` is added (``study.compare`` does not use derived categorical
     variables to decide which points lie away from boundaries).
     """
@@ -36,6 +38,9 @@ def derived_variables(study: Study, ds: xr.Dataset) -> dict[str, tuple[tuple, np
     for name, (dims, values, _) in items.items():
         if dims == (name,) and name not in ds.sizes:
             sizes[name] = values.shape[0]
+    for dims, values, _ in items.values():  # a dimension without a coordinate: its first variable's size
+        for d, n in zip(dims, values.shape):
+            sizes.setdefault(d, n)
     items = dict(sorted(items.items(), key=lambda kv: kv[1][0] != (kv[0],)))  # coordinates first
     for name, (dims, values, attrs) in items.items():
         if name in ds.variables:

@@ -163,16 +163,17 @@ def test_undetermined_boundary_cells_are_drawn_and_named(fig12):
     assert BOUNDARY_STYLES[boundaries.UNDETERMINED]["label"] in P.legend_texts(fig)
 
 
-def test_boundary_lines_run_between_periodic_and_other_cells():
-    from rimroll.workflows.outcome_grids import boundary_segments
-
-    w1, beta = np.arange(4.0), np.arange(3.0)
-    periodic = np.zeros((3, 4), bool)
-    periodic[1, 1] = True
-    labels = np.zeros((3, 4), np.int8)
-    labels[1, 1] = labels[1, 2] = labels[0, 1] = boundaries.DEADLOCK
-    segs = boundary_segments(labels, periodic, w1, beta, boundaries.DEADLOCK)
-    assert sorted(map(tuple, map(tuple, segs))) == sorted([((1.5, 0.5), (1.5, 1.5)), ((0.5, 0.5), (1.5, 0.5))])
+def test_boundary_lines_are_polylines_through_the_cell_edge_midpoints(fig12):
+    """The plot draws the boundary curves (workflows.curves), not the staircase of cell edges: each
+    segment joins two points half a cell or less apart, and a corner is cut diagonally."""
+    fig = get("fig12").plot(fig12)
+    segs = [seg for c in fig.axes[0].collections if (c.get_gid() or "").startswith("boundary_")
+            for seg in c.get_segments()]
+    assert segs
+    step = np.array([np.diff(fig12["omega1"].values[:2])[0], np.diff(fig12["beta"].values[:2])[0]])
+    moves = np.concatenate([np.abs(np.diff(s, axis=0)) / step for s in segs])
+    assert moves.max() <= 1.0 + 1e-9
+    assert ((moves[:, 0] > 0) & (moves[:, 1] > 0)).any()  # diagonal moves: no staircase
 
 
 def test_contour_labels_clear_of_the_star_and_of_each_other(fig12):
@@ -447,6 +448,7 @@ def test_fig9_shading_reaches_the_axes(tmp_path):
 
 
 def test_fig12_separatrix_then_deadlock_is_drawn_unlike_a_deadlock(fig12):
+    from rimroll.workflows import curves
     from rimroll.workflows.outcome_grids import BOUNDARY_STYLES
 
     ds = fig12.copy(deep=True)
@@ -455,6 +457,7 @@ def test_fig12_separatrix_then_deadlock_is_drawn_unlike_a_deadlock(fig12):
     edge = np.argwhere(periodic[0] & ~np.roll(periodic[0], 1, axis=0))  # periodic cells with a non-periodic one below
     i, j = edge[0]
     lab[0, i, j] = lab[0, i - 1, j] = boundaries.SEPARATRIX_AND_DEADLOCK
+    ds = ds.drop_vars(curves.NAMES)  # the plot traces them anew from the changed types
     fig = _rendered(get("fig12").plot(ds))
     colls = {c.get_gid(): c for c in fig.axes[0].collections if (c.get_gid() or "").startswith("boundary_")}
     both = colls[f"boundary_{boundaries.SEPARATRIX_AND_DEADLOCK}"]

@@ -87,9 +87,10 @@ def test_getting_a_study_imports_only_its_own_module():
     code = ("import sys; from rimroll.study import registry; registry.get('fig11')\n"
             "print(sorted(m for m in sys.modules if m.startswith('rimroll.workflows.')))\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT)
-    # its family module and the shared modules it is built on (outcome sections, adaptive maps), no other family
-    assert out.stdout.strip() == ("['rimroll.workflows.adaptive', 'rimroll.workflows.outcome_grids', "
-                                  "'rimroll.workflows.sections']")
+    # its family module and the shared modules it is built on (outcome sections, adaptive maps, boundary
+    # curves), no other family
+    assert out.stdout.strip() == ("['rimroll.workflows.adaptive', 'rimroll.workflows.curves', "
+                                  "'rimroll.workflows.outcome_grids', 'rimroll.workflows.sections']")
 
 
 def test_no_entry_points_is_one_line_error(monkeypatch, capsys):

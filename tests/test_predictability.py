@@ -355,6 +355,14 @@ def test_predictability_study_file(studies):
                 assert np.array_equal((bits[k] >> j) & 1, P.grid_uncertain(codes[k], int(e)))
         assert (np.diff(ds["f"].isel(scene=k).values) > 0).all()  # f grows with eps
     assert np.allclose(ds["D"], 2 - ds["alpha"])
+    # the bootstrap of alpha (solver.analysis.exponent_bootstrap): finite where alpha is, an interval
+    for name in ("alpha_err_states", "alpha_err_bootstrap", "alpha_low", "alpha_high"):
+        assert ds[name].attrs["units"] == "1" and ds[name].attrs["long_name"] and ds[name].dims == ("scene",)
+        assert np.array_equal(np.isfinite(ds[name].values), np.isfinite(ds["alpha"].values))
+    finite = np.isfinite(ds["alpha"].values)
+    assert finite.any()
+    assert (ds["alpha_low"].values[finite] < ds["alpha_high"].values[finite]).all()
+    assert (ds["alpha_err_states"].values[finite] > 0).all()
     roll = ds.isel(scene=0)
     assert float(roll["S_bb"]) < np.log(2) and abs(float(roll["alpha"]) - 1) < 3 * float(roll["alpha_err"])
 
@@ -379,7 +387,7 @@ def test_negative_noise_level_is_a_user_error(tmp_path, capsys):
     assert "sigma" in capsys.readouterr().err
 
 
-def test_derive_may_add_a_dimension_only_with_its_coordinate():
+def test_derive_may_add_a_dimension_with_its_coordinate_or_one_size_for_all_its_variables():
     import xarray as xr
 
     from rimroll.study.derived import derived_variables
@@ -388,17 +396,21 @@ def test_derive_may_add_a_dimension_only_with_its_coordinate():
     ds = xr.Dataset({"x": (("a",), np.arange(3.0))})
     attrs = {"units": "1", "long_name": "test"}
 
-    def make(with_coordinate):
+    def make(coordinate=None, other=None):
         out = {"g": (("a", "e"), np.zeros((3, 2)), attrs)}
-        if with_coordinate:
-            out["e"] = (("e",), np.array([0.5, 1.0]), attrs)
+        if coordinate is not None:
+            out["e"] = (("e",), np.zeros(coordinate), attrs)
+        if other is not None:  # a second variable along e (a ragged array's)
+            out["h"] = (("e",), np.zeros(other), attrs)
         return Study(name="probe", title="t", settings={}, axes=lambda s: [], variables=[Var("x", "1", "x")],
                      compute=lambda *a: {}, derive=lambda d: out)
 
-    extra = derived_variables(make(True), ds)
+    extra = derived_variables(make(coordinate=2), ds)
     assert list(extra)[0] == "e" and extra["g"][1].shape == (3, 2)  # the coordinate comes first
-    with pytest.raises(ValueError, match="new dimension"):
-        derived_variables(make(False), ds)
+    assert set(derived_variables(make(other=2), ds)) == {"g", "h"}  # no coordinate: sizes agree
+    for bad in (dict(coordinate=3), dict(other=5)):
+        with pytest.raises(ValueError, match="new dimension"):
+            derived_variables(make(**bad), ds)
 
 
 def test_settings_checks_accept_predictabilitys_zero_counts_and_refuse_its_ignored_parameters(tmp_path, capsys):

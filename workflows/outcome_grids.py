@@ -34,7 +34,7 @@ from rimroll.solver.engine import outcomes
 from rimroll.study import plotting as P
 from rimroll.study.dataset import params_of, setting_of
 from rimroll.study.registry import ReferenceSpec, Study, Var, output_var, register
-from rimroll.workflows import adaptive
+from rimroll.workflows import adaptive, curves
 from rimroll.workflows.sections import (
     QUICK,
     SCENE_IGNORES,
@@ -193,6 +193,8 @@ def _derive(ds) -> dict:
     former = np.broadcast_to(flags, outcome.shape).copy()
     out = {"boundary_type": (dims, labels, BOUNDARY_ATTRS),
            "former_periodic": (dims, former, _former_attrs(ds, flags, fates))}
+    out.update(curves.variables(outcome, labels, ds["beta"].values, ds["omega1"].values,
+                                [str(v) for v in ds["scene"].values]))
     if "refine_level" in ds:  # files written before adaptive maps have none
         out["n_simulated"] = (("scene",), adaptive.n_simulated(get("refine_level")).astype(np.int32),
                               N_SIMULATED_ATTRS)
@@ -205,7 +207,8 @@ N_SIMULATED_ATTRS = {"units": "1", "long_name": "trajectories simulated for the 
                                 "boundary pairs, in either map)"}
 
 
-BOUNDARY_STYLES = {  # how the plot draws each boundary type: a thin line along the cell edges
+BOUNDARY_STYLES = {  # how the plot draws each boundary curve by its type (workflows.curves)
+    boundaries.NOT_BOUNDARY: dict(color="0.2", lw=0.5, label="boundary between other outcomes"),
     boundaries.DEADLOCK: dict(color="k", lw=1.1, label=r"deadlock boundary ($F_{2,min} \to 0$)"),
     boundaries.SEPARATRIX: dict(color="#ffff33", lw=1.3, label=r"separatrix boundary (half period $\to \infty$)"),
     boundaries.SLIPPING_INDUCED: dict(color="#e7298a", lw=1.3, label="slipping-induced boundary"),
@@ -240,59 +243,25 @@ def _line_kw(style: dict) -> dict:
     return kw
 
 
-def boundary_segments(labels, periodic, w1, beta, code) -> list:
-    """Cell edges [(x0, y0), (x1, y1)] between a periodic cell and a non-periodic one, both typed ``code``.
-
-    ``labels``, ``periodic``: (beta, omega1) arrays; w1, beta: the grid [1/s, rad]. The edges lie
-    half-way between grid points, so the line runs exactly along the boundary of the region.
-    """
-    xe = np.concatenate([[1.5 * w1[0] - 0.5 * w1[1]], 0.5 * (w1[1:] + w1[:-1]), [1.5 * w1[-1] - 0.5 * w1[-2]]])
-    ye = np.concatenate([[1.5 * beta[0] - 0.5 * beta[1]], 0.5 * (beta[1:] + beta[:-1]),
-                         [1.5 * beta[-1] - 0.5 * beta[-2]]])
-    typed = labels == code
-    segs = []
-    # neighbours along omega1 (columns j, j + 1): a vertical edge at xe[j + 1]
-    pair = (periodic[:, :-1] != periodic[:, 1:]) & typed[:, :-1] & typed[:, 1:]
-    for i, j in zip(*np.nonzero(pair)):
-        segs.append([(xe[j + 1], ye[i]), (xe[j + 1], ye[i + 1])])
-    # neighbours along beta (rows i, i + 1): a horizontal edge at ye[i + 1]
-    pair = (periodic[:-1, :] != periodic[1:, :]) & typed[:-1, :] & typed[1:, :]
-    for i, j in zip(*np.nonzero(pair)):
-        segs.append([(xe[j], ye[i + 1]), (xe[j + 1], ye[i + 1])])
-    return _joined(segs)
-
-
-def _joined(segs: list) -> list:
-    """The segments with each straight run of touching ones joined into one (a dashed style then
-    dashes along the run instead of restarting at every cell edge)."""
-    out = []
-    for seg in sorted(segs, key=lambda s: (s[0][0] != s[1][0], s[0][1] if s[0][0] != s[1][0] else s[0][0],
-                                           s[0])):
-        last = out[-1] if out else None
-        same_line = last is not None and ((last[0][0] == last[1][0] == seg[0][0] == seg[1][0])
-                                          or (last[0][1] == last[1][1] == seg[0][1] == seg[1][1]))
-        if same_line and last[1] == seg[0]:
-            out[-1] = [last[0], seg[1]]
-        else:
-            out.append(list(seg))
-    return out
-
-
 def _draw_boundaries(ax, sel, w1, beta) -> set:
-    """Draw the typed boundaries of one scene; returns the codes drawn."""
+    """Draw the boundary curves of one scene (``workflows.curves``: stored in the file, else traced
+    from its outcomes and boundary types), each in the style of its type; returns the types drawn."""
     from matplotlib.collections import LineCollection
 
     if "boundary_type" not in sel:
         return set()
-    lab = sel["boundary_type"].transpose("beta", "omega1").values
-    periodic = sel["outcome"].transpose("beta", "omega1").values == outcomes.PERIODIC_ROLLING
+    found = curves.of_scene(sel, str(sel["scene"].values))
+    if found is None:  # a file written before the curves were stored
+        found = curves.traced(sel["outcome"].transpose("beta", "omega1").values,
+                              sel["boundary_type"].transpose("beta", "omega1").values, beta, w1)
     drawn = set()
     for code, style in BOUNDARY_STYLES.items():
-        segs = boundary_segments(lab, periodic, w1, beta, code)
-        if segs:
-            kw = _line_kw(style)  # projecting caps: the edges of a run meet at corners (butt for dashes: gaps stay)
-            kw["capstyle"] = kw.pop("dash_capstyle", "projecting")
-            ax.add_collection(LineCollection(segs, zorder=4, label=style["label"], gid=f"boundary_{code}", **kw))
+        lines = [points for points, kind in found if kind == code]
+        if lines:
+            kw = _line_kw(style)
+            kw["capstyle"] = kw.pop("dash_capstyle", "round")
+            ax.add_collection(LineCollection(lines, zorder=4, label=style["label"], gid=f"boundary_{code}",
+                                             joinstyle="round", **kw))
             drawn.add(code)
     return drawn
 
@@ -438,6 +407,12 @@ def _plot(ds):
 DERIVED_DOCS = (
     ("boundary_type", "1", "kind of boundary of periodic rolling at this cell, each boundary pair refined by "
      "simulation ([outcome-studies.md](outcome-studies.md#outputs))"),
+    (("boundary_omega1", "boundary_beta"), "1/s, rad", "the points of the boundary curves between outcome regions "
+     "(polylines through the cell-edge midpoints), the curves one after the other along boundary_point "
+     "([outcome-studies.md](outcome-studies.md#boundary-curves))"),
+    (("boundary_node_count", "boundary_curve_type", "boundary_curve_scene", "boundary_curve_outcome_a",
+      "boundary_curve_outcome_b"), "1", "per boundary curve: its number of points, its boundary type, scene and "
+     "the two outcomes it separates ([outcome-studies.md](outcome-studies.md#boundary-curves))"),
     ("n_simulated", "1", "trajectories simulated per scene (an adaptive map: the cells with refine_level >= 0; "
      "[outcome-studies.md](outcome-studies.md#adaptive-maps))"),
     ("former_periodic", "1", "the periodic islands of the conservative scenes (rolling only, slipping); "

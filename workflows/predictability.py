@@ -26,6 +26,7 @@ from matplotlib.patches import Rectangle
 from matplotlib.ticker import FixedLocator, FuncFormatter, NullLocator
 
 from rimroll import solver
+from rimroll.solver.analysis import exponent_bootstrap as boot
 from rimroll.solver.analysis import predictability as pred
 from rimroll.solver.engine import outcomes
 from rimroll.solver.physics.params import DISSIPATION_KEYS
@@ -136,6 +137,25 @@ def _lead(ds, name):
     return da.transpose(*lead, "beta", "omega1").values, lead
 
 
+N_BOOT = 1000
+"""Bootstrap replicates of alpha per section and scene (``solver.analysis.exponent_bootstrap``)."""
+BOOT_COMMENT = (f"{N_BOOT} replicates (solver.analysis.exponent_bootstrap, seed = the run's seed + the panel's "
+                "index): each draws the grid's points with replacement (Poisson bootstrap; below one grid step the "
+                "two-phase sample of section_uncertainty: the edge points and the random sample of the rest) and "
+                "fits alpha as the nominal estimate does, on the whole eps range and on a contiguous window of at "
+                "least 3 eps picked at random")
+
+
+def _bootstrap(eps, bits, weight, n_eff, seed: int) -> tuple[float, float, float, float]:
+    """(err over states, err over states and eps windows, 2.5 %, 97.5 %) of alpha of one panel, from its
+    uncertain bits and sample weights (``exponent_bootstrap.bootstrap_exponent``)."""
+    u = np.stack([((bits >> j) & 1).astype(bool).ravel() for j in range(eps.size)])
+    rest = ~u[int(np.argmin(np.abs(np.log(eps))))]  # certain at one grid step
+    sampled = weight.ravel() > 0 if (eps < 1).any() else np.ones(rest.shape, dtype=bool)
+    b = boot.bootstrap_exponent(eps, u, sampled, rest, n_eff, n_boot=N_BOOT, seed=seed)
+    return b.err_states, b.err, b.low, b.high
+
+
 def _pred_derive(ds):
     codes, lead = _lead(ds, "outcome")
     bits, _ = _lead(ds, "uncertain")
@@ -149,6 +169,8 @@ def _pred_derive(ds):
     s_b, s_bb, n_bb = np.empty(n), np.empty(n), np.empty(n, dtype=np.int32)
     f, f_err = np.empty((n, eps.size)), np.empty((n, eps.size))
     alpha, alpha_err = np.empty(n), np.empty(n)
+    spread = np.empty((n, 4))  # bootstrap: err over states, err over states and eps windows, 95 % interval
+    seed = int(setting_of(ds, "seed"))
     for i, (c, b, w) in enumerate(zip(flat(codes), flat(bits), flat(weight))):
         be = pred.basin_entropy(c, box)
         s_b[i], s_bb[i], n_bb[i] = be.S_b, be.S_bb, be.n_boundary_boxes
@@ -158,6 +180,7 @@ def _pred_derive(ds):
             n_eff = np.where(f_err[i] > 0, f[i] * (1 - f[i]) / f_err[i] ** 2, 0.0)
         ex = pred.uncertainty_exponent(eps, f[i], n_eff)
         alpha[i], alpha_err[i] = ex.alpha, ex.alpha_err
+        spread[i] = _bootstrap(eps, b, w, n_eff, seed + i)
     lead, dims_eps = tuple(lead), tuple(lead) + ("eps",)
     def r(a):
         return a.reshape(shape)
@@ -175,7 +198,19 @@ def _pred_derive(ds):
         "f_err": (dims_eps, re(f_err), {"units": "1", "long_name": "standard error of f (binomial, stratified)"}),
         "alpha": (lead, r(alpha), {"units": "1", "long_name": "uncertainty exponent: slope of log f against "
                                    "log eps (1: smooth boundary, < 1: fractal)"}),
-        "alpha_err": (lead, r(alpha_err), {"units": "1", "long_name": "standard error of alpha"}),
+        "alpha_err": (lead, r(alpha_err), {"units": "1", "long_name": "standard error of alpha (the fit's)"}),
+        "alpha_err_states": (lead, r(spread[:, 0]), {
+            "units": "1", "long_name": "bootstrap error of alpha: standard deviation over resamplings of the states, "
+                                       "whole eps range", "comment": BOOT_COMMENT}),
+        "alpha_err_bootstrap": (lead, r(spread[:, 1]), {
+            "units": "1", "long_name": "bootstrap error of alpha: standard deviation over resamplings of the states "
+                                       "and of the eps range fitted", "comment": BOOT_COMMENT}),
+        "alpha_low": (lead, r(spread[:, 2]), {
+            "units": "1", "long_name": "2.5 % percentile of alpha over resamplings of the states and the eps range",
+            "comment": BOOT_COMMENT}),
+        "alpha_high": (lead, r(spread[:, 3]), {
+            "units": "1", "long_name": "97.5 % percentile of alpha over resamplings of the states and the eps range",
+            "comment": BOOT_COMMENT}),
         "D": (lead, r(2 - alpha), {"units": "1", "long_name": "box dimension of the outcome boundaries in the "
                                    "(beta, omega1) section, 2 - alpha"}),
     }
@@ -202,8 +237,11 @@ def _pred_plot(ds):
             a, ae = float(sc["alpha"]), float(sc["alpha_err"])
             colour = f"C{k}"
             ok = f > 0
+            # the bootstrap's 95 % interval where the file has it (files written before: the fit's error)
+            spread = (rf" [{float(sc['alpha_low']):.2f}, {float(sc['alpha_high']):.2f}]" if "alpha_low" in sc
+                      else "")
             ax.errorbar(eps[ok], f[ok], yerr=err[ok], fmt=styles[k % 4], color=colour, ms=4, lw=1.2, capsize=2,
-                        label=rf"{scenes[k] if k < len(scenes) else k}: $\alpha$={a:.3f}$\pm${ae:.3f}")
+                        label=rf"{scenes[k] if k < len(scenes) else k}: $\alpha$={a:.3f}$\pm${ae:.3f}{spread}")
             if np.isfinite(a) and ok.sum() >= 2:
                 # the fitted line through the weighted centre of the points
                 le, lf = np.log(eps[ok]), np.log(f[ok])
@@ -260,8 +298,11 @@ register(Study(
                                "S_bb above ln 2 = 0.693: a fractal boundary"),
         ("n_boundary_boxes", "1", "boxes holding more than one outcome"),
         (("f", "f_err"), "1", "uncertain fraction f(eps) and its standard error (over `eps`)"),
-        (("alpha", "alpha_err", "D"), "1", "uncertainty exponent (slope of log f against log eps), its standard "
-                                           "error, and the boundary dimension D = 2 - alpha"),
+        (("alpha", "alpha_err", "D"), "1", "uncertainty exponent (slope of log f against log eps), the fit's "
+                                           "standard error, and the boundary dimension D = 2 - alpha"),
+        (("alpha_err_states", "alpha_err_bootstrap", "alpha_low", "alpha_high"), "1",
+         "bootstrap of alpha: its standard deviation over resamplings of the states (whole eps range), and over "
+         "resamplings of the states and of the eps range fitted, with the 95 % interval of the latter"),
     ),
     # README "Predictability of a shot": ~250 s CPU for the 12 sections x scenes of 86,400 points
     cost=2.5e-4, compiles=True,

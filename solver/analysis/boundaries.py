@@ -89,6 +89,8 @@ segment from it, also when the bisection goes finer: at rtol 1e-8 the half perio
 there (a separatrix adds ~0.18 s over that 16-fold approach, a deadlock ~1e-4 s), while at 2**-45
 the states differ by round-off."""
 _PRIORITY = (SEPARATRIX_AND_DEADLOCK, DEADLOCK, SLIPPING_INDUCED, SEPARATRIX, UNDETERMINED)
+PRIORITY = _PRIORITY
+"""The order in which a cell touching several boundary pairs takes their types (the first wins)."""
 _GOLD = (np.sqrt(5.0) - 1.0) / 2.0
 
 
