@@ -31,7 +31,7 @@ from rimroll.solver.analysis import reference
 from rimroll.study import plotting as P
 from rimroll.study.registry import Axis, ReferenceSpec, Study, Var, register
 from rimroll.workflows import heyoka_rolling
-from rimroll.workflows.sections import SCENES, scene_axis, scene_index, scene_params
+from rimroll.workflows.sections import SCENE_IGNORES, SCENES, scene_axis, scene_index, scene_params
 
 INTEGRATORS = ("rimroll_dp5", "rimroll_dop853", "scipy_rk45", "scipy_dop853", "scipy_lsoda") + (
     (heyoka_rolling.LABEL,) if heyoka_rolling.available() else ())
@@ -331,6 +331,7 @@ register(Study(
     derived_docs=(("speed_ratio_rk45_dp5", "1", "per scene: scipy RK45 seconds per trajectory over rimroll DP5's "
                    "on the same states, median over rtol (spread in its attributes; "
                    "[work-precision.md](work-precision.md))"),),
+    ignores=SCENE_IGNORES,  # the four named scenes set mu and the term parameters themselves
     cost=0.2, cost_scale="n_states", compiles=True,  # s per point at n_states 40 (--quick), on one core
     # the output is timing and what the timing buys: the slices hold the deterministic part (errors,
     # misclassification, drift; the timings are not compared), at rtol 1e-4, 1e-8, 1e-12 of the default
