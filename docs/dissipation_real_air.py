@@ -20,7 +20,7 @@ from rimroll.workflows import dissipation
 
 def main(path: str) -> None:
     ds = xr.open_dataset(path)
-    f = dissipation.equivalence(solver.Params(), float(ds.attrs.get("setting_omega3", 10.0)))
+    f = dissipation.equivalence(solver.Params())
     print(f"real air (rho_air = 1.2 kg/m^3): k_eq = {1.2 / f['rho_air']:.2g} 1/s")
     pair = dict(c_r=0.02 * f["c_r"], c_d=0.02 * f["c_d"])
     cases = {"real air": dict(rho_air=1.2), "Coulomb pair, 0.02": pair, "Coulomb pair, 0.02, + real air":

@@ -113,7 +113,7 @@ def _physical(q: physical.Quantity) -> Setting:
                    long_name=q.long_name, physical=True)
 
 
-_SWEPT_PHYSICAL = ("mu", "j", "rho_over_R", *physical.DISSIPATION_KEYS, "C_D")  # every term's strength
+_SWEPT_PHYSICAL = ("mu", "j", "rho_over_R", *physical.TERM_KEYS)  # every term's strength
 _DOC_MORE = {  # what the study layer adds to a physical parameter's doc
     "mu": "; a swept list may hold inf too: --set mu=1,inf puts slipping and rolling only on one axis (mu is "
           "the only setting that takes inf)",
@@ -142,7 +142,9 @@ _ENTRIES = (
     S("mu_slip", "1", "friction coefficient of the slipping scenes", FRICTION),
     S("k_dissipation", "s-1", "rate k_d / k_r of the drilling / rolling-resistance scene", NONNEGATIVE),
     S("k_equivalent", "s-1", "strength of every dissipation model: the rate of (83) that removes energy at the same "
-      "mean rate on the paper's steady motions", NONNEGATIVE, sweep=True, long_name="strength k_eq"),
+      "mean rate on the paper's steady motions", physical.Range(0.0, 10.0, text="a rate >= 0 and <= 10 [1/s] (500 "
+                                                                       "times the paper's 0.02)"),
+      sweep=True, long_name="strength k_eq"),
     # ---- the integration
     S("t_max", "s", "end of a run still on the rim (conservative scenes)", POSITIVE),
     S("t_max_dissipative", "s", "end of a run still on the rim (dissipative scenes)", POSITIVE),

@@ -291,8 +291,10 @@ def figure(ds) -> Figure:
     _paths(top, side, ds)
     state = ", ".join(f"{a[f'initial_{n}']:g}" for n in STATE_NAMES)
     scene = r"$\mu=\infty$" if np.isinf(a["param_mu"]) else rf"$\mu={a['param_mu']:g}$"
-    scene += (rf", $k_r={a['param_k_r']:g}$ 1/s" if a["param_k_r"] else "") + (
-        rf", $k_d={a['param_k_d']:g}$ 1/s" if a["param_k_d"] else "")
+    for key, symbol, units in (("k_r", "k_r", "1/s"), ("k_d", "k_d", "1/s"), ("c_r", "c_r", "m"), ("c_d", "c_d", "m"),
+                               ("rho_air", r"\rho_{air}", "kg/m$^3$")):
+        if a.get(f"param_{key}", 0.0):
+            scene += rf", ${symbol}={a[f'param_{key}']:g}$ {units}"
     label = P.OUTCOME_PALETTE.label(int(a["outcome"]))
     why = {"fall": "left the rim, F2 = 0", "periodic": "second transversal zero of omega1",
            "t_max": "reached t_max"}.get(str(a["reason"]), str(a["reason"]).replace("_", " "))

@@ -27,11 +27,11 @@ def test_the_equivalence_matches_the_closed_form_on_the_steady_motions():
     j m r^2 k omega2^2 (drilling); the Coulomb ones c_r F2 |omega3| and c_d F2 |omega2|; air drag
     1/2 rho_air C_D pi r^2 (r |omega3|)^3: the factors follow by hand."""
     p = solver.Params()
-    states = dissipation.reference_states(p, 10.0)
+    states = dissipation.reference_states(p)
     F2 = np.array([rolling.normal_force(b, 0.0, w3, p.as_array()) for b, _, _, w3 in states])
     w2, w3 = states[:, 2], states[:, 3]
     mr2 = p.m * p.r ** 2
-    f = dissipation.equivalence(p, 10.0)
+    f = dissipation.equivalence(p)
     assert f["c_r"] == pytest.approx((1 + p.j) * mr2 * np.mean(w3 ** 2) / np.mean(F2 * np.abs(w3)), rel=1e-6)
     assert f["c_d"] == pytest.approx(p.j * mr2 * np.mean(w2 ** 2) / np.mean(F2 * np.abs(w2)), rel=1e-6)
     drag = 0.5 * p.C_D * np.pi * p.r ** 2 * np.mean(np.abs(p.r * w3) ** 3)

@@ -158,13 +158,15 @@ def _section_states(n, seed):
                      np.full(n, 10.0)], -1)
 
 
-@pytest.mark.parametrize("name, mu", [("coulomb_rolling", np.inf), ("coulomb_drilling", 1.0), ("air_drag", 1.0)])
-def test_a_term_at_zero_strength_gives_the_scene_without_it_bit_for_bit(name, mu):
+@pytest.mark.parametrize("names, mu", [(("coulomb_rolling",), np.inf), (("coulomb_drilling",), 1.0),
+                                       (("air_drag",), 1.0), (NEW_TERMS, np.inf), (NEW_TERMS, 1.0)])
+def test_a_term_at_zero_strength_gives_the_scene_without_it_bit_for_bit(names, mu):
     """The term's kernel at strength 0 (named in ``terms``) against the conservative scene: every
-    output equal, periodic detection included (a term at zero strength does not dissipate)."""
+    output equal, periodic detection included (a term at zero strength does not dissipate). Also the
+    kernel of all three terms, which the study dissipation-models runs every model and map through."""
     x = _section_states(40, 7)
     without = solver.simulate(x, solver.Params(mu=mu), t_max=5.0, workers=1)
-    with_zero = solver.simulate(x, solver.Params(mu=mu), t_max=5.0, workers=1, terms=(name,))
+    with_zero = solver.simulate(x, solver.Params(mu=mu), t_max=5.0, workers=1, terms=names)
     assert (without["outcome"] == outcomes.PERIODIC_ROLLING).any()
     for key in without:
         np.testing.assert_array_equal(with_zero[key], without[key], err_msg=key)
@@ -219,6 +221,8 @@ def test_the_flight_with_drag_agrees_with_scipy_and_tends_to_the_parabola():
                         events=ground)
         end = sol.y_events[0][0]
         assert ours == pytest.approx(np.hypot(end[0], end[1]), abs=1e-11)
+        strong = flight.landing_distance(beta, w1, w3, u1, u3, p0.replace(rho_air=1e5).as_array())
+        assert np.isfinite(strong) and abs(strong - d) < abs(ours - d) + 1e-12  # strong drag: lands near d
         parabola = flight.landing_distance(beta, w1, w3, u1, u3, p0.as_array())
         tiny = flight.landing_distance(beta, w1, w3, u1, u3, p0.replace(rho_air=1e-9).as_array())
         assert abs(tiny - parabola) < 1e-9 and abs(ours - parabola) > abs(tiny - parabola)
@@ -230,4 +234,9 @@ def test_params_of_the_terms_are_checked():
     with pytest.raises(ValueError, match="rho_air"):
         solver.Params(rho_air=float("nan"))
     assert solver.Params(c_d=1e-3).dissipative and not solver.Params().dissipative
+    with pytest.raises(ValueError, match="c_r=0.5 m must be < r"):
+        solver.Params(c_r=0.5)
+    with pytest.raises(ValueError, match="unknown terms"):
+        solver.simulate(_section_states(2, 1), solver.Params(), terms="no_such_term")
+    assert scenes.scene_of(solver.Params(), ("air_drag",)).terms == ("air_drag",)
     assert scenes.scene_of(solver.Params(c_r=1e-3, rho_air=1.2)).name == "slipping+coulomb_rolling+air_drag"

@@ -24,7 +24,7 @@ from scipy import ndimage
 from rimroll import solver
 from rimroll.solver.analysis import steady
 from rimroll.solver.engine import outcomes
-from rimroll.solver.physics.params import DISSIPATION_KEYS
+from rimroll.solver.physics.params import TERM_KEYS
 from rimroll.study import cubeplots as C
 from rimroll.study import plotting as P
 from rimroll.study.dataset import params_of, setting_of
@@ -32,7 +32,7 @@ from rimroll.study.registry import Axis, ReferenceSpec, Study, Var, output_var, 
 from rimroll.workflows import adaptive
 from rimroll.workflows.sections import BETA_COMMENT, OMEGA1_COMMENT, steady_beta0
 
-SWEEPS = ("omega2", "mu", "omega3", "rho_over_R", "j", *DISSIPATION_KEYS, "C_D")
+SWEEPS = ("omega2", "mu", "omega3", "rho_over_R", "j", *TERM_KEYS)
 PAPER_OMEGA2 = (35.0, 65.0, 105.0)
 """The omega2 [1/s] of the paper's sections (Figs. 11-13): vertical lines in the plot."""
 FRACTIONS = (("fall_in", (outcomes.FALL_IN,)), ("fall_out", (outcomes.FALL_OUT,)),

@@ -9,7 +9,7 @@ the rim at t_max (and the time it stayed).
 
 **Strength.** Every model is scaled by one number, ``k_equivalent`` [1/s]: the rate of the paper's
 linear moment (83) that removes energy at the same mean rate on the steady motions (48) of the
-paper's three sections (omega2 = 35, 65, 105 1/s at the study's omega3). So k_equivalent = 0.02 1/s
+paper's three sections (omega2 = 35, 65, 105 1/s, omega3 = 10 1/s). So k_equivalent = 0.02 1/s
 is "the paper's strength" for every model, and the models differ only in how the loss is spread
 over the states (see :func:`equivalence`; the factors are stored in the file).
 
@@ -26,7 +26,7 @@ from matplotlib.figure import Figure
 from rimroll import solver
 from rimroll.solver.engine import outcomes
 from rimroll.solver.physics import air, loads, resistance, rolling, switching
-from rimroll.solver.physics.params import QUANTITIES
+from rimroll.solver.physics.params import DISSIPATION_KEYS, QUANTITIES
 from rimroll.study import plotting as P
 from rimroll.study.dataset import setting_of
 from rimroll.study.registry import Axis, ReferenceSpec, Study, Var, register
@@ -48,13 +48,14 @@ MODELS = {  # name: (reader-facing text, {parameter: what it scales with})
 :func:`equivalence` named (``k``: 1, the linear rates themselves)."""
 ISLANDS = ("rolling_only", "slipping")
 PAPER_OMEGA2 = (35.0, 65.0, 105.0)
-"""omega2 [1/s] of the paper's sections: their steady motions fix the equivalence of the models."""
+PAPER_OMEGA3 = 10.0
+"""omega2, omega3 [1/s] of the paper's sections: their steady motions fix the equivalence of the models."""
 OUTSIDE, FAILED = -1, -2
 FATE_VALUES = (FAILED, OUTSIDE, *outcomes.OUTCOME_FLAG_VALUES)
 FATE_MEANINGS = "failed outside_island " + outcomes.OUTCOME_FLAG_MEANINGS
 
 
-def reference_states(p: solver.Params, omega3: float) -> np.ndarray:
+def reference_states(p: solver.Params, omega3: float = PAPER_OMEGA3) -> np.ndarray:
     """The steady motions (48) of the paper's three sections, (beta0, 0, omega2, omega3) [rad, 1/s],
     beta0 in [0.8, 1.8] rad (the sections' range)."""
     rows = []
@@ -76,18 +77,19 @@ def _mean_power(load_fn, p: solver.Params, states) -> float:
     return float(np.mean(out))
 
 
-def equivalence(p: solver.Params, omega3: float) -> dict[str, float]:
+def equivalence(p: solver.Params) -> dict[str, float]:
     """The parameter of each nonlinear model per unit of k_equivalent: c_r, c_d [m s] and rho_air
     [kg m-3 s] that remove energy at the same mean rate [W] over :func:`reference_states` as the
     linear moment (83) at rate 1 1/s in the same components (rolling: omega1, omega3; drilling:
     omega2; air: all three, k_r = k_d = 1 1/s)."""
-    states = reference_states(p, omega3)
+    states = reference_states(p)
     pa_r = p.replace(k_r=1.0).as_array()
     pa_d = p.replace(k_d=1.0).as_array()
     linear_r = float(np.mean([rolling.dissipated_power(w1, w2, w3, pa_r) for _, w1, w2, w3 in states]))
     linear_d = float(np.mean([rolling.dissipated_power(w1, w2, w3, pa_d) for _, w1, w2, w3 in states]))
-    return {"c_r": linear_r / _mean_power(resistance.coulomb_rolling, p.replace(c_r=1.0), states),
-            "c_d": linear_d / _mean_power(resistance.coulomb_drilling, p.replace(c_d=1.0), states),
+    arm = 1e-3  # [m] the powers are linear in c_r, c_d (which must stay below r)
+    return {"c_r": linear_r * arm / _mean_power(resistance.coulomb_rolling, p.replace(c_r=arm), states),
+            "c_d": linear_d * arm / _mean_power(resistance.coulomb_drilling, p.replace(c_d=arm), states),
             "rho_air": (linear_r + linear_d) / _mean_power(air.air_drag, p.replace(rho_air=1.0), states)}
 
 
@@ -95,7 +97,7 @@ def model_params(model: str, k: float, p: solver.Params, factors: dict) -> solve
     """``p`` with the model's parameters at strength k [1/s] (:data:`MODELS`), every other term off."""
     if model not in MODELS:
         raise ValueError(f"unknown dissipation model {model!r}; known: {', '.join(MODELS)}")
-    values = dict.fromkeys(("k_r", "k_d", "c_r", "c_d", "rho_air"), 0.0)
+    values = dict.fromkeys(DISSIPATION_KEYS, 0.0)
     for name, scale in MODELS[model][1].items():
         values[name] = k * (1.0 if scale == "k" else factors[scale])
     return p.replace(**values)
@@ -126,13 +128,16 @@ def _compute(coords, p: solver.Params, s: dict) -> dict:
     b, w = beta[0, 0], omega1[0, 0]
     states = np.stack([b, w, np.full_like(b, s["omega2"]), np.full_like(b, s["omega3"])], axis=-1)
     options = dict(rtol=s["rtol"], atol=s["atol"], method=s["method"], workers=1, **engine_options(s))
-    conservative = solver.simulate(states, p.replace(mu=np.inf) if label == "rolling_only" else p, t_max=s["t_max"],
-                                   **options)
+    # the conservative map through the kernel of the models (its terms at zero strength give the scene
+    # without them bit for bit): one kernel per phase set for the whole study
+    quiet = p.replace(**dict.fromkeys(DISSIPATION_KEYS, 0.0))
+    conservative = solver.simulate(states, quiet.replace(mu=np.inf) if label == "rolling_only" else quiet,
+                                   t_max=s["t_max"], terms=LOAD_TERMS, **options)
     inside = np.isin(conservative["outcome"], (outcomes.PERIODIC_ROLLING, outcomes.STEADY_MOTION))
     fate = np.full(model.shape, OUTSIDE, dtype=np.int8)
     t_on_rim = np.full(model.shape, np.nan)
     k = float(s["k_equivalent"])
-    factors = equivalence(p, s["omega3"])
+    factors = equivalence(p)
     for m, name in enumerate(model[0, :, 0, 0]):
         if k == 0.0:  # no dissipation: the conservative run itself
             res = {key: conservative[key][inside] for key in ("outcome", "status", "t_end")}
@@ -141,12 +146,19 @@ def _compute(coords, p: solver.Params, s: dict) -> dict:
                                   terms=LOAD_TERMS, **options)
         ok = res["status"] == outcomes.OK
         fate[0, m][inside] = np.where(ok, res["outcome"], FAILED)
-        t_on_rim[0, m][inside] = res["t_end"]
+        t_on_rim[0, m][inside] = np.where(ok, res["t_end"], np.nan)  # a failed run has no time on the rim
     return {"fate": fate, "t_on_rim": t_on_rim}
 
 
 FRACTIONS = (("fall_in", outcomes.FALL_IN), ("fall_out", outcomes.FALL_OUT),
-             ("on_rim", outcomes.ON_RIM_AT_T_MAX), ("periodic", outcomes.PERIODIC_ROLLING))
+             ("on_rim", outcomes.ON_RIM_AT_T_MAX), ("periodic", outcomes.PERIODIC_ROLLING), ("failed", FAILED))
+
+
+def _ball(ds) -> solver.Params:
+    """The ball, rim and air of a results file (its recorded physical parameters; the models set the
+    dissipation ones)."""
+    keys = ("r", "R", "a", "m", "j", "g", "C_D")
+    return solver.Params(**{k: float(setting_of(ds, k)) for k in keys if f"param_{k}" in ds.attrs})
 
 
 def _derive(ds) -> dict:
@@ -163,12 +175,13 @@ def _derive(ds) -> dict:
         out[f"fraction_{name}"] = (dims, frac.values, {
             "units": "1", "long_name": f"fraction of the island's states whose fate is {name.replace('_', ' ')}"})
     out["mean_t_on_rim"] = (dims, ds["t_on_rim"].mean(("beta", "omega1")).values, {
-        "units": "s", "long_name": "mean time on the rim of the island's states (until the fall or t_max)"})
-    p = solver.Params()
-    factors = equivalence(p, float(setting_of(ds, "omega3")))
+        "units": "s", "long_name": "mean time on the rim of the island's states (until the fall or "
+        "t_max_dissipative; failed runs left out)"})
+    p = _ball(ds)
+    factors = equivalence(p)
     k_values = ds["k_equivalent"].values if "k_equivalent" in ds.dims else np.array([setting_of(ds, "k_equivalent")])
     pdims = (("k_equivalent",) if "k_equivalent" in ds.dims else ()) + ("model",)
-    for key in ("k_r", "k_d", "c_r", "c_d", "rho_air"):
+    for key in DISSIPATION_KEYS:
         table = np.array([[getattr(model_params(str(m), float(k), p, factors), key) for m in ds["model"].values]
                           for k in k_values])
         units = QUANTITIES[key].units
@@ -181,7 +194,8 @@ def _derive(ds) -> dict:
 DERIVED_DOCS = (
     ("island_cells", "1", "initial states of the periodic island (per omega2, k_equivalent, island, model)"),
     (tuple(f"fraction_{name}" for name, _ in FRACTIONS), "1", "fraction of the island's states that fall in, fall "
-     "out, are still on the rim at t_max_dissipative, roll periodically (k_equivalent = 0 only)"),
+     "out, are still on the rim at t_max_dissipative, roll periodically (k_equivalent = 0 only), failed (an "
+     "integration status other than ok)"),
     ("mean_t_on_rim", "s", "mean time on the rim of the island's states"),
     (("model_k_r", "model_k_d", "model_c_r", "model_c_d", "model_rho_air"), "s-1 / m / kg m-3",
      "the parameters each model ran at, per (k_equivalent, model)"),
@@ -218,9 +232,12 @@ def _plot(ds):
             fin, fout = (_table(ds, f"fraction_{k}", island, w2) for k in ("fall_in", "fall_out"))
             image = ax.imshow(fin - fout, cmap=out_in, vmin=-1, vmax=1, aspect="auto")
             periodic = _table(ds, "fraction_periodic", island, w2)
+            failed = _table(ds, "fraction_failed", island, w2) if "fraction_failed" in ds else np.zeros_like(fin)
             for (m, k), v in np.ndenumerate(fin):
                 text = ("" if np.isnan(v) else "periodic" if periodic[m, k] == 1
                         else f"{100 * v:.0f}/{100 * fout[m, k]:.0f}")
+                if failed[m, k] > 0:
+                    text += f"\n{100 * failed[m, k]:.0f}% failed"
                 ax.text(k, m, text, ha="center", va="center", fontsize=6.5)
             cells = int(np.nanmax(_table(ds, "island_cells", island, w2)))
             ax.set_title(rf"{str(island).replace('_', ' ')} island, $\omega_2$ = {w2:g} 1/s: {cells} states",
@@ -236,7 +253,8 @@ def _plot(ds):
         cbar.set_label("fraction in - fraction out", fontsize=8)
         holder.text(0.0, 0.22, "a cell: % of the island that falls in / falls out;\nthe rest is still on the rim at "
                     f"t_max = {float(setting_of(ds, 't_max_dissipative')):g} s\n(k_eq = 0: the conservative island, "
-                    "periodic)", fontsize=8, va="top", transform=holder.transAxes)
+                    "periodic;\nfailed: runs whose integration did not finish ok,\nblank in the maps)", fontsize=8,
+                    va="top", transform=holder.transAxes)
     _maps(fig, grid, ds)
     fig.suptitle("Sect. 5.3: the fate of the periodic islands of Figs. 11-13 under each dissipation model, at "
                  r"equal mean power ($k_{eq}$: the rate of (83) removing as much energy on the steady motions)",
@@ -261,7 +279,9 @@ def _maps(fig, grid, ds) -> None:
     rows, cols = np.nonzero(fate[0] != OUTSIDE)
     if not rows.size:
         return
-    b_sl, w_sl = slice(rows.min(), rows.max() + 1), slice(cols.min(), cols.max() + 1)
+    pad = 2  # cells around the island: a one-row island still has an extent to draw
+    b_sl = slice(max(rows.min() - pad, 0), rows.max() + 1 + pad)
+    w_sl = slice(max(cols.min() - pad, 0), cols.max() + 1 + pad)
     beta, w1 = one["beta"].values[b_sl], one["omega1"].values[w_sl]
     k_eq = float(setting_of(one, "k_equivalent"))
     for m, model in enumerate(one["model"].values):
@@ -294,7 +314,7 @@ register(Study(
     title="Sect. 5.3's open question: the fate of the periodic islands of Figs. 11-13 under each dissipation model",
     settings=SETTINGS,
     quick={"k_equivalent": (0.0, 0.02, 0.06), "n_beta": 24, "n_omega1": 36},
-    sweepable=("omega2", "k_equivalent", "omega3"),
+    sweepable=("omega2", "k_equivalent"),
     axes=_axes,
     variables=[
         Var("fate", "1", "fate of the island's initial state under the model (outside_island elsewhere)", dtype="int8",
@@ -308,7 +328,7 @@ register(Study(
     derived_docs=DERIVED_DOCS,
     ignores={k: "each model sets its own dissipation parameters; change k_equivalent"
              for k in ("k_r", "k_d", "c_r", "c_d", "rho_air", "mu")},
-    cost=4e-4, compiles=True,
+    cost=1e-5, compiles=True,  # seconds per grid point on one core (only island states run), warm
     # a regression reference at the study's own settings: the fate of an island state near the edge
     # between in and out may change with the tolerance, which is the study's setting to choose
     reference=ReferenceSpec({"beta": 24, "omega1": 36}, sets=("omega2=65", "k_equivalent=0,0.02")),

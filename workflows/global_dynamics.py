@@ -18,7 +18,7 @@ from matplotlib.patches import Patch
 from rimroll import solver
 from rimroll.solver.analysis import floquet, reduced, steady, trajectory
 from rimroll.solver.analysis import solution_types as st
-from rimroll.solver.physics.params import DISSIPATION_KEYS
+from rimroll.solver.physics.params import DISSIPATION_KEYS, TERM_KEYS
 from rimroll.study import plotting as P
 from rimroll.study.dataset import setting_of
 from rimroll.study.registry import Axis, ReferenceSpec, Study, Var, register
@@ -149,7 +149,7 @@ register(Study(
     plot=_fig9_plot,
     chunks={"rho_over_R": 50},
     ignores={"mu": "the Floquet problem (62) is about rolling, without friction limits",
-             **{k: "the Floquet problem (62) is conservative" for k in DISSIPATION_KEYS},
+             **{k: "the Floquet problem (62) is conservative" for k in TERM_KEYS},
              "j": "j is an axis of the map (give a list or range to change its values)"},
     cost=1.5e-4,  # seconds per grid point on one core, warm (--quick on 2 shared cores, 2026-11)
     reference=ReferenceSpec({"rho_over_R": 40, "j": 30},

@@ -29,7 +29,7 @@ from rimroll import solver
 from rimroll.solver.analysis import exponent_bootstrap as boot
 from rimroll.solver.analysis import predictability as pred
 from rimroll.solver.engine import outcomes
-from rimroll.solver.physics.params import DISSIPATION_KEYS
+from rimroll.solver.physics.params import TERM_KEYS
 from rimroll.study import cubeplots as C
 from rimroll.study import plotting as P
 from rimroll.study.dataset import setting_of
@@ -438,7 +438,7 @@ register(Study(
     title="Make probability of a throw with a normal spread of the arriving state over the (beta, omega1) section",
     settings=PROB_SETTINGS,
     quick=PROB_QUICK,
-    sweepable=("sigma", "mu", *DISSIPATION_KEYS, "C_D", "omega2", "omega3"),
+    sweepable=("sigma", "mu", *TERM_KEYS, "omega2", "omega3"),
     # README "Predictability of a shot": ~50 s CPU for 86,400 states x 64 samples; per point at the
     # --quick 16 samples: 1.5e-4 s
     cost=1.5e-4, cost_scale="n_samples", compiles=True,

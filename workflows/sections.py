@@ -12,7 +12,7 @@ import numpy as np
 from rimroll import solver
 from rimroll.solver.engine import scenes
 from rimroll.solver.physics import switching
-from rimroll.solver.physics.params import DISSIPATION_KEYS
+from rimroll.solver.physics.params import TERM_KEYS
 from rimroll.study.registry import Axis
 
 SCENES = tuple(s.name for s in scenes.NAMED)
@@ -114,5 +114,5 @@ def scene_params(p: solver.Params, s: dict, label) -> tuple[solver.Params, float
 
 
 SCENE_IGNORES = {k: "each of the four scenes sets its own mu and term parameters (k_r, k_d; the other terms off); "
-                    "change mu_slip or k_dissipation" for k in ("mu", *DISSIPATION_KEYS)}
+                    "change mu_slip or k_dissipation" for k in ("mu", *TERM_KEYS)}
 """The physical parameters a study of the four named scenes ignores (``Study.ignores``)."""

@@ -13,7 +13,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
 from rimroll.solver.analysis import steady
-from rimroll.solver.physics.params import DISSIPATION_KEYS
+from rimroll.solver.physics.params import TERM_KEYS
 from rimroll.study import plotting as P
 from rimroll.study.dataset import params_of, setting_of
 from rimroll.study.registry import Axis, ReferenceSpec, Study, Var, register
@@ -47,7 +47,7 @@ def _study(name, title, variables, compute, plot, cost, **settings) -> Study:
     on 2 shared cores, 2026-11)."""
     # steady motions of the conservative rolling equations: no dissipation; friction only where declared
     ignores = {k: "steady motions of the conservative rolling equations do not depend on dissipation"
-               for k in DISSIPATION_KEYS}
+               for k in TERM_KEYS}
     if "mu" not in settings:
         ignores["mu"] = "this map of the steady rolling motions does not depend on friction"
     return register(Study(name=name, title=title, settings={**GRID, **settings}, quick=QUICK,

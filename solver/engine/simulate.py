@@ -109,7 +109,7 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
         Where to run (``solver.engine.backends``): the CPU; a CUDA device, one thread per trajectory
         (needs the extra ``rimroll[gpu]`` and a device); or the device when one is usable, else
         the CPU. ``solver.engine.backends.resolve(backend)`` says which one "auto" picks, and on what.
-    terms : sequence of str
+    terms : str or sequence of str
         Load terms of the scene table (``solver.engine.scenes.TERMS``, e.g. one registered with
         ``register_term``) added to the equations of both phases; the terms switched on by a
         parameter (``k_r``, ``k_d``, ``c_r``, ``c_d``, ``rho_air``) come from ``params`` (naming one
@@ -140,7 +140,7 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
         For ``backend="cuda"`` without the extra or a device (one line saying which).
     """
     x = _checked_states(states, params)
-    scene = scene_of(params, tuple(terms))
+    scene = scene_of(params, (terms,) if isinstance(terms, str) else tuple(terms or ()))
     switching = dict(switching or {})
     slip_method = switching.pop("slip_method", "rodas4")
     if slip_method not in SLIP_METHODS:

@@ -22,8 +22,12 @@ from rimroll.solver.physics.params import P_G, P_R_RIM
 FLIGHT_STEPS = 256
 """Classical Runge-Kutta steps per estimated flight time of a flight with drag: the landing point is
 then exact to ~(k |v| h)^4 relative (below 1e-12 m for a basketball in air)."""
-MAX_FLIGHT_STEPS = 1 << 16
-"""Bound on the steps of one flight with drag (reached only for a drag far beyond air's)."""
+DRAG_STEP = 0.05
+"""Largest step of a flight with drag, as a fraction of the drag's relaxation time 1 / (k |v|): keeps the
+Runge-Kutta steps accurate and stable however strong the drag (|v| never exceeds max(|v0|, sqrt(g/k)))."""
+MAX_FLIGHT_STEPS = 1 << 20
+"""Bound on the steps of one flight with drag (a drag a million times air's takes ~1e4). A flight that
+has not landed by then falls at its terminal speed almost straight down: the landing is taken where it is."""
 
 
 @kernel
@@ -97,11 +101,13 @@ def drag_landing_distance(d, z, v_rad, v_z, v_tan, k, g):
     [m/s^2] and the drag -k |v| v (k [1/m]) from height z, distance d [m] and velocity (radial,
     vertical, tangential) [m/s] first reaches z = 0 (d itself if z <= 0): classical Runge-Kutta
     steps, FLIGHT_STEPS per estimated flight time (the parabola's, or z over the terminal speed
-    sqrt(g/k) if longer), the crossing located on the step's cubic Hermite interpolant."""
+    sqrt(g/k) if longer) and at most DRAG_STEP of the drag's relaxation time, the crossing located
+    on the step's cubic Hermite interpolant."""
     if z <= 0.0:
         return d
     t_fall = max(landing_time(z, v_z, g), z * np.sqrt(k / g))
-    h = t_fall / FLIGHT_STEPS
+    speed = max(np.sqrt(v_rad * v_rad + v_z * v_z + v_tan * v_tan), np.sqrt(g / k))  # |v| stays below this
+    h = min(t_fall / FLIGHT_STEPS, DRAG_STEP / (k * speed))
     x, y, vx, vy, vz = d, 0.0, v_rad, v_tan, v_z
     for _ in range(MAX_FLIGHT_STEPS):
         x1, y1, z1, vx1, vy1, vz1 = drag_step(x, y, z, vx, vy, vz, h, k, g)

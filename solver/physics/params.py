@@ -190,6 +190,10 @@ class Params:
             object.__setattr__(self, name, float(value))
         for name in FIELDS:
             check(name, getattr(self, name))
+        for name in ("c_r", "c_d"):
+            if not getattr(self, name) < self.r:
+                raise ValueError(f"geometry: parameter {name}={getattr(self, name)!r} m must be < r = {self.r!r} m "
+                                 "(the Coulomb resistance's arm lies within the ball's contact, a fraction of a mm)")
         if not self.rho < self.R:
             raise ValueError(
                 f"geometry rho = r + a = {self.rho!r} m must be < R = {self.R!r} m "
@@ -262,6 +266,9 @@ FIELDS = tuple(f.name for f in dataclasses.fields(Params))
 """The defining values of :class:`Params`, in order."""
 DISSIPATION_KEYS = ("k_r", "k_d", "c_r", "c_d", "rho_air")
 """The parameters that switch on a dissipative term (0: off): a conservative run has them all 0."""
+TERM_KEYS = (*DISSIPATION_KEYS, "C_D")
+"""Every parameter of a term beyond the conservative equations (C_D acts only with rho_air > 0): what a
+study that runs no such term ignores."""
 if FIELDS != tuple(QUANTITIES)[: len(FIELDS)]:
     raise ImportError(f"QUANTITIES must declare every field of Params, in order: {FIELDS}")
 
