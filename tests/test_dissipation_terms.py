@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
+from test_equations import gradient
 
 from rimroll import solver
 from rimroll.solver.analysis.reference import reference
@@ -92,17 +93,6 @@ def test_rolling_rates_with_the_term_equal_a_lab_frame_newton_euler_derivation(n
             assert np.abs(ours - np.array(rolling.rolling_rhs(*x, pa)[1:])).max() > 1e-6
 
 
-def _gradient(f, x):
-    grad = np.empty(len(x))
-    for k in range(len(x)):
-        h = 1e-6 * max(1.0, abs(x[k]))
-        xp, xm = x.copy(), x.copy()
-        xp[k] += h
-        xm[k] -= h
-        grad[k] = (f(xp) - f(xm)) / (2 * h)
-    return grad
-
-
 R_BALL = solver.Params().r
 
 
@@ -117,7 +107,7 @@ def test_energy_rate_is_the_power_of_the_term_pointwise_in_both_phases(name):
     for x in rolling_states(15):
         load = load_fn(*x, 0.0, 0.0, pa)
         rates = np.array(rolling.rolling_rhs(*x, pa, load))
-        grad = _gradient(lambda z: rolling.energy(*z, pa), x)
+        grad = gradient(lambda z: rolling.energy(*z, pa), x)
         power = loads.power(load, x[1], x[2], x[3], *_centre_velocity(x))
         assert power < 0
         assert grad @ rates == pytest.approx(power, abs=1e-6 * np.abs(grad * rates).max())
@@ -125,7 +115,7 @@ def test_energy_rate_is_the_power_of_the_term_pointwise_in_both_phases(name):
         y = np.array([*x, RNG.uniform(-0.3, 0.3), RNG.uniform(-0.3, 0.3)])
         load = load_fn(*y, pa)
         rates = np.array(slipping.slipping_rhs(*y, pa, load))
-        grad = _gradient(lambda z: slipping.energy(*z, pa), y)
+        grad = gradient(lambda z: slipping.energy(*z, pa), y)
         F2 = slipping.slipping_normal_force(y[0], y[1], y[3], y[4], y[5], pa, load)
         friction = -pa[5] * F2 * np.hypot(y[4], y[5])  # -mu F2 |u|: Coulomb friction's power (29)
         power = loads.power(load, y[1], y[2], y[3], *_centre_velocity(x, y[4], y[5]))
