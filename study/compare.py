@@ -210,9 +210,10 @@ def _cut(swept: xr.Dataset, held: xr.Dataset, name: str, other: str) -> tuple[xr
 
 def _grid_only(ds: xr.Dataset) -> xr.Dataset:
     """``ds`` without its ragged arrays (the boundary curves of an outcome map): the variables along
-    a dimension that has no coordinate (points or curves, not an axis of the grid). They are drawn
+    a dimension that has no coordinate or whose index coordinate says ``ragged_index`` (points or
+    curves, not an axis of the grid). They are drawn
     from the grid's categorical variables, which are compared."""
-    return ds.drop_dims([d for d in ds.dims if d not in ds.coords])
+    return ds.drop_dims([d for d in ds.dims if d not in ds.coords or ds[d].attrs.get("ragged_index")])
 
 
 def compare(ds: xr.Dataset, ref: xr.Dataset, tolerances: dict | None = None) -> Report:

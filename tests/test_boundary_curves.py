@@ -219,3 +219,23 @@ def test_a_map_without_boundaries_stores_no_curves_and_untyped_sections_trace_as
     assert set(v["boundary_omega1"][1]) == {0.0} and v["boundary_beta"][1][[0, -1]] == pytest.approx([0.7, 1.9])
     t = curves.trace_scene(two[1], None, beta, w1)  # no boundary types (an outcome-cube slice)
     assert t["type"].tolist() == [boundaries.NOT_BOUNDARY]
+
+
+def test_files_of_two_sections_combine_and_keep_each_ones_curves(fig12, tmp_path):
+    """Two fig12 files of different omega2 (different numbers of curves and points) combine with
+    xr.concat along omega2 (the notebook's and open_mfdataset's way), and each slice of the combined
+    dataset gives back the curves of its own file."""
+    from rimroll.study.api import run
+    from rimroll.workflows import curves
+
+    other = run("fig12", quick=True, out=tmp_path, progress=False, n_beta=12, n_omega1=18, omega2=35.0)
+    first = xr.open_dataset(fig12[1] / "fig12.nc")
+    assert first.sizes["boundary_point"] != other.sizes["boundary_point"]
+    both = xr.concat([first, other], dim="omega2", join="outer", combine_attrs="drop_conflicts")
+    for k, one in enumerate((first, other)):
+        for label in one["scene"].values:
+            mine, combined = curves.of_scene(one, str(label)), curves.of_scene(both.isel(omega2=k), str(label))
+            assert len(mine) == len(combined) > 0
+            for (p, t), (q, u) in zip(mine, combined):
+                np.testing.assert_array_equal(p, q)
+                assert t == u

@@ -63,7 +63,14 @@ def variables(outcome, cell_type, beta, omega1, scenes) -> dict:
     scene = np.concatenate([np.full(p["sizes"].size, k, dtype=np.int8) for k, p in enumerate(parts)])
     outcome_flags = {"flag_values": np.array(outcomes.OUTCOME_FLAG_VALUES, dtype="int8"),
                      "flag_meanings": outcomes.OUTCOME_FLAG_MEANINGS}
+    n_points = int(sizes.sum())
     return {
+        # index coordinates of the two ragged dimensions: files of several sections combine with
+        # xr.concat / open_mfdataset (the shorter lists are padded, see of_scene)
+        CURVE: ((CURVE,), np.arange(sizes.size, dtype=np.int32), {
+            "units": "1", "long_name": "index of the boundary curve", "ragged_index": 1}),
+        POINT: ((POINT,), np.arange(n_points, dtype=np.int32), {
+            "units": "1", "long_name": "index of the point of the boundary curves", "ragged_index": 1}),
         COUNT: ((CURVE,), sizes.astype(np.int32), {
             "units": "1", "long_name": "number of points of each boundary curve between outcome regions",
             "comment": "a contiguous ragged array: the points of curve k are boundary_omega1 and boundary_beta "
@@ -104,11 +111,15 @@ def of_scene(ds, label: str) -> list[tuple[np.ndarray, int]] | None:
     codes = dict(zip(scene.attrs["flag_meanings"].split(), np.asarray(scene.attrs["flag_values"]).tolist()))
     if str(label) not in codes:
         return []
-    ends = np.cumsum(ds[COUNT].values)
+    counts = np.asarray(ds[COUNT].values, dtype=float)
+    kept = np.isfinite(counts)  # files combined along an axis pad the shorter lists with NaN at the end
+    counts = counts[kept].astype(int)
+    ends = np.cumsum(counts)
     w, b = ds["boundary_omega1"].values, ds["boundary_beta"].values
-    kinds = ds["boundary_curve_type"].values
+    kinds = np.asarray(ds["boundary_curve_type"].values)[kept]
+    scene_of = np.asarray(scene.values)[kept]
     return [(np.stack([w[e - n:e], b[e - n:e]], 1), int(kinds[k]))
-            for k, (n, e) in enumerate(zip(ds[COUNT].values, ends)) if scene.values[k] == codes[str(label)]]
+            for k, (n, e) in enumerate(zip(counts, ends)) if scene_of[k] == codes[str(label)]]
 
 
 def traced(outcome, cell_type, beta, omega1) -> list[tuple[np.ndarray, int]]:
