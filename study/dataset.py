@@ -20,6 +20,7 @@ import numpy as np
 import xarray as xr
 
 from rimroll import solver
+from rimroll.solver.physics.params import TERM_KEYS
 from rimroll.study.registry import PHYSICAL_KEYS, Axis, Study
 
 HERE = pathlib.Path(__file__).resolve().parent
@@ -197,16 +198,12 @@ def params_of(ds: xr.Dataset) -> solver.Params:
     """
     swept = str(ds.attrs.get("swept", "")).split()
     by_rho = "rho_over_R" in swept  # r follows from rho/R (not recorded)
+    # the term parameters came after the first files: a file without them ran with the terms off (defaults)
     values = {k: float(setting_of(ds, k)) for k in PHYSICAL_KEYS
-              if not (by_rho and k == "r") and (k not in _TERM_KEYS_LATER or _recorded(ds, k))}
+              if not (by_rho and k == "r") and (k not in TERM_KEYS or _recorded(ds, k))}
     if by_rho:
         return solver.Params.from_rho_over_R(float(setting_of(ds, "rho_over_R")), **values)
     return solver.Params(**values)
-
-
-_TERM_KEYS_LATER = ("c_r", "c_d", "rho_air", "C_D")
-"""Physical parameters added after the first files were written (their terms did not exist then: a
-file without them ran with the terms off, and :func:`params_of` takes the Params defaults)."""
 
 
 def _recorded(ds: xr.Dataset, name: str) -> bool:

@@ -203,7 +203,7 @@ class _System:
     def __init__(self, params: Params, t_max, rtol, atol, method, switching_tolerances, terms=()):
         self.p = params.as_array()
         self.sw = switching.default_tolerances(**(switching_tolerances or {}))
-        scene = scene_of(params, tuple(terms))
+        scene = scene_of(params, terms)
         self.hybrid = scene.slips
         self.conservative = not scene.dissipates(params)  # periodic rolling detected
         self.load_fn = scene_code.load_of(scene)  # the scene's external load (compiled), None without terms

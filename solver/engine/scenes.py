@@ -176,7 +176,8 @@ def named(name: str) -> Scene:
 
 def scene_of(params: Params, terms=()) -> Scene:
     """The scene of a run with these parameters (its phases; every term whose parameter is nonzero)
-    and the load terms named in ``terms``."""
+    and the load terms named in ``terms`` (a sequence of names, or one name)."""
+    terms = (terms,) if isinstance(terms, str) else tuple(terms or ())
     on = [t.name for t in TERMS.values() if t.parameter is not None and getattr(params, t.parameter) > 0]
     bad = [t for t in terms if t in TERMS and TERMS[t].load is None]
     if bad:

@@ -140,7 +140,7 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
         For ``backend="cuda"`` without the extra or a device (one line saying which).
     """
     x = _checked_states(states, params)
-    scene = scene_of(params, (terms,) if isinstance(terms, str) else tuple(terms or ()))
+    scene = scene_of(params, terms)
     switching = dict(switching or {})
     slip_method = switching.pop("slip_method", "rodas4")
     if slip_method not in SLIP_METHODS:
