@@ -80,13 +80,13 @@ class _Grid:
         self.klass = np.zeros(shape, dtype=np.int64)
         self.fields: dict[str, np.ndarray] = {}
 
-    def simulate(self, i: np.ndarray, j: np.ndarray, level: int) -> None:
-        """Simulate the cells (i, j) not simulated yet; they get ``level``."""
+    def simulate(self, i: np.ndarray, j: np.ndarray, level: int) -> np.ndarray:
+        """Simulate the cells (i, j) not simulated yet; they get ``level``. Returns their flat indices."""
         i, j = np.asarray(i, dtype=np.intp).ravel(), np.asarray(j, dtype=np.intp).ravel()
         flat = np.unique(np.ravel_multi_index((i, j), self.shape))
         flat = flat[self.level.flat[flat] == FILLED]
         if not flat.size:
-            return
+            return flat
         ii, jj = np.unravel_index(flat, self.shape)
         out = self.run(ii, jj)
         for name, values in out.items():
@@ -104,6 +104,17 @@ class _Grid:
         if "slip_phases" in f:
             code += f["slip_phases"][ii, jj] > 0
         self.klass[ii, jj] = code
+        return flat
+
+    def touching(self, blocks: np.ndarray, flat: np.ndarray) -> np.ndarray:
+        """Per block (B, 4): whether one of the cells ``flat`` (flat indices) lies in it, edges included
+        (a summed-area table of those cells: one lookup per block)."""
+        mark = np.zeros(self.shape, dtype=np.int32)
+        mark.flat[flat] = 1
+        table = np.zeros((self.shape[0] + 1, self.shape[1] + 1), dtype=np.int64)
+        table[1:, 1:] = mark.cumsum(0).cumsum(1)
+        i0, i1, j0, j1 = blocks.T
+        return (table[i1 + 1, j1 + 1] - table[i0, j1 + 1] - table[i1 + 1, j0] + table[i0, j0]) > 0
 
     def uniform(self, blocks: np.ndarray) -> np.ndarray:
         """Per block (B, 4): whether the simulated cells on its perimeter agree in class and indicators."""
@@ -131,8 +142,10 @@ class _Grid:
                 hit |= valid.any(1) & (hi - lo > INDICATORS[key] * scale)
         return hit
 
-    def fill(self, blocks: np.ndarray) -> None:
-        """Fill the cells of uniform blocks not simulated: nearest corner, bilinear for floats."""
+    def fill(self, blocks: np.ndarray, names=None) -> None:
+        """Fill the cells of uniform blocks not simulated: nearest corner, bilinear for floats; only the
+        fields ``names`` (None: all)."""
+        fields = [arr for name, arr in self.fields.items() if names is None or name in names]
         for sel, a, c in _by_shape(blocks):
             tr, tc = _rectangle(a, c, perimeter=False)
             i0, j0 = blocks[sel, 0][:, None], blocks[sel, 2][:, None]
@@ -142,7 +155,7 @@ class _Grid:
                 continue
             u, v = tr / max(a, 1), tc / max(c, 1)
             ni, nj = i0 + np.where(u <= 0.5, 0, a), j0 + np.where(v <= 0.5, 0, c)  # nearest corner
-            for arr in self.fields.values():
+            for arr in fields:
                 if arr.dtype.kind == "f":
                     c00, c01, c10, c11 = (arr[i0 + p, j0 + q] for p, q in ((0, 0), (0, c), (a, 0), (a, c)))
                     values = (1 - u) * (1 - v) * c00 + (1 - u) * v * c01 + u * (1 - v) * c10 + u * v * c11
@@ -185,9 +198,11 @@ def _level(grid: _Grid, blocks: np.ndarray, kept: list, stride: int) -> np.ndarr
     refine, todo = [blocks[~ok]], blocks[~ok]
     kept.append(blocks[ok])
     while len(todo):
-        grid.simulate(*_points(todo, rows, cols), level)
+        new = grid.simulate(*_points(todo, rows, cols), level)
         old = np.concatenate(kept)
-        ok = grid.uniform(old)
+        ok = np.ones(len(old), dtype=bool)
+        again = grid.touching(old, new)  # a kept block's verdict changes only with a new cell on its edge
+        ok[again] = grid.uniform(old[again])
         kept[:] = [old[ok]]
         todo = old[~ok]
         refine.append(todo)
@@ -228,13 +243,17 @@ def _clear_wrapped(mask: np.ndarray, axis: int, step: int) -> None:
 
 
 def adaptive_map(run: Callable, shape: tuple, coarse: int = DEFAULT_COARSE, *, weight: float,
-                 periodic_code: int, falls: tuple) -> tuple[dict, np.ndarray]:
+                 periodic_code: int, falls: tuple, inner_neighbours: bool = True,
+                 filled=None) -> tuple[dict, np.ndarray]:
     """The fields of every cell of a (beta, omega1) grid of ``shape``, simulating few of them.
 
     ``run(i, j) -> {field: 1-D values}``: simulate the cells (i, j) (integer arrays); ``coarse``:
     the stride of the coarse lattice (a power of 2; 1 simulates every cell); ``weight``: m g [N],
     the scale of the F2_min indicator; ``periodic_code``, ``falls``: the outcome codes of
-    periodic rolling and of its other side (fall in, fall out, still on the rim). Returns
+    periodic rolling and of its other side (fall in, fall out, still on the rim);
+    ``inner_neighbours``: also simulate the cells the boundary typing reads (False: a map for
+    other uses, e.g. the eps pairs of the predictability study); ``filled``: the fields filled in the
+    uniform blocks (None: all; the others keep NaN / 0 at the cells not simulated). Returns
     (``{field: array of shape}``, ``level``: int8, the stride exponent each cell was simulated
     at, :data:`FILLED` where filled).
     """
@@ -249,8 +268,9 @@ def adaptive_map(run: Callable, shape: tuple, coarse: int = DEFAULT_COARSE, *, w
     while stride > 1:
         blocks = _level(grid, blocks, kept, stride)
         stride //= 2
-    grid.fill(np.concatenate(kept))
-    _inner_neighbours(grid, periodic_code, falls)
+    grid.fill(np.concatenate(kept), filled)
+    if inner_neighbours:
+        _inner_neighbours(grid, periodic_code, falls)
     return grid.fields, grid.level
 
 
