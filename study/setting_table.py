@@ -184,6 +184,9 @@ _ENTRIES = (
     S("n_fine", "", "eps below one grid step: 1/2 ... 1/2^n_fine (simulated)", COUNT0),
     S("n_coarse", "", "eps of whole grid steps: 1 ... 2^n_coarse (read from the grid)", COUNT0),
     S("n_sample", "", "states away from the grid's boundaries simulated for eps < 1", COUNT0),
+    S("eps_pairs", "", "eps < 1: sampled (perturbed copies of the edge points and of n_sample others, simulated) "
+      "or refined (every grid point, its pairs read from an adaptive map 2^n_fine times finer)",
+      choices=("sampled", "refined"), what="ways"),
     S("sigma", "1", "noise level: multiplies sigma_beta ... sigma_omega3", NONNEGATIVE,
       sweep=True, long_name="noise level"),
     S("sigma_beta", "rad", "standard deviation of the arriving beta at sigma = 1", NONNEGATIVE),

@@ -202,6 +202,32 @@ def test_sampled_fraction_is_unbiased_over_strata():
     assert P.sampled_fraction(truth) == pytest.approx((mean, np.sqrt(mean * (1 - mean) / truth.size)))
 
 
+def test_refined_axis_keeps_the_grid_bit_for_bit_and_divides_each_step():
+    v = np.linspace(0.8, 1.8, 7)
+    f = P.refined_axis(v, 4)
+    assert f.size == 25 and np.array_equal(f[::4], v)  # the grid's own values, not recomputed
+    assert np.allclose(np.diff(f), (v[1] - v[0]) / 4)
+    assert np.array_equal(P.refined_axis(v, 1), v)
+    with pytest.raises(ValueError, match="k"):
+        P.refined_axis(v, 0)
+
+
+def test_refined_uncertain_reads_sub_step_pairs_from_the_fine_grid():
+    # a boundary at x = 0.3 (fine grid of 1/8 step): the grid points 0, 1, ... around it
+    x = P.refined_axis(np.arange(6.0), 8)
+    fine = (x > 2.3).astype(int)
+    u = P.refined_uncertain(fine, 8, [0.125, 0.25, 0.5, 1, 2])
+    # the grid point 2 is 0.3 steps from the boundary: uncertain at eps >= 1/2, point 3 at eps >= 1
+    assert u[:, 2].tolist() == [False, False, True, True, True]
+    assert u[:, 3].tolist() == [False, False, False, True, True]
+    # whole steps: as the grid itself says
+    assert np.array_equal(u[3], P.grid_uncertain(fine[::8], 1))
+    with pytest.raises(ValueError, match="multiple of 1/k"):
+        P.refined_uncertain(fine, 8, [0.1])
+    with pytest.raises(ValueError, match=r"\(n - 1\) k \+ 1"):
+        P.refined_uncertain(fine[:-1], 8, [0.5])
+
+
 # ---------------------------------------------------------------- on the outcome sections
 def _section(omega2, n_beta, n_omega1):
     beta, w1 = np.linspace(0.8, 1.8, n_beta), np.linspace(-20, 20, n_omega1)
@@ -365,6 +391,38 @@ def test_predictability_study_file(studies):
     assert (ds["alpha_err_states"].values[finite] > 0).all()
     roll = ds.isel(scene=0)
     assert float(roll["S_bb"]) < np.log(2) and abs(float(roll["alpha"]) - 1) < 3 * float(roll["alpha_err"])
+
+
+def test_eps_pairs_refined_reads_the_sampled_points_flags_from_the_refinement(tmp_path):
+    """eps_pairs = refined (every grid point, its sub-step pairs from an adaptive map 2**n_fine times finer)
+    gives the outcome grid of the sampled run and, at every point that run simulated, the same flags."""
+    import xarray as xr
+
+    from rimroll.study.cli import main
+
+    files = {}
+    for how in ("sampled", "refined"):
+        assert main(["run", "predictability", "--quick", "--set", "omega2=65", "--set", f"eps_pairs={how}",
+                     "--out", str(tmp_path / how), "--no-progress"]) == 0
+        files[how] = xr.open_dataset(tmp_path / how / "predictability.nc")
+    a, b = files["sampled"], files["refined"]
+    assert b.attrs["setting_eps_pairs"] == "refined"
+    assert np.array_equal(a["outcome"], b["outcome"])
+    sampled = a["sample_weight"].values > 0
+    assert sampled.sum() > 100
+    assert np.array_equal(a["uncertain"].values[sampled], b["uncertain"].values[sampled])
+    assert (b["sample_weight"] == 1).all()  # every point tested at every eps
+    assert 0 < int(b["eps_runs"].sum()) < 0.5 * b["outcome"].size * 64  # the fine grid, not all of it
+    assert np.isfinite(b["alpha"]).all() and (b["alpha_low"] < b["alpha_high"]).all()
+
+
+def test_eps_pairs_refined_refuses_a_refined_grid_too_large_in_one_line(tmp_path, capsys):
+    from rimroll.study.cli import main
+
+    assert main(["run", "predictability", "--quick", "--set", "eps_pairs=refined", "--set", "n_fine=12",
+                 "--out", str(tmp_path), "--no-progress"]) != 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "eps_pairs=refined" in err[0] and "lower n_fine" in err[0]
 
 
 def test_make_probability_study_file(studies):

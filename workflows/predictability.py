@@ -7,7 +7,9 @@
   f(eps) over eps = 2^-n_fine ... 2^n_coarse grid steps and the uncertainty exponent alpha
   (fit of log f against log eps) with its error and the boundary dimension D = 2 - alpha.
   Whole eps are read from the grid; eps below one step are simulated on a stratified sample
-  (``solver.predictability.section_uncertainty``).
+  (``solver.predictability.section_uncertainty``), or, with ``eps_pairs = refined``, read for every
+  grid point from an adaptive map of the section 2**n_fine times finer whose coarse lattice is the
+  grid (``workflows.adaptive``; ``solver.predictability.refined_uncertain``).
 - ``make-probability``: the probability of each outcome of a throw whose arriving state is
   normal around each nominal state of the (beta, omega1) section, with spread
   sigma * (sigma_beta, sigma_omega1, sigma_omega2, sigma_omega3), Wilson intervals and the
@@ -34,7 +36,7 @@ from rimroll.study import cubeplots as C
 from rimroll.study import plotting as P
 from rimroll.study.dataset import setting_of
 from rimroll.study.registry import Axis, ReferenceSpec, Study, Var, output_var, register
-from rimroll.workflows import sections
+from rimroll.workflows import adaptive, sections
 
 # ================================================================ outcome names and colours
 OUTCOME_NAMES = {code: meaning.split(":")[0] for code, meaning in solver.OUTCOME_MEANINGS.items()}
@@ -64,10 +66,15 @@ PRED_SETTINGS = {
     "n_fine": 3,  # eps = 1/2, 1/4, 1/8 grid steps: simulated
     "n_coarse": 2,  # eps = 1, 2, 4 grid steps: read from the grid
     "n_sample": 2000,  # points drawn from the grid's certain part for the eps < 1 test
+    "eps_pairs": "sampled",  # eps < 1: simulated on a stratified sample, or "refined": read from an adaptive map
     "seed": 0,
 }
 PRED_QUICK = {**sections.QUICK, "n_sample": 200, "n_coarse": 1, "box": 4}
 """The quick grid, 24 x 36, holds whole boxes of 4 x 4 (5 x 5 left strips without a box)."""
+
+
+MAX_REFINED = 1 << 25
+"""Points of the refined grid of ``eps_pairs = refined`` (the default grid refined 8 times: 5.5 million)."""
 
 
 def eps_values(n_fine: int, n_coarse: int) -> np.ndarray:
@@ -85,12 +92,41 @@ def _pred_axes(s):
         raise ValueError(f"n_sample must be >= 0; got {s['n_sample']}")
     if s["n_fine"] + s["n_coarse"] + 1 > 31:
         raise ValueError("at most 31 eps (the uncertain flags are bits of an int32)")
+    k = 2 ** int(s["n_fine"])
+    fine = ((int(s["n_beta"]) - 1) * k + 1) * ((int(s["n_omega1"]) - 1) * k + 1)
+    if s["eps_pairs"] == "refined" and fine > MAX_REFINED:
+        raise ValueError(f"eps_pairs=refined: the grid refined 2**n_fine = {k} times would have {fine:,} points, "
+                         f"more than {MAX_REFINED:,} (about 200 bytes each while it is built); lower n_fine or "
+                         "n_beta, n_omega1")
     return sections.section_axes(s)
 
 
 def _scene(coords, p, s):
     """Params and t_max of the chunk's scene (chunks hold one scene; ``scene`` holds labels)."""
     return sections.scene_params(p, s, coords[0].flat[0])
+
+
+def _refined(beta, omega1, params, s, sim, eps):
+    """``eps_pairs = refined``: the section on its grid refined 2**n_fine times, as an adaptive map whose
+    coarse lattice is the grid itself (``workflows.adaptive``), and every grid point's eps-uncertain flags
+    read from it (``predictability.refined_uncertain``). Returns (outcome, status, uncertain, eps_runs) on
+    the grid; ``eps_runs``: fine states simulated in the k x k block at each grid point (itself excluded)."""
+    k = 2 ** int(s["n_fine"])
+    fb, fw = pred.refined_axis(beta[:, 0], k), pred.refined_axis(omega1[0], k)
+    keep = set(adaptive.NEEDED) | {"status"}
+
+    def cells(i, j):
+        x = np.stack([fb[i], fw[j], np.full(i.size, s["omega2"]), np.full(i.size, s["omega3"])], axis=-1)
+        return {name: v for name, v in solver.simulate(x, params, **sim).items() if name in keep}
+    falls = (outcomes.FALL_IN, outcomes.FALL_OUT, outcomes.ON_RIM_AT_T_MAX)
+    fields, level = adaptive.adaptive_map(cells, (fb.size, fw.size), k, weight=params.m * params.g,
+                                          periodic_code=outcomes.PERIODIC_ROLLING, falls=falls,
+                                          inner_neighbours=False, filled=("outcome",))
+    fine = fields["outcome"]
+    simulated = np.pad(level != adaptive.FILLED, ((0, k - 1), (0, k - 1)))  # the last row/column: blocks of one
+    n_b, n_w = beta.shape
+    runs = simulated.reshape(n_b, k, n_w, k).sum(axis=(1, 3)) - 1
+    return fine[::k, ::k], fields["status"][::k, ::k], pred.refined_uncertain(fine, k, eps), runs.astype(np.int32)
 
 
 def _pred_compute(coords, p, s):
@@ -101,20 +137,29 @@ def _pred_compute(coords, p, s):
     # are several times the others, so one thread per chunk leaves a core idle at the end
     sim = dict(t_max=t_max, rtol=s["rtol"], atol=s["atol"], method=s["method"], workers=None,
                **sections.engine_options(s))
+    eps = eps_values(s["n_fine"], s["n_coarse"])
+    if s["eps_pairs"] == "refined":
+        codes, status, uncertain, runs = _refined(beta[0], omega1[0], params, s, sim, eps)
+        return _pred_fields(codes, status, uncertain, np.ones(codes.shape), runs, s)
     res = solver.simulate(states, params, **sim)
     codes = res["outcome"]
+    scale = np.array([beta[0, 1, 0] - beta[0, 0, 0], omega1[0, 0, 1] - omega1[0, 0, 0], 0.0, 0.0])
+    uncertain, weight = pred.section_uncertainty(states, codes, params, eps, scale, n_sample=int(s["n_sample"]),
+                                                 seed=int(s["seed"]), **sim)
+    runs = np.where(weight > 0, 4 * int((eps < 1).sum()), 0).astype(np.int32)
+    return _pred_fields(codes, res["status"], uncertain, weight, runs, s)
+
+
+def _pred_fields(codes, status, uncertain, weight, runs, s) -> dict:
+    """The chunk's variables from the outcome grid and its eps-uncertain flags."""
     box = int(s["box"])
     per_box = pred.box_entropy(codes, box)
     entropy = np.full(codes.shape, np.nan)
     nb, nw = per_box.shape
     entropy[: nb * box, : nw * box] = np.repeat(np.repeat(per_box, box, axis=0), box, axis=1)
-    eps = eps_values(s["n_fine"], s["n_coarse"])
-    scale = np.array([beta[0, 1, 0] - beta[0, 0, 0], omega1[0, 0, 1] - omega1[0, 0, 0], 0.0, 0.0])
-    uncertain, weight = pred.section_uncertainty(states, codes, params, eps, scale, n_sample=int(s["n_sample"]),
-                                                 seed=int(s["seed"]), **sim)
-    bits = (uncertain.astype(np.int64) << np.arange(eps.size)[:, None, None]).sum(axis=0)
+    bits = (uncertain.astype(np.int64) << np.arange(uncertain.shape[0])[:, None, None]).sum(axis=0)
     return {"outcome": codes[None], "box_entropy": entropy[None], "uncertain": bits[None].astype(np.int32),
-            "sample_weight": weight[None], "status": res["status"][None]}
+            "sample_weight": weight[None], "eps_runs": runs[None], "status": status[None]}
 
 
 PRED_VARIABLES = [
@@ -126,6 +171,10 @@ PRED_VARIABLES = [
         pointwise=False),
     Var("sample_weight", "1", "grid points this point stands for in the eps < 1 test (0: not simulated)",
         pointwise=False),
+    Var("eps_runs", "1", "states simulated for this point's eps < 1 test: eps_pairs = sampled, 4 per eps "
+        "below one grid step at a sampled point; eps_pairs = refined, the points of the refined grid simulated "
+        "in the 2**n_fine x 2**n_fine block at this point (the point itself excluded)", dtype="int32",
+        compared=False, pointwise=False),
     output_var("status", long_name="integration status of the nominal state"),
 ]
 

@@ -308,6 +308,41 @@ def section_uncertainty(states, codes, params: Params, eps, scale, *, n_sample: 
     return uncertain, weight
 
 
+def refined_axis(values, k: int) -> np.ndarray:
+    """The axis ``values`` (n,) refined k times: (n - 1) k + 1 values, the original ones at every k-th
+    place (bit for bit) and k - 1 equally spaced ones inside each interval."""
+    v = np.asarray(values, dtype=float)
+    if v.ndim != 1 or v.size < 2:
+        raise ValueError(f"`values` must be an axis of >= 2 values; got shape {v.shape}")
+    if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
+        raise ValueError(f"`k` must be an integer >= 1 (refinement factor); got {k!r}")
+    inside = v[:-1, None] + (np.arange(k) / k)[None, :] * np.diff(v)[:, None]
+    inside[:, 0] = v[:-1]
+    return np.concatenate([inside.ravel(), v[-1:]])
+
+
+def refined_uncertain(fine_codes, k: int, eps) -> np.ndarray:
+    """Which points of a grid are eps-uncertain, read from its outcome grid refined k times.
+
+    ``fine_codes`` ((n_0 - 1) k + 1, (n_1 - 1) k + 1, ...): the outcomes on the grid refined k times
+    along every axis (:func:`refined_axis`), the grid's own points at every k-th index; ``eps`` in
+    grid steps, each a multiple of 1/k. Returns bool (len(eps), n_0, n_1, ...): the point's outcome
+    differs from the one eps grid steps away along some axis (both sides; at the grid's edges the
+    side inside only). This is :func:`grid_uncertain` at eps * k fine steps, taken at the grid's
+    points: the perturbed states of :func:`perturbation_fraction` with ``scale`` = the grid steps
+    are points of the fine grid, so every pair comes from the fine map, none is simulated here.
+    """
+    a = _as_codes(fine_codes)
+    e = _check_eps(eps)
+    steps = e * k
+    if np.any(np.abs(steps - np.round(steps)) > 1e-9):
+        raise ValueError(f"every eps must be a multiple of 1/k = 1/{k} grid steps; got {e.tolist()}")
+    if any((n - 1) % k for n in a.shape):
+        raise ValueError(f"a grid refined {k} times has (n - 1) k + 1 points per axis; got shape {a.shape}")
+    at_points = tuple(slice(None, None, k) for _ in a.shape)
+    return np.stack([grid_uncertain(a, int(round(m)))[at_points] for m in steps])
+
+
 def sampled_fraction(uncertain, weight=None):
     """f and its standard error from a (stratified) sample of uncertain flags.
 
