@@ -84,7 +84,8 @@ class Axis:
         if not np.all(allowed):
             extra = " (+inf is allowed on this axis)" if self.allow_inf else ""
             raise ValueError(f"axis {self.name!r} has non-finite values{extra}")
-        steps = np.diff(values)
+        with np.errstate(invalid="ignore"):  # inf - inf (mu=inf,inf) is NaN: not monotonic, said below
+            steps = np.diff(values)
         if not (np.all(steps > 0) or np.all(steps < 0)):
             raise ValueError(f"axis {self.name!r} must be strictly monotonic")
         self._check_aux(values)

@@ -38,6 +38,7 @@ NONNEGATIVE = Range(0.0, MAX_MAGNITUDE)
 POSITIVE = Range(0.0, MAX_MAGNITUDE, low_open=True)
 COUNT = Range(1, MAX_AXIS, integer=True)
 COUNT0 = Range(0, MAX_AXIS, integer=True)  # a count that may be 0 (no such eps, no sample)
+GRID = Range(2, MAX_AXIS, integer=True)  # points of a grid axis: an axis has at least 2
 TOLERANCE = Range(*RTOL_RANGE)  # what solver.simulate accepts as rtol
 ABSOLUTE_TOLERANCE = Range(0.0, ATOL_MAX, low_open=True)  # and as atol
 FRACTION = Range(0.0, 1.0, low_open=True, high_open=True)
@@ -173,12 +174,12 @@ _ENTRIES = (
     S("n_samples", "", "states in the sample", COUNT),
     S("n_trajectories", "", "trajectories", COUNT),
     S("n_time", "", "output times per trajectory", COUNT),
-    S("n_beta0", "", "grid points of beta0", COUNT),
-    S("n_omega30", "", "grid points of omega30", COUNT),
-    S("n_beta", "", "grid points of beta", COUNT),
-    S("n_omega1", "", "grid points of omega1", COUNT),
-    S("n_j", "", "grid points of j", COUNT),
-    S("n_rho_over_R", "", "grid points of rho/R", COUNT),
+    S("n_beta0", "", "grid points of beta0", GRID),
+    S("n_omega30", "", "grid points of omega30", GRID),
+    S("n_beta", "", "grid points of beta", GRID),
+    S("n_omega1", "", "grid points of omega1", GRID),
+    S("n_j", "", "grid points of j", GRID),
+    S("n_rho_over_R", "", "grid points of rho/R", GRID),
     # ---- predictability and make-probability
     S("box", "", "grid points per side of a basin-entropy box", COUNT),
     S("n_fine", "", "eps below one grid step: 1/2 ... 1/2^n_fine (simulated)", COUNT0),

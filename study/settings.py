@@ -163,7 +163,13 @@ def _apply(study: Study, quick: bool, sets) -> tuple[dict, list[str], dict]:
     order = [k for k in declared if isinstance(settings[k], (tuple, list))]
     grid_names = {a.name for a in grid_axes(study, base_settings(settings))}
     grid = {}
-    for key, text in keyvalue.parse(sets, "--set", "KEY=VALUE", "--set mu=0.5"):
+    pairs = keyvalue.parse(sets, "--set", "KEY=VALUE", "--set mu=0.5")
+    given = [key for key, _ in pairs]
+    twice = sorted({key for key in given if given.count(key) > 1})
+    if twice:  # the later one would silently win: say which value is meant
+        raise UserError(f"--set {twice[0]} is given {given.count(twice[0])} times; give each setting once "
+                        f"(a list sweeps it: --set {twice[0]}=A,B)")
+    for key, text in pairs:
         values = parse_values(key, text)
         if values is not None and key in grid_names:
             grid[key] = values

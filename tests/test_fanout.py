@@ -13,6 +13,7 @@ import signal
 import subprocess
 import sys
 import time
+import warnings
 
 import numpy as np
 import pytest
@@ -108,6 +109,22 @@ def test_bad_set_is_one_line_exit_2(probe, tmp_path, capsys, item, expect):
     err = capsys.readouterr().err
     assert err.startswith("study: error:") and len(err.strip().splitlines()) == 1 and expect in err, err
     assert not list(tmp_path.iterdir())
+
+
+def test_a_setting_given_twice_is_refused_not_silently_the_last(probe, tmp_path, capsys):
+    assert _run(tmp_path, "--set", "mu=1", "--set", "mu=2") == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "--set mu is given 2 times" in err, err
+
+
+def test_an_axis_of_two_infinities_is_one_line_without_a_numpy_warning(tmp_path, capsys):
+    from rimroll.study.cli import main
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a RuntimeWarning of inf - inf would raise here
+        assert main(["run", "outcome-cube", "--quick", "--set", "mu=inf,inf", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "strictly monotonic" in err, err
 
 
 def test_bad_set_in_a_subprocess(tmp_path):

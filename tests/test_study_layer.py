@@ -130,7 +130,7 @@ def test_list_names_every_steady_study(capsys):
     (["run", "fig8", "--set", "v_throw=fast"], "expected a number"),
     (["run", "fig8", "--set", "j=-1"], "parameter j=-1.0 is out of range"),
     (["run", "fig8", "--set", "a=0.2"], "must be < R"),
-    (["run", "fig8", "--set", "n_beta0=1"], "invalid axes"),
+    (["run", "fig8", "--set", "n_beta0=1"], "allowed an integer 2 <= n_beta0"),
     (["run", "fig8", "--workers", "0"], "--workers must be between 1 and 1024"),
     (["run"], "required"),
     (["plot", "nosuch.nc"], "no such results file"),
