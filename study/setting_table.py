@@ -181,7 +181,7 @@ _ENTRIES = (
     S("n_j", "", "grid points of j", GRID),
     S("n_rho_over_R", "", "grid points of rho/R", GRID),
     # ---- predictability and make-probability
-    S("box", "", "grid points per side of a basin-entropy box", COUNT),
+    S("box", "", "grid points per side of a basin-entropy box", GRID),
     S("n_fine", "", "eps below one grid step: 1/2 ... 1/2^n_fine (simulated)", COUNT0),
     S("n_coarse", "", "eps of whole grid steps: 1 ... 2^n_coarse (read from the grid)", COUNT0),
     S("n_sample", "", "states away from the grid's boundaries simulated for eps < 1", COUNT0),

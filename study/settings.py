@@ -170,6 +170,10 @@ def _apply(study: Study, quick: bool, sets) -> tuple[dict, list[str], dict]:
         raise UserError(f"--set {twice[0]} is given {given.count(twice[0])} times; give each setting once "
                         f"(a list sweeps it: --set {twice[0]}=A,B)")
     for key, text in pairs:
+        entry = lookup(key)
+        if entry.choices is not None and ("," in text or ":" in text) and key not in study.sweepable:
+            raise UserError(f"--set {key}={text}: {key} takes one of {', '.join(entry.labels())}, not a list or "
+                            f"range (it cannot be swept in study {study.name!r})")
         values = parse_values(key, text)
         if values is not None and key in grid_names:
             grid[key] = values

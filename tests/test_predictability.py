@@ -189,6 +189,18 @@ def test_grid_uncertain_at_edges_compares_the_inside_neighbour_only():
     assert not P.grid_uncertain(codes, 5).any()
 
 
+def test_sampled_fraction_strata_split_equal_weights():
+    u = np.array([1, 1, 0, 0, 0, 0, 0, 0], dtype=bool)
+    edge = np.array([1, 1, 1, 0, 0, 0, 0, 0], dtype=bool)
+    f, err = P.sampled_fraction(u)
+    f_s, err_s = P.sampled_fraction(u, None, edge)
+    assert f == f_s == 0.25
+    # one stratum: 8 * 0.25 * 0.75; two: the edge stratum 3 * (2/3) (1/3), the rest 0
+    assert err == pytest.approx(np.sqrt(8 * 0.25 * 0.75) / 8) and err_s == pytest.approx(np.sqrt(3 * 2 / 9) / 8)
+    with pytest.raises(ValueError, match="`strata`"):
+        P.sampled_fraction(u, None, edge[:3])
+
+
 def test_sampled_fraction_is_unbiased_over_strata():
     rng = np.random.default_rng(3)
     truth = rng.random(100_000) < np.where(np.arange(100_000) < 2000, 0.4, 0.002)
@@ -208,8 +220,10 @@ def test_refined_axis_keeps_the_grid_bit_for_bit_and_divides_each_step():
     assert f.size == 25 and np.array_equal(f[::4], v)  # the grid's own values, not recomputed
     assert np.allclose(np.diff(f), (v[1] - v[0]) / 4)
     assert np.array_equal(P.refined_axis(v, 1), v)
-    with pytest.raises(ValueError, match="k"):
-        P.refined_axis(v, 0)
+    for values, k, match in ((v, 0, "`k` must be an integer"), (v, 2.0, "`k` must be an integer"),
+                             ([0.0, np.nan, 1.0], 2, "finite"), ([0.0, 1j], 2, "real numbers")):
+        with pytest.raises(ValueError, match=match):
+            P.refined_axis(values, k)
 
 
 def test_refined_uncertain_reads_sub_step_pairs_from_the_fine_grid():
@@ -224,6 +238,12 @@ def test_refined_uncertain_reads_sub_step_pairs_from_the_fine_grid():
     assert np.array_equal(u[3], P.grid_uncertain(fine[::8], 1))
     with pytest.raises(ValueError, match="multiple of 1/k"):
         P.refined_uncertain(fine, 8, [0.1])
+    for k, eps, match in ((0, [0.5], "`k` must be an integer"), (2.5, [0.5], "`k` must be an integer"),
+                          (8, [], "one or more")):
+        with pytest.raises(ValueError, match=match):
+            P.refined_uncertain(fine, k, eps)
+    with pytest.raises(ValueError, match="`fine_codes`"):
+        P.refined_uncertain(fine.astype(float), 8, [0.5])
     with pytest.raises(ValueError, match=r"\(n - 1\) k \+ 1"):
         P.refined_uncertain(fine[:-1], 8, [0.5])
 
@@ -414,6 +434,32 @@ def test_eps_pairs_refined_reads_the_sampled_points_flags_from_the_refinement(tm
     assert (b["sample_weight"] == 1).all()  # every point tested at every eps
     assert 0 < int(b["eps_runs"].sum()) < 0.5 * b["outcome"].size * 64  # the fine grid, not all of it
     assert np.isfinite(b["alpha"]).all() and (b["alpha_low"] < b["alpha_high"]).all()
+    assert "refined" in b["alpha_err_states"].attrs["comment"] and "two-phase" in a["alpha_err_states"].attrs["comment"]
+    # the refined file is not verified against the sampled reference (another estimator below one step)
+    from rimroll.study.compare import compare
+
+    sampled_reference = a.copy()
+    del sampled_reference.attrs["setting_eps_pairs"]  # as the stored slices, made before the setting
+    for reference in (a, sampled_reference):
+        report = compare(b, reference)
+        assert report.n_common == 0 and "eps_pairs: refined (file) vs sampled" in report.reason
+
+
+def test_eps_pairs_refined_equals_a_sample_of_every_point(tmp_path):
+    """Sampling every point (n_sample above the points certain at one step) and reading the refined map
+    give the same f and f_err: the same two strata, every point of each tested."""
+    import xarray as xr
+
+    from rimroll.study.cli import main
+
+    common = ["--quick", "--set", "omega2=35", "--set", "n_beta=12", "--set", "n_omega1=18", "--no-progress"]
+    for how, extra in (("sampled", ["--set", "n_sample=100000"]), ("refined", [])):
+        assert main(["run", "predictability", *common, *extra, "--set", f"eps_pairs={how}",
+                     "--out", str(tmp_path / how)]) == 0
+    a, b = (xr.open_dataset(tmp_path / how / "predictability.nc") for how in ("sampled", "refined"))
+    assert np.array_equal(a["uncertain"], b["uncertain"])
+    np.testing.assert_allclose(a["f"], b["f"], rtol=1e-12)
+    np.testing.assert_allclose(a["f_err"], b["f_err"], rtol=1e-12)
 
 
 def test_eps_pairs_refined_refuses_a_refined_grid_too_large_in_one_line(tmp_path, capsys):
@@ -423,6 +469,11 @@ def test_eps_pairs_refined_refuses_a_refined_grid_too_large_in_one_line(tmp_path
                  "--out", str(tmp_path), "--no-progress"]) != 0
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "eps_pairs=refined" in err[0] and "lower n_fine" in err[0]
+    for item, needle in (("eps_pairs=refined,sampled", "takes one of sampled, refined, not a list"),
+                         ("n_coarse=5", "must be shorter than the grid")):
+        assert main(["run", "predictability", "--quick", "--set", item, "--out", str(tmp_path), "--no-progress"]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and needle in err[0], err
 
 
 def test_make_probability_study_file(studies):

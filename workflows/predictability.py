@@ -90,6 +90,9 @@ def _pred_axes(s):
         raise ValueError(f"box must be >= 2 and fit the grid ({s['n_beta']} x {s['n_omega1']}); got {s['box']}")
     if s["n_sample"] < 0:
         raise ValueError(f"n_sample must be >= 0; got {s['n_sample']}")
+    if 2 ** int(s["n_coarse"]) >= min(s["n_beta"], s["n_omega1"]) - 1:
+        raise ValueError(f"n_coarse = {s['n_coarse']}: the largest eps, 2**n_coarse = {2 ** int(s['n_coarse'])} grid "
+                         f"steps, must be shorter than the grid ({s['n_beta']} x {s['n_omega1']} points)")
     if s["n_fine"] + s["n_coarse"] + 1 > 31:
         raise ValueError("at most 31 eps (the uncertain flags are bits of an int32)")
     k = 2 ** int(s["n_fine"])
@@ -188,11 +191,15 @@ def _lead(ds, name):
 
 N_BOOT = 1000
 """Bootstrap replicates of alpha per section and scene (``solver.analysis.exponent_bootstrap``)."""
-BOOT_COMMENT = (f"{N_BOOT} replicates (solver.analysis.exponent_bootstrap, seed = the run's seed + the panel's "
-                "index): each draws the grid's points with replacement (Poisson bootstrap; below one grid step the "
-                "two-phase sample of section_uncertainty: the edge points and the random sample of the rest) and "
-                "fits alpha as the nominal estimate does, on the whole eps range and on a contiguous window of at "
-                "least 3 eps picked at random")
+def boot_comment(refined: bool) -> str:
+    """The comment of the bootstrap variables: how the points below one grid step were tested."""
+    below = ("every grid point, its pairs read from the refined map (eps_pairs = refined)" if refined else
+             "the two-phase sample of section_uncertainty: the edge points and the random sample of the rest")
+    return (f"{N_BOOT} replicates (solver.analysis.exponent_bootstrap, seed = the run's seed + the panel's "
+            f"index): each draws the grid's points with replacement (Poisson bootstrap; below one grid step {below}) "
+            "and fits alpha as the nominal estimate does, on the whole eps range and on a contiguous window of at "
+            "least 3 eps picked at random")
+
 
 
 def _bootstrap(eps, bits, weight, n_eff, seed: int) -> tuple[float, float, float, float]:
@@ -205,6 +212,17 @@ def _bootstrap(eps, bits, weight, n_eff, seed: int) -> tuple[float, float, float
     return b.err_states, b.err, b.low, b.high
 
 
+STRATA = "strata: the points uncertain at one grid step and the others;"
+
+
+def _refined_file(ds) -> bool:
+    """Whether a predictability file tested eps < 1 on the refined map (files before the setting: sampled)."""
+    try:
+        return str(setting_of(ds, "eps_pairs")) == "refined"
+    except KeyError:
+        return False
+
+
 def _pred_derive(ds):
     codes, lead = _lead(ds, "outcome")
     bits, _ = _lead(ds, "uncertain")
@@ -212,6 +230,8 @@ def _pred_derive(ds):
     shape = codes.shape[:-2]
     eps = eps_values(setting_of(ds, "n_fine"), setting_of(ds, "n_coarse"))
     box = int(setting_of(ds, "box"))
+    refined = _refined_file(ds)
+    comment = boot_comment(refined)
     def flat(a):
         return a.reshape((-1,) + a.shape[-2:])
     n = int(np.prod(shape, dtype=int))
@@ -223,8 +243,9 @@ def _pred_derive(ds):
     for i, (c, b, w) in enumerate(zip(flat(codes), flat(bits), flat(weight))):
         be = pred.basin_entropy(c, box)
         s_b[i], s_bb[i], n_bb[i] = be.S_b, be.S_bb, be.n_boundary_boxes
+        edge = (b >> int(np.argmin(np.abs(np.log(eps))))) & 1  # uncertain at one grid step: the first stratum
         for j, e in enumerate(eps):
-            f[i, j], f_err[i, j] = pred.sampled_fraction((b >> j) & 1, w if e < 1 else None)
+            f[i, j], f_err[i, j] = pred.sampled_fraction((b >> j) & 1, w if e < 1 else None, edge if e < 1 else None)
         with np.errstate(divide="ignore", invalid="ignore"):
             n_eff = np.where(f_err[i] > 0, f[i] * (1 - f[i]) / f_err[i] ** 2, 0.0)
         ex = pred.uncertainty_exponent(eps, f[i], n_eff)
@@ -244,22 +265,25 @@ def _pred_derive(ds):
         "n_boundary_boxes": (lead, r(n_bb), {"units": "1", "long_name": "boxes holding more than one outcome"}),
         "f": (dims_eps, re(f), {"units": "1", "long_name": "fraction of states whose outcome changes under a "
                                 "+-eps perturbation of beta or omega1 (uncertain fraction f(eps))"}),
-        "f_err": (dims_eps, re(f_err), {"units": "1", "long_name": "standard error of f (binomial, stratified)"}),
+        "f_err": (dims_eps, re(f_err), {"units": "1", "long_name": "standard error of f (binomial, stratified)",
+                                        "comment": STRATA + (" every point tested (eps_pairs = refined)" if refined
+                                                             else " below one grid step the second stratum is a "
+                                                                  "random sample (sample_weight)")}),
         "alpha": (lead, r(alpha), {"units": "1", "long_name": "uncertainty exponent: slope of log f against "
                                    "log eps (1: smooth boundary, < 1: fractal)"}),
         "alpha_err": (lead, r(alpha_err), {"units": "1", "long_name": "standard error of alpha (the fit's)"}),
         "alpha_err_states": (lead, r(spread[:, 0]), {
             "units": "1", "long_name": "bootstrap error of alpha: standard deviation over resamplings of the states, "
-                                       "whole eps range", "comment": BOOT_COMMENT}),
+                                       "whole eps range", "comment": comment}),
         "alpha_err_bootstrap": (lead, r(spread[:, 1]), {
             "units": "1", "long_name": "bootstrap error of alpha: standard deviation over resamplings of the states "
-                                       "and of the eps range fitted", "comment": BOOT_COMMENT}),
+                                       "and of the eps range fitted", "comment": comment}),
         "alpha_low": (lead, r(spread[:, 2]), {
             "units": "1", "long_name": "2.5 % percentile of alpha over resamplings of the states and the eps range",
-            "comment": BOOT_COMMENT}),
+            "comment": comment}),
         "alpha_high": (lead, r(spread[:, 3]), {
             "units": "1", "long_name": "97.5 % percentile of alpha over resamplings of the states and the eps range",
-            "comment": BOOT_COMMENT}),
+            "comment": comment}),
         "D": (lead, r(2 - alpha), {"units": "1", "long_name": "box dimension of the outcome boundaries in the "
                                    "(beta, omega1) section, 2 - alpha"}),
     }
@@ -323,8 +347,10 @@ def _pred_plot(ds):
             ax.set_ylabel(r"$\beta$ [rad]")
         fig.colorbar(mesh, ax=axes[r, 1:], label="box entropy [nats]", shrink=0.9)
     box = int(setting_of(ds, "box"))
-    fig.suptitle(f"{ds.attrs['title']}\nuncertain fraction f (whole eps read from the grid, eps < 1 simulated on a "
-                 f"stratified sample; lines: fitted slopes) and entropy of {box} x {box} boxes"
+    below = ("read for every point from the section refined 2^n_fine times" if _refined_file(ds) else
+             "simulated on a stratified sample")
+    fig.suptitle(f"{ds.attrs['title']}\nuncertain fraction f (whole eps read from the grid, eps < 1 {below}; "
+                 f"lines: fitted slopes) and entropy of {box} x {box} boxes"
                  + ("; hatched: beyond the last whole box" if partial else ""), fontsize=11)
     return fig
 

@@ -124,7 +124,7 @@ class Fraction(NamedTuple):
 
 def _check_eps(eps) -> np.ndarray:
     e = np.atleast_1d(np.asarray(eps, dtype=float))
-    if e.ndim != 1 or not np.all(np.isfinite(e)) or np.any(e <= 0):
+    if e.ndim != 1 or e.size == 0 or not np.all(np.isfinite(e)) or np.any(e <= 0):
         raise ValueError(f"`eps` must be one or more finite values > 0; got {eps!r}")
     return e
 
@@ -308,14 +308,24 @@ def section_uncertainty(states, codes, params: Params, eps, scale, *, n_sample: 
     return uncertain, weight
 
 
+def _check_k(k) -> int:
+    if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
+        raise ValueError(f"`k` must be an integer >= 1 (refinement factor); got {k!r}")
+    return int(k)
+
+
 def refined_axis(values, k: int) -> np.ndarray:
     """The axis ``values`` (n,) refined k times: (n - 1) k + 1 values, the original ones at every k-th
     place (bit for bit) and k - 1 equally spaced ones inside each interval."""
-    v = np.asarray(values, dtype=float)
+    raw = np.asarray(values)
+    if raw.dtype.kind not in "iuf":
+        raise ValueError(f"`values` must be real numbers; got dtype {raw.dtype}")
+    v = raw.astype(float)
     if v.ndim != 1 or v.size < 2:
         raise ValueError(f"`values` must be an axis of >= 2 values; got shape {v.shape}")
-    if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
-        raise ValueError(f"`k` must be an integer >= 1 (refinement factor); got {k!r}")
+    if not np.all(np.isfinite(v)):
+        raise ValueError("`values` must be finite (an axis of beta [rad] or omega1 [1/s]); got NaN or inf")
+    k = _check_k(k)
     inside = v[:-1, None] + (np.arange(k) / k)[None, :] * np.diff(v)[:, None]
     inside[:, 0] = v[:-1]
     return np.concatenate([inside.ravel(), v[-1:]])
@@ -332,7 +342,11 @@ def refined_uncertain(fine_codes, k: int, eps) -> np.ndarray:
     points: the perturbed states of :func:`perturbation_fraction` with ``scale`` = the grid steps
     are points of the fine grid, so every pair comes from the fine map, none is simulated here.
     """
-    a = _as_codes(fine_codes)
+    k = _check_k(k)
+    try:
+        a = _as_codes(fine_codes)
+    except ValueError as exc:
+        raise ValueError(str(exc).replace("`codes`", "`fine_codes`")) from None
     e = _check_eps(eps)
     steps = e * k
     if np.any(np.abs(steps - np.round(steps)) > 1e-9):
@@ -343,23 +357,29 @@ def refined_uncertain(fine_codes, k: int, eps) -> np.ndarray:
     return np.stack([grid_uncertain(a, int(round(m)))[at_points] for m in steps])
 
 
-def sampled_fraction(uncertain, weight=None):
+def sampled_fraction(uncertain, weight=None, strata=None):
     """f and its standard error from a (stratified) sample of uncertain flags.
 
     ``uncertain`` bool (...); ``weight`` (...) the number of points each sampled point stands
-    for (0: not sampled; None: every point, weight 1). Points of equal weight form one stratum
-    (the grid itself stands for the continuum of states, so no finite-population correction);
-    f = sum(weight * uncertain) / N with N the sum of the strata's sizes N_s = weight * n_s,
-    and its variance sums N_s^2 p_s (1 - p_s) / n_s / N^2 over strata.
+    for (0: not sampled; None: every point, weight 1); ``strata`` (...) integer or bool labels
+    (None: one label). Points of equal weight and label form one stratum (the grid itself stands
+    for the continuum of states, so no finite-population correction); f = sum(weight *
+    uncertain) / N with N the sum of the strata's sizes N_s = weight * n_s, and its variance sums
+    N_s^2 p_s (1 - p_s) / n_s / N^2 over strata. The section's eps test labels its strata by
+    whether a point is uncertain at one grid step: then a test of every point and a sample of
+    the second stratum estimate the same variance where the sample holds every point.
     Returns (f, f_err).
     """
     u = np.asarray(uncertain, dtype=bool).ravel()
     w = np.ones(u.shape) if weight is None else np.asarray(weight, dtype=float).ravel()
     if w.shape != u.shape:
         raise ValueError(f"`weight` must have the shape of `uncertain` {np.shape(uncertain)}; got {np.shape(weight)}")
+    label = np.zeros(u.shape, dtype=np.int64) if strata is None else np.asarray(strata).astype(np.int64).ravel()
+    if label.shape != u.shape:
+        raise ValueError(f"`strata` must have the shape of `uncertain` {np.shape(uncertain)}; got {np.shape(strata)}")
     total, hits, var = 0.0, 0.0, 0.0
-    for wv in np.unique(w[w > 0]):
-        m = w == wv
+    for wv, lv in np.unique(np.stack([w, label.astype(float)], axis=1)[w > 0], axis=0):
+        m = (w == wv) & (label == lv)
         n_s = int(m.sum())
         N_s = wv * n_s
         p = float(u[m].mean())
