@@ -107,14 +107,19 @@ class _Grid:
         return flat
 
     def touching(self, blocks: np.ndarray, flat: np.ndarray) -> np.ndarray:
-        """Per block (B, 4): whether one of the cells ``flat`` (flat indices) lies in it, edges included
-        (a summed-area table of those cells: one lookup per block)."""
-        mark = np.zeros(self.shape, dtype=np.int32)
-        mark.flat[flat] = 1
-        table = np.zeros((self.shape[0] + 1, self.shape[1] + 1), dtype=np.int64)
-        table[1:, 1:] = mark.cumsum(0).cumsum(1)
+        """Per block (B, 4): whether one of the cells ``flat`` (sorted flat indices) lies in it, edges
+        included: per row of each block, the cells between its first and last column, counted by
+        binary search in ``flat`` (no pass over the whole grid)."""
+        if not flat.size or not len(blocks):
+            return np.zeros(len(blocks), dtype=bool)
         i0, i1, j0, j1 = blocks.T
-        return (table[i1 + 1, j1 + 1] - table[i0, j1 + 1] - table[i1 + 1, j0] + table[i0, j0]) > 0
+        rows_per = i1 - i0 + 1
+        block = np.repeat(np.arange(len(blocks)), rows_per)
+        first = np.repeat(np.cumsum(rows_per) - rows_per, rows_per)
+        row = i0[block] + (np.arange(block.size) - first)
+        lo, hi = row * self.shape[1] + j0[block], row * self.shape[1] + j1[block]
+        inside = np.searchsorted(flat, hi, side="right") - np.searchsorted(flat, lo, side="left")
+        return np.bincount(block, weights=inside, minlength=len(blocks)) > 0
 
     def uniform(self, blocks: np.ndarray) -> np.ndarray:
         """Per block (B, 4): whether the simulated cells on its perimeter agree in class and indicators."""
@@ -335,9 +340,9 @@ def section(run: Callable, beta: np.ndarray, omega1: np.ndarray, s: dict, weight
     def cells(i, j):
         out = run(b2[i, j], w2[i, j])
         return out if names is None else {k: v for k, v in out.items() if k in names}
-    fields, level = adaptive_map(cells, b2.shape, int(s["adaptive_coarse"]),
-                                 weight=weight, periodic_code=outcomes.PERIODIC_ROLLING, falls=falls)
-    out = {name: values.reshape(shape) for name, values in fields.items()}
+    fields, level = adaptive_map(cells, b2.shape, int(s["adaptive_coarse"]), weight=weight,
+                                 periodic_code=outcomes.PERIODIC_ROLLING, falls=falls, filled=keep)
+    out = {name: values.reshape(shape) for name, values in fields.items() if keep is None or name in keep}
     out["refine_level"] = level.reshape(shape)
     return out
 
