@@ -347,7 +347,8 @@ def _pred_plot(ds):
             ax.set_ylabel(r"$\beta$ [rad]")
         fig.colorbar(mesh, ax=axes[r, 1:], label="box entropy [nats]", shrink=0.9)
     box = int(setting_of(ds, "box"))
-    below = ("read for every point from the section refined 2^n_fine times" if _refined_file(ds) else
+    below = (f"read for every point from the section refined {2 ** int(setting_of(ds, 'n_fine'))} times"
+             if _refined_file(ds) else
              "simulated on a stratified sample")
     fig.suptitle(f"{ds.attrs['title']}\nuncertain fraction f (whole eps read from the grid, eps < 1 {below}; "
                  f"lines: fitted slopes) and entropy of {box} x {box} boxes"
