@@ -87,6 +87,8 @@ def estimate(study: Study, points: int, workers: int, quick: bool = False) -> st
     key = study.cost_scale
     if key and not quick:
         seconds *= float(study.settings[key]) / float(study.quick.get(key, study.settings[key]))
+    if study.cost_factor is not None:
+        seconds *= float(study.cost_factor({**study.settings, **(study.quick if quick else {})}))
     text = f"about {seconds:.0f} s" if seconds >= 1 else "under a second"
     if study.compiles:
         text += " (a first run in a fresh environment also compiles the simulation kernels, 1-2 min, cached)"

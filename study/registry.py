@@ -205,7 +205,8 @@ class Study:
 
     What ``study info`` estimates: ``cost``, seconds per grid point on one core, warm (measured with
     ``--quick``), growing in proportion to the setting ``cost_scale`` (if any; measured at its
-    ``--quick`` value); ``compiles``: a first run in a fresh environment compiles the simulation
+    ``--quick`` value) and multiplied by ``cost_factor(settings)`` (if any: a setting that changes the
+    work per point, such as another method); ``compiles``: a first run in a fresh environment compiles the simulation
     kernels. ``reference``: how its stored reference slices are made (None: the study has none).
     """
 
@@ -223,6 +224,7 @@ class Study:
     ignores: dict = dataclasses.field(default_factory=dict)  # physical key -> why the study does not use it
     cost: float | None = None  # seconds per grid point on one core (None: no estimate)
     cost_scale: str | None = None  # the setting the cost per point is proportional to
+    cost_factor: Callable[[dict], float] | None = None  # a multiplier from the run's settings (another method)
     compiles: bool = False  # a first run compiles the simulation kernels (1-2 min, cached)
     reference: ReferenceSpec | None = None  # its stored reference slices
     derived_docs: tuple = ()  # (name or names, units, meaning) of what ``derive`` adds, for the docs
@@ -249,6 +251,8 @@ class Study:
     def _check_estimate(self) -> None:
         if self.cost is not None and not self.cost > 0:
             raise ValueError(f"study {self.name!r}: cost must be > 0 seconds per point; got {self.cost!r}")
+        if self.cost_factor is not None and (self.cost is None or not callable(self.cost_factor)):
+            raise ValueError(f"study {self.name!r}: cost_factor must be a function of the settings, with a cost")
         if self.cost_scale is not None and (self.cost is None or self.cost_scale not in self.settings):
             raise ValueError(f"study {self.name!r}: cost_scale {self.cost_scale!r} needs a cost and must be a setting")
         if self.reference is not None and not isinstance(self.reference, ReferenceSpec):

@@ -140,6 +140,8 @@ def core_seconds(plan, n_todo: int | None = None) -> float | None:
         measured = study.quick.get(key, study.settings[key])
         with contextlib.suppress(TypeError, ValueError, ZeroDivisionError):
             seconds *= float(value) / float(measured)
+    if study.cost_factor is not None:
+        seconds *= float(study.cost_factor(plan.settings))
     return seconds
 
 

@@ -462,6 +462,16 @@ def test_eps_pairs_refined_equals_a_sample_of_every_point(tmp_path):
     np.testing.assert_allclose(a["f_err"], b["f_err"], rtol=1e-12)
 
 
+def test_the_cost_model_knows_the_refined_eps_test_costs_more():
+    from rimroll.study import registry, runguard
+    from rimroll.study.plan import make_plan
+
+    study = registry.get("predictability")
+    sampled = runguard.core_seconds(make_plan(study, True, []))
+    refined = runguard.core_seconds(make_plan(study, True, ["eps_pairs=refined"]))
+    assert refined == pytest.approx(5 * sampled)
+
+
 def test_eps_pairs_refined_refuses_a_refined_grid_too_large_in_one_line(tmp_path, capsys):
     from rimroll.study.cli import main
 

@@ -382,6 +382,8 @@ register(Study(
     ),
     # README "Predictability of a shot": ~250 s CPU for the 12 sections x scenes of 86,400 points
     cost=2.5e-4, compiles=True,
+    # eps_pairs = refined: 5x (README, Fig. 12 at 240 x 360: 198 s CPU against 40 s)
+    cost_factor=lambda s: 5.0 if s.get("eps_pairs") == "refined" else 1.0,
     ignores=sections.SCENE_IGNORES,
     # a regression reference at the study's own settings: box entropies and eps-uncertain flags count
     # outcome changes within a grid step, so a tighter rtol moves them only where the outcomes differ;
