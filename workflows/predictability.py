@@ -191,6 +191,8 @@ def _lead(ds, name):
 
 N_BOOT = 1000
 """Bootstrap replicates of alpha per section and scene (``solver.analysis.exponent_bootstrap``)."""
+
+
 def boot_comment(refined: bool) -> str:
     """The comment of the bootstrap variables: how the points below one grid step were tested."""
     below = ("every grid point, its pairs read from the refined map (eps_pairs = refined)" if refined else
@@ -199,7 +201,6 @@ def boot_comment(refined: bool) -> str:
             f"index): each draws the grid's points with replacement (Poisson bootstrap; below one grid step {below}) "
             "and fits alpha as the nominal estimate does, on the whole eps range and on a contiguous window of at "
             "least 3 eps picked at random")
-
 
 
 def _bootstrap(eps, bits, weight, n_eff, seed: int) -> tuple[float, float, float, float]:
