@@ -86,22 +86,28 @@ class Report:
 
 
 def _defaults(study: str) -> dict:
-    """The default settings of ``study`` (empty for an unknown one)."""
+    """The default settings and physical parameters of ``study`` (``Params`` defaults under its own;
+    empty for an unknown study)."""
+    import dataclasses
+
+    from rimroll import solver
     from rimroll.study import registry
 
     try:
-        return dict(registry.get(study).settings)
+        settings = dict(registry.get(study).settings)
     except registry.UserError:
         return {}
+    return {**{f.name: getattr(solver.Params(), f.name) for f in dataclasses.fields(solver.Params)}, **settings}
 
 
 def _setting_mismatch(ds: xr.Dataset, ref: xr.Dataset) -> list[str]:
     out = []
-    # a setting the reference does not record is one added after it was made: it was computed at
-    # the setting's default (a refined eps test is not the sampled one the reference holds)
+    # a setting or parameter the reference does not record is one added after it was made: it was
+    # computed at the default (a refined eps test is not the sampled one the reference holds; a
+    # Coulomb c_r > 0 is not the c_r = 0 of a reference made before c_r existed)
     defaults = _defaults(str(ref.attrs.get("study")))
     for key in ds.attrs:
-        name = key.split("_", 1)[1] if key.startswith("setting_") else None
+        name = key.split("_", 1)[1] if key.startswith(("setting_", "param_")) else None
         if name is None or key in ref.attrs or name in NUMERICAL_SETTINGS or name.startswith("n_"):
             continue
         default = defaults.get(name)

@@ -52,6 +52,24 @@ def test_other_settings_have_no_common_points(good_fig12, tmp_path, capsys):
     assert "settings differ" in capsys.readouterr().out
 
 
+@pytest.mark.parametrize("key, value, default", [("setting_delta", 1e-7, "1e-05"), ("param_c_r", 0.001, "0.0")])
+def test_a_setting_the_reference_predates_counts_as_its_default(good_fig12, tmp_path, capsys, key, value, default):
+    """A file with a setting or parameter its reference slice does not record (added after the slice was
+    made) is compared only at that setting's default."""
+    from rimroll.study.compare import compare
+
+    with xr.open_dataset(good_fig12) as ds:
+        file = ds.load()
+    ref = file.copy()
+    ref.attrs.pop(key, None)
+    file.attrs[key] = value
+    name = key.split("_", 1)[1]
+    report = compare(file, ref)
+    assert report.n_common == 0 and f"{name}: {value:g} (file) vs {default}" in report.reason, report.reason
+    file.attrs[key] = float(default)  # at the default: compared as before
+    assert compare(file, ref).ok
+
+
 def test_quick_run_verifies_against_the_quick_slice(quick_results, capsys):
     """A --quick grid is not a sub-grid of the default one; its study also ships a slice of the
     whole quick grid, and verify takes the slice sharing the most points: all of them."""
