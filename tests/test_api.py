@@ -100,6 +100,7 @@ def test_run_refuses_bad_input_in_one_line_before_any_work(probe, tmp_path):
     with pytest.raises(UserError, match="expected a number, a label"):
         rimroll.run("fanout-probe", mu={"a": 1})
     assert not list(tmp_path.iterdir())
+    assert rimroll.UserError is UserError and "UserError" in rimroll.__all__  # catchable from the top
 
 
 def test_settings_words_follow_the_set_rules():

@@ -40,12 +40,13 @@ install()  # notices at INFO on stderr until the application configures logging 
 
 if TYPE_CHECKING:  # for type checkers and IDEs; at run time they load on first use
     from rimroll.study.api import open, run, studies
+    from rimroll.study.registry import UserError
 
 _SUBPACKAGES = ("solver", "study", "workflows")
 _API = ("run", "open", "studies")
 
-__all__ = ["__version__", "LaneStatusWarning", "RimrollWarning", "run", "open", "studies", "solver", "study",
-           "workflows"]
+__all__ = ["__version__", "LaneStatusWarning", "RimrollWarning", "UserError", "run", "open", "studies", "solver",
+           "study", "workflows"]
 
 
 def __getattr__(name: str):
@@ -54,6 +55,8 @@ def __getattr__(name: str):
         return importlib.import_module(f"rimroll.{name}")
     if name in _API:
         return getattr(importlib.import_module("rimroll.study.api"), name)
+    if name == "UserError":  # what run and open raise for bad input: one line, fixable by the user
+        return importlib.import_module("rimroll.study.registry").UserError
     raise AttributeError(f"module 'rimroll' has no attribute {name!r}")
 
 
