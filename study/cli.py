@@ -293,7 +293,9 @@ def _cmd_verify(args) -> int:
         known = sorted(p.stem for p in where.glob("*.nc"))
         raise UserError(f"no reference slice for study {name!r} in {where} (slices: {', '.join(known) or 'none'})")
     reports = [(compare.compare(ds, io.open_result(path)), path) for path in paths]
-    report, path = max(reports, key=lambda rp: rp[0].n_common)  # max keeps the first of equals
+    # the slice with most points in common; of slices with none, the one whose settings differ least
+    # (a --quick file is told what differs from the quick slice, not the default grid's box size)
+    report, path = max(reports, key=lambda rp: (rp[0].n_common, -rp[0].mismatches))  # max keeps the first of equals
     for line in compare.format_report(report, args.file, str(path)):
         print(line)
     return 0 if report.ok else 1

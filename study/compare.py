@@ -36,9 +36,10 @@ import xarray as xr
 
 COORD_RTOL = 1e-6
 # settings that only set grid size or precision: they may differ between a file and the reference
-NUMERICAL_SETTINGS = ("rtol", "atol", "method", "max_steps", "backend", "adaptive", "adaptive_coarse")
+NUMERICAL_SETTINGS = ("rtol", "atol", "method", "max_steps", "backend", "adaptive", "adaptive_coarse", "slip_method")
 """How, not what, is computed (an adaptive map is the same map: its filled cells are not compared as
-continuous values, ``SIMULATED``)."""
+continuous values, ``SIMULATED``; ``slip_method``: the steps of a slip phase, Rodas4 or explicit, solve the
+same equations)."""
 SIMULATED = "refine_level"
 """A file's per-cell variable saying which cells were simulated (>= 0) and which were filled from a
 uniform block's corners (-1, workflows/adaptive.py): continuous variables are compared at the first only."""
@@ -74,6 +75,7 @@ class Report:
     n_reference: int = 0  # points of the reference slice
     missing: list = dataclasses.field(default_factory=list)  # reference variables absent from the file
     skipped: list = dataclasses.field(default_factory=list)  # never compared: integrator work, timings
+    mismatches: int = 0  # settings that differ from the reference's (then nothing is compared)
 
     @property
     def coverage(self) -> float:
@@ -123,9 +125,15 @@ def _setting_mismatch(ds: xr.Dataset, ref: xr.Dataset) -> list[str]:
         if not (key.startswith("param_") or key.startswith("setting_")):
             continue
         name = key.split("_", 1)[1]
-        if name in NUMERICAL_SETTINGS or name.startswith("n_") or key not in ds.attrs:
+        if name in NUMERICAL_SETTINGS or name.startswith("n_") or name in ds.dims:
+            continue  # how it was computed, a grid size, or an axis the file sweeps (aligned later)
+        if key in ds.attrs:
+            mine = ds.attrs[key]
+        elif name in ds.coords and ds[name].ndim == 0:  # a scalar coordinate
+            mine = ds[name].values[()]
+        else:  # a file edited, or written before the setting existed: not known to be equal
+            out.append(f"{name}: not recorded in the file vs {value} (reference)")
             continue
-        mine = ds.attrs[key]
         try:
             same = np.isclose(float(mine), float(value), rtol=1e-12, atol=0.0) or (
                 np.isinf(float(mine)) and float(mine) == float(value))
@@ -256,7 +264,8 @@ def compare(ds: xr.Dataset, ref: xr.Dataset, tolerances: dict | None = None) -> 
     tol.update(tolerances or {})
     mismatch = _setting_mismatch(ds, ref)
     if mismatch:
-        return Report(study, 0, "settings differ, so no point is common: " + "; ".join(mismatch))
+        return Report(study, 0, "settings differ, so no point is common: " + "; ".join(mismatch),
+                      mismatches=len(mismatch))
     ds, ref = _grid_only(ds), _grid_only(ref)
     n_reference = int(np.prod(list(ref.sizes.values())))
     ds, ref, why = _align(ds, ref)

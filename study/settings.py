@@ -112,7 +112,12 @@ def parse_values(key: str, text: str):
             raise UserError(f"--set {key}={text}: at most {checks.MAX_AXIS} values per swept setting; got {num}")
         if not (math.isfinite(start) and math.isfinite(stop)) or start == stop:
             raise UserError(f"--set {key}={text}: a range needs finite start != stop")
-        return tuple(float(v) for v in np.linspace(start, stop, num))
+        with np.errstate(over="ignore", invalid="ignore"):  # stop - start beyond the largest float
+            values = np.linspace(start, stop, num)
+        if not np.all(np.isfinite(values)):
+            raise UserError(f"--set {key}={text}: the range's points are not finite numbers (start and stop too far "
+                            "apart for a float)")
+        return tuple(float(v) for v in values)
     if "," in text:
         items = [t.strip() for t in text.split(",")]
         if any(not t for t in items):
@@ -167,13 +172,20 @@ def _apply(study: Study, quick: bool, sets) -> tuple[dict, list[str], dict]:
     given = [key for key, _ in pairs]
     twice = sorted({key for key in given if given.count(key) > 1})
     if twice:  # the later one would silently win: say which value is meant
-        raise UserError(f"--set {twice[0]} is given {given.count(twice[0])} times; give each setting once "
-                        f"(a list sweeps it: --set {twice[0]}=A,B)")
+        key = twice[0]
+        sweep = f" (a list sweeps it: --set {key}=A,B)" if key in study.sweepable else ""
+        also = " (--backend is --set backend=...)" if key == "backend" else ""
+        raise UserError(f"--set {key} is given {given.count(key)} times{also}; give each setting once{sweep}")
     for key, text in pairs:
         entry = lookup(key)
-        if entry.choices is not None and ("," in text or ":" in text) and key not in study.sweepable:
-            raise UserError(f"--set {key}={text}: {key} takes one of {', '.join(entry.labels())}, not a list or "
-                            f"range (it cannot be swept in study {study.name!r})")
+        switch = isinstance(settings.get(key), bool)
+        if (entry.choices is not None or switch) and ("," in text or ":" in text) and key not in study.sweepable:
+            allowed = "true or false" if switch else f"one of {', '.join(entry.labels())}"
+            raise UserError(f"--set {key}={text}: {key} takes {allowed}, not a list or range (it cannot be swept "
+                            f"in study {study.name!r})")
+        if key in grid_names and f"n_{key}" in given:
+            raise UserError(f"--set {key}={text} and --set n_{key}: give the {key} axis either as values or as a "
+                            f"number of points, not both")
         values = parse_values(key, text)
         if values is not None and key in grid_names:
             grid[key] = values

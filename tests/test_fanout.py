@@ -103,6 +103,7 @@ def test_set_forms_make_axes(probe):
     ("rho_over_R=0.5,1.5", "rho_over_R=1.5"),
     ("v_throw=-2:3:4", "v_throw=-2.0 is out of range"),
     ("mu=2,1,2", "strictly monotonic"),
+    ("mu=-1e308:1e308:3", "the range's points are not finite numbers"),
 ])
 def test_bad_set_is_one_line_exit_2(probe, tmp_path, capsys, item, expect):
     assert _run(tmp_path, "--set", item) == 2
@@ -115,6 +116,23 @@ def test_a_setting_given_twice_is_refused_not_silently_the_last(probe, tmp_path,
     assert _run(tmp_path, "--set", "mu=1", "--set", "mu=2") == 2
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and "--set mu is given 2 times" in err, err
+
+
+@pytest.mark.parametrize("argv, needle", [
+    (["--set", "backend=cpu", "--backend", "cpu"], "--set backend is given 2 times (--backend is --set backend=...)"),
+    (["--set", "adaptive=true,false"], "adaptive takes true or false, not a list or range"),
+    (["--set", "n_beta=24", "--set", "beta=0.8:1.8:10"], "either as values or as a number of points, not both"),
+])
+def test_settings_that_cannot_mean_what_they_say_are_one_line(tmp_path, capsys, argv, needle):
+    from rimroll.study.cli import main
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert main(["run", "fig11", "--quick", "--out", str(tmp_path), *argv]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and needle in err, err
+    assert "a list sweeps it" not in err  # none of these can be swept in fig11
+    assert not list(tmp_path.iterdir())
 
 
 def test_an_axis_of_two_infinities_is_one_line_without_a_numpy_warning(tmp_path, capsys):

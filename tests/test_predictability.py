@@ -413,7 +413,7 @@ def test_predictability_study_file(studies):
     assert float(roll["S_bb"]) < np.log(2) and abs(float(roll["alpha"]) - 1) < 3 * float(roll["alpha_err"])
 
 
-def test_eps_pairs_refined_reads_the_sampled_points_flags_from_the_refinement(tmp_path):
+def test_eps_pairs_refined_reads_the_sampled_points_flags_from_the_refinement(tmp_path, capsys):
     """eps_pairs = refined (every grid point, its sub-step pairs from an adaptive map 2**n_fine times finer)
     gives the outcome grid of the sampled run and, at every point that run simulated, the same flags."""
     import xarray as xr
@@ -443,6 +443,10 @@ def test_eps_pairs_refined_reads_the_sampled_points_flags_from_the_refinement(tm
     for reference in (a, sampled_reference):
         report = compare(b, reference)
         assert report.n_common == 0 and "eps_pairs: refined (file) vs sampled" in report.reason
+    # study verify names the slice whose settings differ least: the quick one, eps_pairs alone
+    assert main(["verify", str(tmp_path / "refined" / "predictability.nc")]) == 1
+    out = capsys.readouterr().out
+    assert "quick" in out and "eps_pairs: refined" in out and "box" not in out, out
 
 
 def test_eps_pairs_refined_equals_a_sample_of_every_point(tmp_path):

@@ -70,6 +70,19 @@ def test_a_setting_the_reference_predates_counts_as_its_default(good_fig12, tmp_
     assert compare(file, ref).ok
 
 
+def test_a_setting_the_file_does_not_record_is_not_taken_as_equal(good_fig12):
+    from rimroll.study.compare import compare
+
+    with xr.open_dataset(good_fig12) as ds:
+        file = ds.load()
+    ref = file.copy()
+    del file.attrs["setting_omega3"]  # an edited file: which omega3 it was computed at is unknown
+    if "omega3" in file.coords:  # the scalar coordinate that also says it
+        file = file.drop_vars("omega3")
+    report = compare(file, ref)
+    assert report.n_common == 0 and "omega3: not recorded in the file" in report.reason
+
+
 def test_quick_run_verifies_against_the_quick_slice(quick_results, capsys):
     """A --quick grid is not a sub-grid of the default one; its study also ships a slice of the
     whole quick grid, and verify takes the slice sharing the most points: all of them."""

@@ -209,7 +209,7 @@ register(Study(
     quick={"omega2": (20.0, 35.0, 50.0, 65.0, 85.0, 105.0, 120.0), "n_beta": 24, "n_omega1": 36,
            "adaptive_coarse": 4},
     sweepable=SWEEPS,
-    cost=3e-5, compiles=True,
+    cost=3e-5, compiles=True, cost_factor=adaptive.cost_factor,
     axes=adaptive.checked_axes(_axes),
     variables=[output_var(name) for name in ("outcome", "status")] + [
         Var("refine_level", "1", adaptive.LEVEL_ATTRS["long_name"], dtype="int8",

@@ -243,7 +243,8 @@ register(Study(
     quick={"mu": (0.5, 1.0), "k_r": (0.0, 0.02), "k_d": (0.0, 0.02), "omega2": (65.0, 105.0),
            "n_beta": 12, "n_omega1": 18},
     sweepable=OUTCOME_SWEEPS,
-    cost=2e-4, compiles=True,  # seconds per grid point on one core, warm (--quick on 2 shared cores, 2026-11)
+    # cost: seconds per grid point on one core, warm (--quick on 2 shared cores, 2026-11)
+    cost=2e-4, compiles=True, cost_factor=adaptive.cost_factor,
     axes=adaptive.checked_axes(_outcome_axes),
     variables=[output_var(name) for name in ("outcome", "t_end", "revolutions", "status")] + [
         Var("refine_level", "1", adaptive.LEVEL_ATTRS["long_name"], dtype="int8",

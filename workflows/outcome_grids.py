@@ -438,6 +438,7 @@ for _name, _omega2, _fig in (("fig11", 35.0, 11), ("fig12", 65.0, 12), ("fig13",
         derive=_derive,
         derived_docs=DERIVED_DOCS,
         ignores=SCENE_IGNORES,
-        cost=3e-4, compiles=True,  # seconds per grid point on one core, warm (--quick on 2 shared cores, 2026-11)
+        # cost: seconds per grid point on one core, warm (--quick on 2 shared cores, 2026-11)
+        cost=3e-4, compiles=True, cost_factor=adaptive.cost_factor,
         reference=REFERENCE,
     ))
