@@ -31,8 +31,10 @@ def test_long_names_cite_docs_or_the_paper_only():
 def test_every_study_and_variable_is_documented():
     text = (ROOT / "docs" / "studies.md").read_text()
     sections = dict(re.findall(r"^## `([^`]+)`: .*?\n(.*?)(?=^## |\Z)", text, re.M | re.S))
-    assert set(sections) == set(registry.names()), "run python docs/gen_studies.py"
-    for name in registry.names():
+    # rimroll's own studies (a test's probe study, registered in this process, is no study of rimroll's)
+    names = [name for name in registry.names() if registry.get(name).compute.__module__.startswith("rimroll.")]
+    assert set(sections) == set(names), "run python docs/gen_studies.py"
+    for name in names:
         for var in registry.get(name).variables:
             assert f"| `{var.name}` | {var.units} |" in sections[name], (name, var.name)
 
