@@ -88,18 +88,24 @@ class Report:
 
 
 def _defaults(study: str) -> dict:
-    """The default settings and physical parameters of ``study`` (``Params`` defaults under its own;
-    empty for an unknown study)."""
-    import dataclasses
-
-    from rimroll import solver
+    """The default settings and physical parameters of ``study`` (empty for an unknown study)."""
     from rimroll.study import registry
+    from rimroll.study.settings import default_settings
 
     try:
-        settings = dict(registry.get(study).settings)
+        return default_settings(registry.get(study))
     except registry.UserError:
         return {}
-    return {**{f.name: getattr(solver.Params(), f.name) for f in dataclasses.fields(solver.Params)}, **settings}
+
+
+def _same(mine, theirs) -> bool:
+    """Whether a file's setting and a reference's are the same value: numbers to 1e-12 (inf only inf),
+    anything else as text."""
+    try:
+        a, b = float(mine), float(theirs)
+    except (TypeError, ValueError):
+        return str(mine) == str(theirs)
+    return a == b or bool(np.isclose(a, b, rtol=1e-12, atol=0.0))
 
 
 def _setting_mismatch(ds: xr.Dataset, ref: xr.Dataset) -> list[str]:
@@ -113,12 +119,7 @@ def _setting_mismatch(ds: xr.Dataset, ref: xr.Dataset) -> list[str]:
         if name is None or key in ref.attrs or name in NUMERICAL_SETTINGS or name.startswith("n_"):
             continue
         default = defaults.get(name)
-        if isinstance(default, (str, bool, int, float)) and str(ds.attrs[key]) != str(default):
-            try:
-                if float(ds.attrs[key]) == float(default):
-                    continue
-            except (TypeError, ValueError):
-                pass
+        if isinstance(default, (str, bool, int, float)) and not _same(ds.attrs[key], default):
             out.append(f"{name}: {ds.attrs[key]} (file) vs {default} (reference: made before the setting existed, "
                        "at its default)")
     for key, value in ref.attrs.items():
@@ -134,12 +135,7 @@ def _setting_mismatch(ds: xr.Dataset, ref: xr.Dataset) -> list[str]:
         else:  # a file edited, or written before the setting existed: not known to be equal
             out.append(f"{name}: not recorded in the file vs {value} (reference)")
             continue
-        try:
-            same = np.isclose(float(mine), float(value), rtol=1e-12, atol=0.0) or (
-                np.isinf(float(mine)) and float(mine) == float(value))
-        except (TypeError, ValueError):
-            same = str(mine) == str(value)
-        if not same:
+        if not _same(mine, value):
             out.append(f"{name}: {mine} (file) vs {value} (reference)")
     return out
 
