@@ -83,12 +83,7 @@ def estimate(study: Study, points: int, workers: int, quick: bool = False) -> st
     seconds of start-up and writing, not counted)."""
     if study.cost is None:
         return "no estimate for this study"
-    seconds = study.cost * points / max(workers, 1)
-    key = study.cost_scale
-    if key and not quick:
-        seconds *= float(study.settings[key]) / float(study.quick.get(key, study.settings[key]))
-    if study.cost_factor is not None:
-        seconds *= float(study.cost_factor({**study.settings, **(study.quick if quick else {})}))
+    seconds = study.core_seconds(points, {**study.settings, **(study.quick if quick else {})}) / max(workers, 1)
     text = f"about {seconds:.0f} s" if seconds >= 1 else "under a second"
     if study.compiles:
         text += " (a first run in a fresh environment also compiles the simulation kernels, 1-2 min, cached)"

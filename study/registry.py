@@ -11,6 +11,7 @@ imports a studies module by name."""
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import importlib.util
 import os
@@ -247,6 +248,23 @@ class Study:
         if not names or len(set(names)) != len(names):
             raise ValueError(f"study {self.name!r}: variable names must be non-empty and unique; got {names}")
         self._check_estimate()
+
+    def core_seconds(self, points: float, settings: dict) -> float | None:
+        """The cost model: seconds of one core for ``points`` grid points at ``settings`` (``cost`` per
+        point, in proportion to the setting ``cost_scale`` against its ``--quick`` value, the largest
+        of a swept one, times ``cost_factor(settings)``); None for a study without a cost."""
+        if self.cost is None:
+            return None
+        seconds = self.cost * points
+        if self.cost_scale:
+            value = settings.get(self.cost_scale)
+            value = max(value) if isinstance(value, tuple) else value
+            measured = self.quick.get(self.cost_scale, self.settings[self.cost_scale])
+            with contextlib.suppress(TypeError, ValueError, ZeroDivisionError):
+                seconds *= float(value) / float(measured)
+        if self.cost_factor is not None:
+            seconds *= float(self.cost_factor(settings))
+        return seconds
 
     def _check_estimate(self) -> None:
         if self.cost is not None and not self.cost > 0:

@@ -126,23 +126,10 @@ def core_seconds(plan, n_todo: int | None = None) -> float | None:
     """The study's cost model (``Study.cost`` seconds per grid point on one core, in proportion to
     its ``cost_scale`` setting, measured at that setting's ``--quick`` value) for ``n_todo`` chunks
     of ``plan`` (default: all of them); None for a study without a cost."""
-    study = plan.study
-    if study.cost is None:
-        return None
     points = float(np.prod(plan.shape, dtype=float))
     if n_todo is not None:
         points *= n_todo / max(plan.n_chunks, 1)
-    seconds = study.cost * points
-    key = study.cost_scale
-    if key:
-        value = plan.settings.get(key)
-        value = max(value) if isinstance(value, tuple) else value
-        measured = study.quick.get(key, study.settings[key])
-        with contextlib.suppress(TypeError, ValueError, ZeroDivisionError):
-            seconds *= float(value) / float(measured)
-    if study.cost_factor is not None:
-        seconds *= float(study.cost_factor(plan.settings))
-    return seconds
+    return plan.study.core_seconds(points, plan.settings)
 
 
 def check_estimate(plan) -> None:
