@@ -359,7 +359,7 @@ def next_event(events, table, tracking, theta0, g0, g1, gr1, dense, p, aux, scra
             best = e
             best_theta = theta
     if best < 0:
-        update_signs(g1, tracking.sign, -1)
+        update_signs(g1, tracking.sign, np.int64(-1))  # int64, not Literal[int]: one compiled callee
         return -1, 1.0
     return best, best_theta
 

@@ -185,7 +185,7 @@ def begin_phase(rhs, events, aux, phase, model, work, t, rtol):
     K = work.K
     y = W[W_Y]
     f = W[W_F]
-    rhs(y, model, K, 0)
+    rhs(y, model, K, np.int64(0))  # int64, not Literal[int]: one compiled callee
     for i in range(phase.n):
         f[i] = K[0, i]
         if not np.isfinite(f[i]):
@@ -449,7 +449,7 @@ def run_phase(rhs, events, aux, ret, phase, model, method, limits, work, res_f, 
     end = END_T_MAX
     dt_return = -1.0
     stiff_mode = limits.stiff_slips  # a slip starts at a small slip speed: stiff
-    since_check = 0
+    since_check = np.int64(0)  # int64, not Literal[int]: one compiled callee
     while t < t_max:
         stiff = False
         if ret is not None:
@@ -483,7 +483,7 @@ def run_phase(rhs, events, aux, ret, phase, model, method, limits, work, res_f, 
                 break
             end = END_T_MAX
         else:
-            update_signs(G[G_G1], work.sign, -1)
+            update_signs(G[G_G1], work.sign, np.int64(-1))
         if ret is not None and model.slipping:  # the return rule (switching.try_return) met within the step?
             if try_return(y_new, model.p, ret, t_max - t - h, W[W_Y_RET], model.load_fn) >= 0.0:
                 if not prepared:

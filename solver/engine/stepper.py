@@ -137,7 +137,7 @@ def initial_step(rhs, y, f, n, n_err, error_order, rtol, atol, span, tmp, F1, p)
     h0 = min(h0, span)
     for i in range(n):
         tmp[i] = y[i] + h0 * f[i]
-    rhs(tmp, p, F1, 0)
+    rhs(tmp, p, F1, np.int64(0))  # int64, not Literal[int]: one compiled callee
     d2 = 0.0
     for i in range(n_err):
         sc = atol[i] + rtol * abs(y[i])
