@@ -227,6 +227,9 @@ def test_the_engine_calls_only_numpy_functions_the_device_lowers():
 
     lowered = {u.__name__ for u in ufuncs.ufunc_db()} | {u.__name__ for u in cuda_backend.UFUNC_LOOPS}
     lowered |= {"abs"}  # np.abs is np.absolute
+    # numpy scalar types called as casts (np.int64(0)): numba-cuda lowers every call of a number class
+    # (numba_cuda/numba/cuda/cpython/builtins.py, ``@lower(types.NumberClass, types.Any)``)
+    lowered |= {t.__name__ for t in (np.int64, np.int32, np.float64)}
     root = pathlib.Path(solver.__file__).resolve().parent
     calls = {}
     for name in ENGINE_MODULES:
