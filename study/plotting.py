@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import numpy as np
 from matplotlib.figure import Figure
-from scipy import ndimage
 
 from rimroll.solver.engine import scenes
 
@@ -88,6 +87,8 @@ def components(mask: np.ndarray, min_fraction: float = 0.002, cells=None):
     Parts smaller than ``min_fraction`` of the grid are dropped. ``cells``: optional list of
     boolean masks; parts are then found within each cell separately.
     """
+    from scipy import ndimage  # here, not at the top: its import costs ~0.25 s and most plots never need it
+
     parts = []
     for cell in cells if cells is not None else [np.ones_like(mask, dtype=bool)]:
         labels, n = ndimage.label(mask & cell)
@@ -98,6 +99,8 @@ def components(mask: np.ndarray, min_fraction: float = 0.002, cells=None):
 
 def inner_point(beta0, omega30, mask: np.ndarray) -> tuple[float, float]:
     """A point of ``mask`` deep inside it (the maximum of the distance to its edge) [rad, 1/s]."""
+    from scipy import ndimage  # here, not at the top: see components
+
     depth = ndimage.distance_transform_edt(np.pad(mask, 1))[1:-1, 1:-1]
     i, j = np.unravel_index(np.argmax(depth), depth.shape)
     return float(beta0[j]), float(omega30[i])
