@@ -16,6 +16,7 @@ EXIT_INTERRUPTED = 130
 
 def main() -> int:
     """Entry point of the ``study`` console script: :func:`rimroll.study.cli.main`."""
+    sys.unraisablehook = _interrupt_in_a_callback_goes_on
     try:
         from rimroll.study.cli import main as command
 
@@ -32,12 +33,29 @@ def main() -> int:
         _quiet_exit()
 
 
+def _interrupt_in_a_callback_goes_on(unraisable) -> None:
+    """``sys.unraisablehook`` of the command: a Ctrl-C that lands while Python runs a callback (a weak
+    reference's, a finaliser's: objects freed as a command returns) cannot interrupt anything, and
+    Python would print it as "Exception ignored ... Traceback ... KeyboardInterrupt"; it is dropped
+    (the command goes on to its end, whose exit status and one line stand). Anything else is
+    reported as Python does."""
+    if isinstance(unraisable.exc_value, KeyboardInterrupt):
+        return
+    sys.__unraisablehook__(unraisable)
+
+
 def _quiet_exit() -> None:
     """The command has said what it did: Ctrl-C while the interpreter shuts down (dask's threads,
-    atexit handlers) is ignored, so that the exit status and stderr stay the command's own."""
+    atexit handlers) is ignored, so that the exit status and stderr stay the command's own. And the
+    garbage collector leaves the objects alive at this point alone (``gc.freeze``): the shutdown's
+    collections otherwise walk numba's graph of compiled functions, 0.4 of the 2.7 s of a warm
+    ``study run fig11 --quick``. Every file the command wrote is closed by now; the operating system
+    takes the memory back."""
+    import gc
     import signal
 
     try:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
     except ValueError:  # not the main thread
         pass
+    gc.freeze()
