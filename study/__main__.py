@@ -1,7 +1,7 @@
-"""``python -m rimroll.study``: the same as the ``study`` console script."""
+"""``python -m rimroll.study``: the ``study`` console script (``rimroll._command``), the same in every way."""
 
 import sys
 
-from rimroll.study.cli import main
+from rimroll._command import main
 
 sys.exit(main())
