@@ -12,8 +12,10 @@ Rules, shared by every phase and scene:
   that touches exactly 0 and returns does not fire; a value that starts a phase at 0 counts as
   being on the side it must leave (downward events: +), or as unknown (either-way events: the
   first nonzero value sets the sign).
-* **Sign changes at the step end** are located by the Illinois method (a safeguarded regula
-  falsi) on the dense output, to a bracket of ROOT_XTOL_EPS machine epsilons relative in t.
+* **Sign changes at the step end** are located on the dense output by a safeguarded Newton method
+  (each evaluation gives the event's time derivative along the dense output too; the Illinois
+  method, a safeguarded regula falsi, where a Newton point would leave the bracket or there is no
+  derivative), to a bracket of ROOT_XTOL_EPS machine epsilons relative in t.
   The returned point is the bracket end on the far side of the crossing (or an exact zero), so
   the event state already satisfies the post-event condition and re-detection is impossible.
 * **Tracked minima** (``track_min``: F2). A dip below zero that is over before the step ends
@@ -217,8 +219,13 @@ def value_at(events, e, theta, dense, p, aux, scratch):
 def locate(events, e, a, ga, b, gb, dense, p, aux, scratch):
     """Root of event e on the dense output in theta in [a, b], ga pre-crossing (or 0), gb post.
 
-    Illinois method; returns the post-crossing bracket end (or an exact zero) once the bracket
-    is ROOT_XTOL_EPS epsilons of max(|t0|, |t0 + h|) wide [in units of theta].
+    Safeguarded Newton: each evaluation of the event on the dense output also gives its time
+    derivative along the dense output (``scratch.gr``, exact for the interpolant), so the next point
+    is the Newton point where it falls inside the bracket, else the Illinois point (a safeguarded
+    regula falsi; always for an event without a finite derivative). Once a Newton step is shorter
+    than the tolerance, the next point is put just across the root, so that the bracket closes from
+    both sides. Returns the post-crossing bracket end (or an exact zero) once the bracket is
+    ROOT_XTOL_EPS epsilons of max(|t0|, |t0 + h|) wide [in units of theta].
     """
     if ga == 0.0:
         return a
@@ -226,10 +233,10 @@ def locate(events, e, a, ga, b, gb, dense, p, aux, scratch):
     h = dense.h
     tol = ROOT_XTOL_EPS * _EPS * max(abs(t0), abs(t0 + h), abs(h)) / abs(h)
     side = 0
+    c = b - gb * (b - a) / (gb - ga)
     for _ in range(ROOT_MAX_ITER):
         if b - a <= tol:
             break
-        c = b - gb * (b - a) / (gb - ga)
         if not (c > a and c < b):
             c = 0.5 * (a + b)
             if not (c > a and c < b):
@@ -249,6 +256,15 @@ def locate(events, e, a, ga, b, gb, dense, p, aux, scratch):
             if side == -1:
                 gb *= 0.5
             side = -1
+        slope = h * scratch.gr[e]  # d(event)/d(theta) at c
+        step = -gc / slope if slope != 0.0 and np.isfinite(slope) else np.nan
+        if abs(step) < 0.5 * tol:  # converged from one side: the next point just across the root
+            step = 0.5 * tol if c == a else -0.5 * tol
+        newton = c + step
+        if newton > a and newton < b:
+            c = newton
+        else:
+            c = b - gb * (b - a) / (gb - ga)
     return b
 
 
