@@ -107,10 +107,10 @@ def steady_beta0(omega2: float, omega3: float, p: solver.Params, lo: float, hi: 
     fa = float(vals[sign[0]])
     if fa == 0.0:
         return a
-    while True:
+    for _ in range(200):  # a grid spacing halves to adjacent doubles in ~60 steps
         mid = 0.5 * (a + b)
         if not a < mid < b:
-            return b
+            break
         f_mid = float(f(mid))
         if f_mid == 0.0:
             return mid
@@ -118,6 +118,7 @@ def steady_beta0(omega2: float, omega3: float, p: solver.Params, lo: float, hi: 
             a, fa = mid, f_mid
         else:
             b = mid
+    return b
 
 
 def scene_params(p: solver.Params, s: dict, label) -> tuple[solver.Params, float]:
