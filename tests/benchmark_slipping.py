@@ -11,14 +11,16 @@ omega2 = 35 1/s) and 6x (Fig. 12 section, omega2 = 65 1/s) the rolling-only time
 2. on a seeded sample of the states that slip, the accepted steps that ``scipy.integrate.solve_ivp``
    needs for the same trajectories at the same tolerances (``solver.analysis.reference.reference_hybrid``:
    same rules, phase by phase), split into rolling and slipping phases, for RK45 (the explicit
-   Dormand-Prince pair the engine uses) and for the implicit Radau and BDF, whose steps are not
-   limited by the stiffness of the slip angle but only by accuracy;
+   Dormand-Prince pair the engine uses by default), DOP853 (its higher-order one) and for the
+   implicit Radau and BDF, whose steps are not limited by the stiffness of the slip angle but only
+   by accuracy;
 3. from 2, an estimate of the slipping/rolling ratio each method would allow: the states that
    never slip cost their rolling-only steps; the states that slip cost the engine's steps on them,
    scaled by (RK45 rolling-phase + the method's slipping-phase steps) / (engine's steps) on the
    sample (a ratio estimator, so the sample's mix of short and long slips cancels); every step is
-   priced at one explicit Dormand-Prince step, which is optimistic for Radau and BDF (each of
-   their steps solves a Newton system), so for them the figure is a lower bound.
+   priced at one explicit Dormand-Prince step, which is optimistic for DOP853 (twice the stages),
+   Radau and BDF (each of their steps solves a Newton system), so for them the figure is a lower
+   bound.
 
 If even the implicit methods' bound exceeds the target, no integrator of the slipping equations (42) at
 this tolerance can meet the target; only a change of model (for example a reduced slip along
