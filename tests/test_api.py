@@ -99,6 +99,9 @@ def test_run_refuses_bad_input_in_one_line_before_any_work(probe, tmp_path):
         rimroll.run("fanout-probe", workers=2, scheduler="tcp://127.0.0.1:1")
     with pytest.raises(UserError, match="expected a number, a label"):
         rimroll.run("fanout-probe", mu={"a": 1})
+    with pytest.raises(UserError, match="^setting mu=abc: expected a number") as bad:  # not the CLI's --set
+        rimroll.run("fanout-probe", mu="abc")
+    assert "--set" not in str(bad.value)
     assert not list(tmp_path.iterdir())
     assert rimroll.UserError is UserError and "UserError" in rimroll.__all__  # catchable from the top
 
