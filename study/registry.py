@@ -322,12 +322,27 @@ def _load_studies() -> None:
 
 
 def _load_entry_point(ep) -> None:
-    """Import one entry point's module (its ``register`` calls run on import)."""
+    """Import one entry point's module (its ``register`` calls run on import). An import that Ctrl-C
+    broke is an interrupt, not a broken module: some compiled extensions (matplotlib's) turn the
+    KeyboardInterrupt of their initialisation into ImportError("initialization failed")."""
     try:
         ep.load()
     except ImportError as exc:
+        if _interrupted(exc):
+            raise KeyboardInterrupt from exc
         raise UserError(f"cannot load the studies of entry point {ep.name} = {ep.value} "
                         f"(group {ENTRY_POINT_GROUP}): {exc}") from None
+
+
+def _interrupted(exc: BaseException) -> bool:
+    """Whether a KeyboardInterrupt is among the causes and contexts of ``exc``."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False
 
 
 def _load_module_file(path: str) -> None:

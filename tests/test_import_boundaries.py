@@ -106,3 +106,31 @@ def test_no_entry_points_is_one_line_error(monkeypatch, capsys):
         assert main(argv) == 2
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and "no studies found" in err and "rimroll.studies" in err, err
+
+
+def test_an_import_that_ctrl_c_broke_is_an_interrupt_not_a_broken_study(monkeypatch, capsys):
+    """Ctrl-C while a compiled extension initialises (matplotlib's turn it into ImportError
+    "initialization failed") is 'study: interrupted', exit 130; a module that fails to import for
+    another reason stays a one-line error, exit 2."""
+    from rimroll.study import registry
+    from rimroll.study.cli import main
+
+    class EntryPoint:
+        def __init__(self, name, cause):
+            self.name, self.value, self.cause = name, f"probe_module_{name}", cause
+
+        def load(self):
+            try:
+                raise self.cause
+            except BaseException as exc:
+                raise ImportError("initialization failed") from exc
+
+    points = [EntryPoint("probe-interrupted", KeyboardInterrupt()), EntryPoint("probe-broken", ValueError("bad"))]
+    monkeypatch.setattr(registry, "study_entry_points", lambda: points)
+    monkeypatch.setattr(registry, "_loaded_entry_points", False)  # an earlier test may have loaded them all
+    assert main(["run", "probe-interrupted", "--quick"]) == 130
+    err = capsys.readouterr().err
+    assert err == "study: interrupted\n", err
+    assert main(["run", "probe-broken", "--quick"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "cannot load the studies of entry point probe-broken" in err, err
