@@ -353,6 +353,11 @@ def _main(words: list[str], command: str) -> int:
     except KeyboardInterrupt:
         print("study: interrupted", file=sys.stderr)
         return 130
+    except ImportError as exc:  # a lazy import (the figure's backend) that Ctrl-C broke
+        if not registry.interrupted(exc):
+            raise
+        print("study: interrupted", file=sys.stderr)
+        return 130
     except BrokenPipeError:  # `study info FILE | head`: the reader has what it wanted
         _quiet_stdout()
         return 0

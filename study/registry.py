@@ -328,14 +328,15 @@ def _load_entry_point(ep) -> None:
     try:
         ep.load()
     except ImportError as exc:
-        if _interrupted(exc):
+        if interrupted(exc):
             raise KeyboardInterrupt from exc
         raise UserError(f"cannot load the studies of entry point {ep.name} = {ep.value} "
                         f"(group {ENTRY_POINT_GROUP}): {exc}") from None
 
 
-def _interrupted(exc: BaseException) -> bool:
-    """Whether a KeyboardInterrupt is among the causes and contexts of ``exc``."""
+def interrupted(exc: BaseException) -> bool:
+    """Whether a KeyboardInterrupt is among the causes and contexts of ``exc`` (an ImportError of a
+    compiled extension whose initialisation Ctrl-C broke)."""
     seen = set()
     while exc is not None and id(exc) not in seen:
         if isinstance(exc, KeyboardInterrupt):

@@ -8,6 +8,8 @@ import re
 import subprocess
 import sys
 
+import pytest
+
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 
 
@@ -134,3 +136,21 @@ def test_an_import_that_ctrl_c_broke_is_an_interrupt_not_a_broken_study(monkeypa
     assert main(["run", "probe-broken", "--quick"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "cannot load the studies of entry point probe-broken" in err, err
+
+
+def test_a_lazy_import_that_ctrl_c_broke_during_a_command_is_an_interrupt(monkeypatch, capsys):
+    """The same for an import during the command (the figure's backend): exit 130, one line."""
+    from rimroll.study import cli
+
+    def broken_import(args, command):
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as exc:
+            raise ImportError("initialization failed") from exc
+
+    monkeypatch.setattr(cli, "_dispatch", broken_import)
+    assert cli.main(["list"]) == 130
+    assert capsys.readouterr().err == "study: interrupted\n"
+    monkeypatch.setattr(cli, "_dispatch", lambda args, command: __import__("no_such_module_of_rimroll"))
+    with pytest.raises(ImportError):  # any other ImportError is a bug, reported as such
+        cli.main(["list"])
