@@ -103,10 +103,7 @@ def run(name: str, quick: bool = False, out: str | os.PathLike | None = None, cl
     if not (0 < timeout <= 86400):
         raise UserError(f"timeout must be > 0 and <= 86400 s; got {timeout}")
     fanout.check_address(scheduler)
-    try:
-        plan = make_plan(study, quick, sets, local=not remote)
-    except UserError as exc:  # the settings' messages speak of the command line's --set KEY=TEXT
-        raise UserError(str(exc).replace("--set ", "setting ")) from None
+    plan = make_plan(study, quick, sets, local=not remote)
     command = "rimroll.run(" + ", ".join([repr(name)] + (["quick=True"] if quick else [])
                                          + [f"{k}={v!r}" for k, v in settings.items()]) + ")"
     cluster = execute.Cluster(client, workers, scheduler, os.fspath(scheduler_file) if scheduler_file else None,

@@ -100,30 +100,30 @@ def parse_values(key: str, text: str):
     if ":" in text:
         parts = text.split(":")
         if len(parts) != 3:
-            raise UserError(f"--set {key}={text}: a range is start:stop:num, e.g. {key}=0.4:0.6:5")
+            raise UserError(f"setting {key}={text}: a range is start:stop:num, e.g. {key}=0.4:0.6:5")
         start, stop = _float(key, parts[0]), _float(key, parts[1])
         try:
             num = int(parts[2])
         except ValueError:
-            raise UserError(f"--set {key}={text}: num of start:stop:num must be an integer") from None
+            raise UserError(f"setting {key}={text}: num of start:stop:num must be an integer") from None
         if num < 2:
-            raise UserError(f"--set {key}={text}: a range needs num >= 2 points (give one value as a scalar)")
+            raise UserError(f"setting {key}={text}: a range needs num >= 2 points (give one value as a scalar)")
         if num > checks.MAX_AXIS:
-            raise UserError(f"--set {key}={text}: at most {checks.MAX_AXIS} values per swept setting; got {num}")
+            raise UserError(f"setting {key}={text}: at most {checks.MAX_AXIS} values per swept setting; got {num}")
         if not (math.isfinite(start) and math.isfinite(stop)) or start == stop:
-            raise UserError(f"--set {key}={text}: a range needs finite start != stop")
+            raise UserError(f"setting {key}={text}: a range needs finite start != stop")
         with np.errstate(over="ignore", invalid="ignore"):  # stop - start beyond the largest float
             values = np.linspace(start, stop, num)
         if not np.all(np.isfinite(values)):
-            raise UserError(f"--set {key}={text}: the range's points are not finite numbers (start and stop too far "
+            raise UserError(f"setting {key}={text}: the range's points are not finite numbers (start and stop too far "
                             "apart for a float)")
         return tuple(float(v) for v in values)
     if "," in text:
         items = [t.strip() for t in text.split(",")]
         if any(not t for t in items):
-            raise UserError(f"--set {key}={text}: empty item in the list")
+            raise UserError(f"setting {key}={text}: empty item in the list")
         if len(items) > checks.MAX_AXIS:
-            raise UserError(f"--set {key}: at most {checks.MAX_AXIS} values per swept setting; got {len(items)}")
+            raise UserError(f"setting {key}: at most {checks.MAX_AXIS} values per swept setting; got {len(items)}")
         return tuple(_float(key, t) for t in items)
     return None
 
@@ -132,7 +132,7 @@ def _float(key: str, text: str) -> float:
     try:
         return float(text)
     except ValueError:
-        raise UserError(f"--set {key}={text}: expected a number") from None
+        raise UserError(f"setting {key}={text}: expected a number") from None
 
 
 def _convert(key: str, text: str, default):
@@ -151,7 +151,7 @@ def _convert(key: str, text: str, default):
         return type(default)(text)
     except ValueError:
         kind = {bool: "true/false", int: "an integer", float: "a number"}.get(type(default), type(default).__name__)
-        raise UserError(f"--set {key}={text}: expected {kind}") from None
+        raise UserError(f"setting {key}={text}: expected {kind}") from None
 
 
 def _apply(study: Study, quick: bool, sets) -> tuple[dict, list[str], dict]:
@@ -181,17 +181,17 @@ def _apply(study: Study, quick: bool, sets) -> tuple[dict, list[str], dict]:
         switch = isinstance(settings.get(key), bool)
         if (entry.choices is not None or switch) and ("," in text or ":" in text) and key not in study.sweepable:
             allowed = "true or false" if switch else f"one of {', '.join(entry.labels())}"
-            raise UserError(f"--set {key}={text}: {key} takes {allowed}, not a list or range (it cannot be swept "
+            raise UserError(f"setting {key}={text}: {key} takes {allowed}, not a list or range (it cannot be swept "
                             f"in study {study.name!r})")
         if key in grid_names and f"n_{key}" in given:
-            raise UserError(f"--set {key}={text} and --set n_{key}: give the {key} axis either as values or as a "
+            raise UserError(f"setting {key}={text} and setting n_{key}: give the {key} axis either as values or as a "
                             f"number of points, not both")
         values = parse_values(key, text)
         if values is not None and key in grid_names:
             grid[key] = values
             continue
         if key in study.ignores:
-            raise UserError(f"--set {key}={text}: study {study.name!r} does not use {key!r} "
+            raise UserError(f"setting {key}={text}: study {study.name!r} does not use {key!r} "
                             f"({study.ignores[key]})")
         if key not in settings:
             raise UserError(f"unknown setting {key!r} for study {study.name!r}; "
@@ -208,7 +208,7 @@ def _apply(study: Study, quick: bool, sets) -> tuple[dict, list[str], dict]:
                 order.append(key)
         else:
             sweepable = ", ".join(study.sweepable) or "none"
-            raise UserError(f"--set {key}={text}: {key!r} cannot be swept in study {study.name!r} "
+            raise UserError(f"setting {key}={text}: {key!r} cannot be swept in study {study.name!r} "
                             f"(sweepable: {sweepable}; or a grid axis: {', '.join(sorted(grid_names))})")
     settings = {k: (tuple(float(x) for x in v) if isinstance(v, (tuple, list)) else v) for k, v in settings.items()}
     return settings, order, grid
@@ -231,7 +231,7 @@ def _outer_axes(settings: dict, order: list[str]) -> list[Axis]:
             axes.append(Axis(key, np.array(values), units, long_name, allow_inf=allow_inf,
                              comment=setting.doc if setting.doc != long_name else ""))
         except ValueError as exc:
-            raise UserError(f"--set {key}: {exc}") from None
+            raise UserError(f"setting {key}: {exc}") from None
     return axes
 
 
@@ -243,11 +243,11 @@ def _regrid(study: Study, axes: list[Axis], grid: dict) -> list[Axis]:
         if a.name in grid:
             checks.check_values(study.name, a.name, grid[a.name], "grid value")
             if a.aux:
-                raise UserError(f"--set {a.name}: axis {a.name!r} carries auxiliary coordinates and "
+                raise UserError(f"setting {a.name}: axis {a.name!r} carries auxiliary coordinates and "
                                 "cannot be given new values")
             try:
                 a = Axis(a.name, np.array(grid[a.name]), a.units, a.long_name)
             except ValueError as exc:
-                raise UserError(f"--set {a.name}: {exc}") from None
+                raise UserError(f"setting {a.name}: {exc}") from None
         out.append(a)
     return out
