@@ -14,6 +14,7 @@ import functools
 import hashlib
 import os
 import pathlib
+import threading
 
 import numba
 import numpy as np
@@ -62,19 +63,26 @@ def cache_dir() -> pathlib.Path:
     return base / f"numba-{SOURCES_DIGEST[:16]}"
 
 
+_CACHE_DIR_LOCK = threading.RLock()
+
+
 def njit_cached(func, **options):
     """``numba.njit(cache=True, **options)(func)`` with its disk cache in :func:`cache_dir`.
 
     numba chooses a function's cache location when it is decorated, from its public setting
     ``numba.config.CACHE_DIR``; that setting is pointed at :func:`cache_dir` for the decoration
-    only and restored at once, so other numba code keeps its own cache location.
+    only and restored at once, so other numba code keeps its own cache location. The setting is global:
+    a lock keeps two threads from decorating at once, where one thread's restore could land between
+    numba's check of the setting and its use, and numba would put that function's cache in a folder
+    of the current directory (``scenes_<sha1>/``).
     """
-    previous = numba.config.CACHE_DIR
-    numba.config.CACHE_DIR = str(cache_dir())
-    try:
-        return numba.njit(cache=True, **options)(func)
-    finally:
-        numba.config.CACHE_DIR = previous
+    with _CACHE_DIR_LOCK:  # threads that decorate at once (a scene module imported from two dask threads)
+        previous = numba.config.CACHE_DIR
+        numba.config.CACHE_DIR = str(cache_dir())
+        try:
+            return numba.njit(cache=True, **options)(func)
+        finally:
+            numba.config.CACHE_DIR = previous
 
 
 def kernel(func):

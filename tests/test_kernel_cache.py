@@ -169,3 +169,46 @@ def test_the_step_loop_is_compiled_twice_for_the_four_scenes(tmp_path):
     assert out.returncode == 0, out.stderr[-2000:]
     lines = out.stdout.split("\n")[:-1]
     assert sorted(lines[:-1]) == ["hybrid_rhs", "rolling_rhs"] and lines[-1] == "[True, True]"
+
+
+def test_threads_decorating_at_once_all_see_the_kernel_cache_location(monkeypatch):
+    """numba reads its global CACHE_DIR setting while a function is decorated; two threads in
+    njit_cached at once must not restore it under each other (one thread's function would get its cache
+    in a folder of the current directory). A stand-in for numba.njit records the setting in each
+    thread: the first waits (at most 0.3 s) for the second to enter, the second records again once
+    the first has left njit_cached, where an unguarded restore would have reset the setting."""
+    import threading
+
+    seen = []
+    second_inside = threading.Event()
+    first_done = threading.Event()
+    calls = []
+
+    def njit(**options):
+        def decorate(func):
+            calls.append(func)
+            seen.append(numba.config.CACHE_DIR)
+            if len(calls) == 1:
+                second_inside.wait(0.3)
+            else:
+                second_inside.set()
+                first_done.wait(0.3)
+            seen.append(numba.config.CACHE_DIR)
+            return func
+        return decorate
+
+    monkeypatch.setattr(numba, "njit", njit)
+
+    def first():
+        _jit.njit_cached(lambda x: x)
+        first_done.set()
+
+    threads = [threading.Thread(target=first), threading.Thread(target=lambda: _jit.njit_cached(lambda x: x))]
+    threads[0].start()
+    while not calls:
+        threading.Event().wait(0.001)
+    threads[1].start()
+    for t in threads:
+        t.join()
+    assert seen == [str(_jit.cache_dir())] * 4
+    assert numba.config.CACHE_DIR == os.environ.get("NUMBA_CACHE_DIR", "")
