@@ -43,7 +43,18 @@ def open(path: str | os.PathLike, lazy: bool = True) -> xr.Dataset:  # noqa: A00
     Files of every rimroll version open alike; a label axis (``scene``, ``integrator``) is indexed by
     its labels, ``ds.sel(scene="slipping")``. :class:`UserError` if ``path`` is not a rimroll result.
     """
+    _check_path("path", path)
     return io.open_result(pathlib.Path(path), lazy=lazy)
+
+
+def _check_flag(key: str, value: Any) -> None:
+    if not isinstance(value, (bool, np.bool_)):
+        raise UserError(f"{key} must be True or False; got {value!r}")
+
+
+def _check_path(key: str, value: Any) -> None:
+    if not isinstance(value, (str, os.PathLike)) or not os.fspath(value):
+        raise UserError(f"{key} must be a path (str or os.PathLike, not empty); got {value!r}")
 
 
 def run(name: str, quick: bool = False, out: str | os.PathLike | None = None, client: Any = None, *,
@@ -95,8 +106,16 @@ def run(name: str, quick: bool = False, out: str | os.PathLike | None = None, cl
         when lanes of the result did not finish their integration ok (see its ``status`` variable).
     """
     study = registry.get(name)
+    for key, value in (("quick", quick), ("force", force), ("plot", plot)):
+        _check_flag(key, value)
+    if progress is not None:
+        _check_flag("progress", progress)
+    if out is not None:
+        _check_path("out", out)
+    if isinstance(timeout, (bool, np.bool_)) or not isinstance(timeout, (int, float, np.integer, np.floating)):
+        raise UserError(f"timeout must be a number of seconds, > 0 and <= 86400; got {timeout!r}")
     sets = [f"{key}={_word(key, value)}" for key, value in settings.items()]
-    checks.check_workers(workers)
+    checks.check_workers(workers, "workers")
     remote = bool(client is not None or scheduler or scheduler_file)
     if workers is not None and remote:
         raise UserError("workers= is for local runs; a cluster has its own workers")
@@ -130,7 +149,11 @@ def _word(key: str, value: Any) -> str:
         return "true" if value else "false"
     if isinstance(value, (np.ndarray, list, tuple, range)) or (
             isinstance(value, Iterable) and not isinstance(value, (bytes, dict))):
+        if any(not isinstance(v, str) and isinstance(v, Iterable) for v in value):
+            raise UserError(f"setting {key}={value!r}: a list of values must be flat (one axis), not nested")
         items = [_word(key, v) for v in value]
+        if not items:
+            raise UserError(f"setting {key}=[]: an empty list; give one value or several")
         if len(items) == 1:
             return items[0]
         return ",".join(items)

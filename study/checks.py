@@ -15,6 +15,8 @@ Sizes: a swept list or range holds at most :data:`MAX_AXIS` values and a cube at
 
 from __future__ import annotations
 
+import numpy as np
+
 from rimroll.study.registry import UserError
 from rimroll.study.setting_table import MAX_AXIS, MAX_MAGNITUDE, ORDERED, lookup
 
@@ -76,6 +78,12 @@ def check_size(study: str, n_chunks: int, n_points: int) -> None:
                         "values, or split the sweep into several runs with different --out")
 
 
-def check_workers(workers) -> None:
-    if workers is not None and not (1 <= workers <= MAX_WORKERS):
-        raise UserError(f"--workers must be between 1 and {MAX_WORKERS}; got {workers}")
+def check_workers(workers, name: str = "--workers") -> None:
+    """A number of local threads: None (one per core) or an integer from 1 to MAX_WORKERS; ``name``: the
+    option or keyword the user gave it as."""
+    if workers is None:
+        return
+    if isinstance(workers, (bool, np.bool_)) or not isinstance(workers, (int, np.integer)):
+        raise UserError(f"{name} must be an integer between 1 and {MAX_WORKERS}; got {workers!r}")
+    if not (1 <= workers <= MAX_WORKERS):
+        raise UserError(f"{name} must be between 1 and {MAX_WORKERS}; got {workers}")

@@ -41,8 +41,11 @@ _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 _STUDY_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_-]*$")  # study names may also use '-' (realisable-cube)
 
 
-class UserError(Exception):
-    """An error the user can fix (bad name, bad setting, missing file): one line, exit 2."""
+class UserError(ValueError):
+    """An error the user can fix (bad name, bad setting, missing file): one line, exit 2.
+
+    A ValueError, so that ``except ValueError`` catches a bad argument of the Python API
+    (``rimroll.run``, ``rimroll.open``) as it does one of ``rimroll.solver``."""
 
 
 @dataclasses.dataclass(frozen=True)

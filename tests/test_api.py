@@ -106,6 +106,31 @@ def test_run_refuses_bad_input_in_one_line_before_any_work(probe, tmp_path):
     assert rimroll.UserError is UserError and "UserError" in rimroll.__all__  # catchable from the top
 
 
+@pytest.mark.parametrize("kwargs, message", [
+    ({"workers": "2"}, "workers must be an integer between 1 and"),
+    ({"workers": True}, "workers must be an integer"),
+    ({"out": 3}, "out must be a path"),
+    ({"quick": "no"}, "quick must be True or False; got 'no'"),
+    ({"force": 1}, "force must be True or False"),
+    ({"plot": None}, "plot must be True or False"),
+    ({"progress": "yes"}, "progress must be True or False"),
+    ({"timeout": "5"}, "timeout must be a number of seconds"),
+    ({"mu": []}, r"setting mu=\[\]: an empty list"),
+    ({"mu": [[0.5, 1.0], [2.0, 4.0]]}, "must be flat"),
+])
+def test_run_names_a_bad_argument_and_raises_a_value_error(probe, tmp_path, kwargs, message):
+    """The API's errors are ValueErrors (UserError is one) naming the keyword, before any work."""
+    with pytest.raises(ValueError, match=message) as bad:
+        rimroll.run("fanout-probe", **kwargs)
+    assert isinstance(bad.value, UserError) and "--" not in str(bad.value)
+
+
+@pytest.mark.parametrize("path", [3, "", None])
+def test_open_names_a_path_that_is_not_one(path):
+    with pytest.raises(ValueError, match="path must be a path"):
+        rimroll.open(path)
+
+
 def test_settings_words_follow_the_set_rules():
     from rimroll.study.api import _word
 
