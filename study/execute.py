@@ -68,17 +68,17 @@ def produce(plan: Plan, store: PartStore, nc, command: str, *, extra_attrs=None,
             cluster: Cluster | None = None) -> fanout.RunStats:
     """Write the result of ``plan`` to ``nc`` (atomically); call with ``store``'s lock held.
 
-    Parts of this study's other inputs are deleted (no live run owns them), intact parts of this
-    plan are kept (a resumed run), the missing chunks are computed on ``cluster`` (or on
-    ``client``, else on a cluster opened here: ``workers`` local threads or the one at
-    ``scheduler``), the file is assembled with :func:`file_attrs` plus ``extra_attrs``, and the
-    parts are removed. A plan on the CUDA backend runs one GPU per worker
+    Parts of this study's other inputs are kept and named in a notice (an interrupted run of other
+    settings resumes from them), intact parts of this plan are kept (a resumed run), the missing
+    chunks are computed on ``cluster`` (or on ``client``, else on a cluster opened here: ``workers``
+    local threads or the one at ``scheduler``), the file is assembled with :func:`file_attrs` plus
+    ``extra_attrs``, and the parts are removed. A plan on the CUDA backend runs one GPU per worker
     (``fanout.client(gpu=True)``), and its file names the workers' devices. The link to the
     cluster's dashboard is a notice (logging, INFO) for a cluster that is not local threads, and
     for a local run long enough to announce its plan.
     """
     cluster = cluster or Cluster(client, workers, scheduler, None, timeout)
-    store.sweep_stale()
+    _name_others(store)
     done = store.valid(plan.n_chunks, plan.expected)
     todo = [k for k in range(plan.n_chunks) if k not in done]
     runguard.announce(plan, len(todo))
@@ -155,13 +155,20 @@ def _reusable(plan: Plan, nc: pathlib.Path, request: dict, sizes: dict, quiet: b
 
 
 def _tidy(store: PartStore) -> None:
-    """The result is complete: parts of this study left by a run killed during its cleanup, or by
-    killed runs of other inputs, belong to no live run; delete them unless a run holds the lock."""
+    """The result is complete: parts of this very run left by a run killed during its cleanup belong
+    to no live run; delete them unless a run holds the lock. Parts of other inputs are kept (named)."""
     if not store.root.is_dir():
         return
     try:
         with store.lock():
-            store.sweep_stale()
+            _name_others(store)
             store.remove()
     except UserError:  # another run of this study into this --out is live: leave its parts alone
         pass
+
+
+def _name_others(store: PartStore) -> None:
+    """A notice for each parts folder of this study's other inputs: kept, and how to use or drop it."""
+    for folder, n in store.others():
+        log.info("%s holds %d chunk%s saved by an interrupted run of %s with other settings: kept; rerun "
+                 "that command to resume it, or delete the folder", folder, n, "" if n == 1 else "s", store.study)

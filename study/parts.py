@@ -9,8 +9,9 @@ recomputed). The fingerprint in the folder's name keeps parts of different input
 
 One run at a time per output file: ``fcntl.flock`` on ``<out>/.parts/<study>.lock``,
 non-blocking, whatever the inputs (two runs of different inputs never race for
-``<out>/<study>.nc``). While it holds the lock, a run may delete the parts folders of its study
-that belong to other fingerprints: no live run can be using them (:meth:`PartStore.sweep_stale`).
+``<out>/<study>.nc``). The parts folders of the study's other fingerprints (runs of other inputs,
+interrupted) are never deleted by another run: they are what a user finished computing, and the
+rerun of their own command resumes them; a run that finds them names them (:meth:`PartStore.others`).
 """
 
 from __future__ import annotations
@@ -163,18 +164,14 @@ class PartStore:
                     path.unlink()
         return ok
 
-    def sweep_stale(self) -> int:
-        """Delete the parts folders of this study left by other fingerprints (call with the lock
-        held: no live run can be using them); returns how many were removed."""
+    def others(self) -> list[tuple[pathlib.Path, int]]:
+        """The parts folders of this study left by other fingerprints (runs of other inputs that were
+        interrupted), with the number of chunk files in each; they are kept for those runs to resume."""
         pattern = re.compile(re.escape(self.study) + r"-[0-9a-f]{16}")
-        n = 0
         if not self.root.is_dir():
-            return 0
-        for d in self.root.iterdir():
-            if d != self.dir and d.is_dir() and pattern.fullmatch(d.name):
-                shutil.rmtree(d, ignore_errors=True)
-                n += 1
-        return n
+            return []
+        return [(d, len(list(d.glob("chunk-*.npz")))) for d in sorted(self.root.iterdir())
+                if d != self.dir and d.is_dir() and pattern.fullmatch(d.name)]
 
     def count(self) -> int:
         """Part files present now (finished chunks; for messages)."""

@@ -548,16 +548,36 @@ def test_lanes_not_ok_are_reported(tmp_path, capsys, monkeypatch):
     assert bad == (total + 1) // 2 and f"warning: {bad} of {total} lanes" in err and "see the variable 'status'" in err
 
 
-# ================================================================ 13. stale parts are removed
-def test_successful_run_removes_parts_of_no_live_run(probe, tmp_path):
+# ================================================================ 13. parts of other inputs are kept
+def _other_inputs_parts(tmp_path):
+    """Parts folders as an interrupted run of other inputs (this study) and a run of another study leave them."""
     stale = tmp_path / ".parts" / "fanout-probe-0123456789abcdef"
     stale.mkdir(parents=True)
-    (stale / "chunk-0.npz").write_bytes(b"x" * 1000)
-    other_study = tmp_path / ".parts" / "fig8-0123456789abcdef"  # another study's: maybe live, kept
+    for k in range(3):
+        (stale / f"chunk-{k}.npz").write_bytes(b"x" * 1000)
+    other_study = tmp_path / ".parts" / "fig8-0123456789abcdef"
     other_study.mkdir()
+    return stale, other_study
+
+
+def test_a_computing_run_keeps_and_names_the_parts_of_an_interrupted_run_of_other_inputs(probe, tmp_path, capsys):
+    """What a user finished computing is not lost: the interrupted run resumes from its parts."""
+    stale, other_study = _other_inputs_parts(tmp_path)
     assert _run(tmp_path) == 0
-    assert not stale.exists() and other_study.exists()
-    assert sorted(p.name for p in (tmp_path / ".parts").iterdir()) == ["fig8-0123456789abcdef"]
+    assert len(list(stale.glob("chunk-*.npz"))) == 3 and other_study.exists()
+    assert sorted(p.name for p in (tmp_path / ".parts").iterdir()) == sorted([other_study.name, stale.name])
+    err = capsys.readouterr().err
+    assert f"{stale} holds 3 chunks saved by an interrupted run of fanout-probe with other settings: kept" in err
+
+
+def test_a_run_that_reuses_its_file_keeps_the_parts_of_other_inputs(probe, tmp_path, capsys):
+    assert _run(tmp_path) == 0
+    stale, _ = _other_inputs_parts(tmp_path)
+    capsys.readouterr()
+    assert _run(tmp_path) == 0
+    out, err = capsys.readouterr()
+    assert "exists, not recomputing" in out and f"{stale} holds 3 chunks" in err
+    assert len(list(stale.glob("chunk-*.npz"))) == 3
 
 
 def test_parts_left_by_a_kill_during_cleanup_are_removed(probe, tmp_path, capsys):
