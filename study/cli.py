@@ -96,7 +96,8 @@ def _trace_parser(sub) -> None:
     t.add_argument("--state", default=None, metavar="BETA,OMEGA1,OMEGA2,OMEGA3",
                    help="the rolling initial state [rad, 1/s, 1/s, 1/s]")
     t.add_argument("--at", default=None, metavar="DIM=VALUE,...",
-                   help="the point of FILE, e.g. omega1=2,beta=1.1,scene=slipping (nearest grid point)")
+                   help="the point of FILE, e.g. omega1=2,beta=1.1,scene=slipping (nearest grid point; every axis "
+                        "of FILE with more than one value, a swept mu, k_r, k_d, omega2 too, needs one)")
     t.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
                    help=f"a physical parameter ({' '.join(registry.PHYSICAL_KEYS)}); repeatable")
     t.add_argument("--t-max", type=float, default=None, help="end of the run [s] (default 20, or the map's)")
@@ -107,7 +108,9 @@ def _trace_parser(sub) -> None:
                    help="a periodic state: follow the orbit N more periods past the second omega1 zero that "
                         "decides it, to watch it repeat (default 0: end where simulate ends)")
     t.add_argument("--out", default="results", help="output directory (default: results)")
-    t.add_argument("--name", default="trace", help="file name without suffix (default: trace)")
+    t.add_argument("--name", default="trace",
+                   help="the files' name, <out>/NAME.nc and NAME.png: letters, digits, '-', '_' and '.', not starting "
+                        "with '.', no folder; a trailing .nc is dropped (default: trace)")
     t.add_argument("--force", action="store_true", help="replace an existing file of that name")
 
 

@@ -6,13 +6,17 @@ from an outcome map (``FILE --at omega1=..,beta=..``), with that file's paramete
 t_max and the map's omega2, omega3. The file holds, over ``time``: the state, the slip
 velocity, F2, the friction use |F_t| / (mu F2), the slip speed, the energy, the phase and the
 ball centre's position; over ``event``: the time and kind of every event; and in its global
-attributes the outcome, t_end and the reason the run ended.
+attributes the outcome, t_end and the reason the run ended. A state that leaves the rim at once
+(t_end = 0) is a trace of one sample, the initial state at t = 0 (:func:`at_start`). The files are
+``<out>/<name>.nc`` and ``.png`` (``--name``: a plain file stem, :func:`parse_name`); the .nc is
+moved into place after its figure is written, so a failed plot leaves neither.
 """
 
 from __future__ import annotations
 
 import datetime as _dt
 import pathlib
+import re
 
 import numpy as np
 import xarray as xr
@@ -66,6 +70,21 @@ def parse_state(text: str) -> np.ndarray:
     return x
 
 
+NAME_MAX = 200  # characters of --name: room for the suffix and the temporary names of the atomic writes
+_NAME = re.compile(r"[A-Za-z0-9_-][A-Za-z0-9._-]*")
+
+
+def parse_name(text: str) -> str:
+    """``--name``: the stem of the files ``<out>/<name>.nc`` and ``.png`` (a trailing ``.nc`` is
+    dropped); UserError unless it is a plain file name of letters, digits, '-', '_' and '.', not
+    starting with '.', at most :data:`NAME_MAX` characters."""
+    name = text[:-3] if text.endswith(".nc") else text
+    if not (_NAME.fullmatch(name) and len(name) <= NAME_MAX):
+        raise UserError(f"--name {text!r}: expected a file name without a folder: letters, digits, '-', '_' and "
+                        f"'.', not starting with '.', at most {NAME_MAX} characters (a trailing .nc is dropped)")
+    return name
+
+
 def parse_sets(words: list[str]) -> dict:
     """``--set KEY=VALUE`` words of physical parameters -> {key: float} (``study.keyvalue``)."""
     out = {}
@@ -92,19 +111,44 @@ def _parse_at(text: str) -> dict:
     return dict(pairs)
 
 
+def _values_text(ds, dim: str) -> str:
+    """The values of the axis ``dim`` of ``ds`` as a message lists them: scene labels, or numbers (at most 8)."""
+    coord = ds[dim].values
+    words = [P.scene_key(v) if dim == "scene" else f"{v:g}" if coord.dtype.kind in "fiu" else str(v) for v in coord]
+    return ", ".join(words[:8]) + (f", ... ({len(words)} values)" if len(words) > 8 else "")
+
+
 def _index(ds, dim: str, value: str) -> int:
-    """Index along ``dim`` of ``value``: nearest number, or a label (scene labels work on old files too)."""
+    """Index along ``dim`` of ``value``: nearest number, or a label (scene labels work on old files too).
+
+    A number must be finite (or +-inf where the axis holds it, a swept mu = inf) and no farther
+    outside the axis than its span (one value: than the value's size, at least 1): a typo such as
+    1e300 is not moved to the nearest grid point."""
     coord = ds[dim].values
     if coord.dtype.kind in "fiu":
         try:
-            return int(np.argmin(np.abs(coord - float(value))))
+            number = float(value)
         except ValueError:
+            number = None
             if dim == "scene" and value in P.SCENE_KEYS:
                 return int(np.argmin(np.abs(coord - P.SCENE_KEYS.index(value))))
+        if number is not None:
+            coord = coord.astype(float)
+            exact = np.flatnonzero(coord == number)
+            if exact.size:
+                return int(exact[0])
+            finite = coord[np.isfinite(coord)]
+            if np.isfinite(number) and finite.size:
+                lo, hi = finite.min(), finite.max()
+                margin = hi - lo if hi > lo else max(abs(hi), 1.0)
+                if lo - margin <= number <= hi + margin:
+                    return int(np.argmin(np.where(np.isfinite(coord), np.abs(coord - number), np.inf)))
+            raise UserError(f"--at {dim}={value}: not near the file's {dim} axis ({_values_text(ds, dim)}); "
+                            "a finite number within the axis' span of its ends is taken to the nearest grid point")
     labels = [P.scene_key(v) if dim == "scene" else str(v) for v in coord]
     if value in labels:
         return labels.index(value)
-    raise UserError(f"--at {dim}={value}: not a value of the file's {dim} ({', '.join(map(str, labels))})")
+    raise UserError(f"--at {dim}={value}: not a value of the file's {dim} ({_values_text(ds, dim)})")
 
 
 def from_map(path, at_text: str, sets: dict) -> tuple[np.ndarray, solver.Params, float, dict]:
@@ -125,13 +169,13 @@ def from_map(path, at_text: str, sets: dict) -> tuple[np.ndarray, solver.Params,
         elif ds.sizes[dim] == 1:
             pick[dim] = 0
         else:
-            values = ", ".join(P.scene_key(v) if dim == "scene" else f"{v:g}" for v in ds[dim].values[:8])
-            raise UserError(f"--at needs a value for {dim!r} of {path} (e.g. {values})")
-    point = ds.isel(pick)
-    values = params_of(ds).as_dict()
-    for key in values:  # the scene's own parameters (a scene's mu, k_r, k_d; a swept one)
-        if key in point.coords and point[key].ndim == 0:
-            values[key] = float(point[key])
+            raise UserError(f"--at needs a value for {dim!r}, an axis of {path} with {ds.sizes[dim]} values "
+                            f"({_values_text(ds, dim)})")
+    point = ds.isel(pick)  # every axis at one value: a swept parameter or setting is now the point's scalar
+    try:
+        values = params_of(point).as_dict()  # the file's parameters, a scene's mu, k_r, k_d, a swept one's value
+    except ValueError as exc:
+        raise UserError(f"{path}: {exc}") from None
     values.update(sets)
     if "rho_over_R" in point.coords:
         x = float(point["rho_over_R"])
@@ -142,19 +186,25 @@ def from_map(path, at_text: str, sets: dict) -> tuple[np.ndarray, solver.Params,
             raise UserError(str(exc)) from None
     else:
         params = _params(**values)
-    comp = {}
-    for name in STATE_NAMES:
-        comp[name] = float(point[name]) if name in point.coords else float(setting_of(ds, name))
-    state = np.array([comp[n] for n in STATE_NAMES])
-    t_max = float(point["t_max"]) if "t_max" in point.coords else float(setting_of(ds, "t_max"))
+    state = np.array([_recorded(point, path, name) for name in STATE_NAMES])
+    t_max = _recorded(point, path, "t_max")
     where = ", ".join(f"{d}={P.scene_key(point[d].values[()]) if d == 'scene' else f'{float(point[d]):g}'}"
                       for d in dims)
     prov = {"source_file": str(path), "source_study": str(ds.attrs.get("study", "")), "source_point": where,
             "source_outcome": int(point["outcome"]),
             "source_t_end": float(point["t_end"]) if "t_end" in point else np.nan}
     if "rtol" in ds.attrs or "setting_rtol" in ds.attrs:
-        prov["source_rtol"] = float(setting_of(ds, "rtol"))
+        prov["source_rtol"] = _recorded(point, path, "rtol")
     return state, params, t_max, prov
+
+
+def _recorded(point, path, name: str) -> float:
+    """The setting ``name`` of one point of a map (its coordinate, or the file's attribute); UserError
+    if the file lacks it."""
+    try:
+        return float(setting_of(point, name))
+    except (KeyError, ValueError) as exc:
+        raise UserError(f"{path}: {exc.args[0] if exc.args else exc}") from None
 
 
 # ------------------------------------------------------------------ following a periodic orbit
@@ -197,6 +247,20 @@ def follow(res: dict, params: solver.Params, periods: int, rtol: float, atol: fl
     merged["half_periods"] = np.array(halves)
     merged["t_followed"] = float(merged["t"][-1])
     return merged
+
+
+# ------------------------------------------------------------------ a trace that ends at once
+def at_start(res: dict, state, params: solver.Params) -> dict:
+    """``res`` with one sample, the initial state at t = 0, where it has none: a state that leaves
+    the rim at once (F2 <= 0 from the start, or a slip onset that loses the contact at t = 0) ends
+    at t_end = 0 with no phase to sample. The sample is the rolling initial state (u1 = u3 = 0,
+    alpha = 0) with its F2 [N], friction use and energy [J], as ``solver.analysis.trace.sample``
+    computes them; the outcome, events and reason stay the trace's."""
+    if res["t"].size:
+        return res
+    x0 = np.append(np.asarray(state, dtype=float), 0.0)  # (beta, omega1, omega2, omega3, alpha) of a rolling phase
+    start = tr.Phase(tr.ROLLING, 0.0, 0.0, lambda t: np.repeat(x0[:, None], np.size(t), axis=1))
+    return {**res, **tr.sample({"t_end": 0.0, "phases": [start]}, params, 2)}
 
 
 # ------------------------------------------------------------------ the file
@@ -252,37 +316,39 @@ def figure(ds) -> Figure:
     top, side = fig.add_subplot(grid[0:2, 1]), fig.add_subplot(grid[2:4, 1])
     t = ds["time"].values
     a = ds.attrs
-    left[0].plot(t, ds["beta"], color="k", lw=1.1)
+    dot = dict(marker="o", ms=4) if t.size == 1 else {}  # a trace that ends at t = 0: one sample, drawn as a dot
+    left[0].plot(t, ds["beta"], color="k", lw=1.1, **dot)
     left[0].set_ylabel(r"$\beta$ [rad]")
     for name, colour in (("omega1", "C0"), ("omega2", "C1"), ("omega3", "C2")):
-        left[1].plot(t, ds[name], color=colour, lw=1.1, label=rf"$\omega_{name[-1]}$")
+        left[1].plot(t, ds[name], color=colour, lw=1.1, label=rf"$\omega_{name[-1]}$", **dot)
     left[1].set_ylabel(r"$\omega$ [1/s]")
     left[1].legend(loc="best", fontsize=8, ncol=3)
-    left[2].plot(t, ds["F2"], color="k", lw=1.1)
+    left[2].plot(t, ds["F2"], color="k", lw=1.1, **dot)
     left[2].axhline(0.0, color="0.5", lw=0.6)
     left[2].set_ylabel(r"$F_2$ [N]")
     if np.isfinite(a["param_mu"]):
         twin = left[2].twinx()
-        twin.plot(t, ds["friction_use"].clip(0, 1.2), color="tab:red", lw=0.8, alpha=0.7)
+        twin.plot(t, ds["friction_use"].clip(0, 1.2), color="tab:red", lw=0.8, alpha=0.7, **dot)
         twin.set_ylabel(r"$|F_t|/(\mu F_2)$ [-]", color="tab:red")
         twin.set_ylim(0, 1.25)
     e = ds["energy"].values
-    left[3].plot(t, e - e[0], color="k", lw=1.1)
+    left[3].plot(t, e - e[0], color="k", lw=1.1, **dot)
     left[3].set_ylabel(r"$E(t) - E(0)$ [J]")
     left[3].set_xlabel("time $t$ [s]")
     spans = _slip_spans(t, ds["phase"].values)
     kinds = list(ds["event_kind"].attrs["flag_meanings"].split())
     events = [(float(tt), kinds[int(k)]) for tt, k in zip(ds["event_time"].values, ds["event_kind"].values)]
     shown = set()
+    t_lo, t_hi = (t[0], t[-1]) if t[-1] > t[0] else (t[0] - 0.05, t[0] + 0.05)  # one sample: 0.1 s around it
     for ax in left:
         for t0, t1 in spans:
-            ax.axvspan(t0, max(t1, t0 + 1e-3 * (t[-1] - t[0])), color="tab:red", alpha=0.15, lw=0)
+            ax.axvspan(t0, max(t1, t0 + 1e-3 * (t_hi - t_lo)), color="tab:red", alpha=0.15, lw=0)
         for tt, kind in events:
             if kind in EVENT_STYLE:
                 ax.axvline(tt, **{k: v for k, v in EVENT_STYLE[kind].items() if k != "label"})
                 shown.add(kind)
         ax.grid(alpha=0.3)
-        ax.set_xlim(t[0], t[-1])
+        ax.set_xlim(t_lo, t_hi)
     handles = [Line2D([], [], **EVENT_STYLE[k]) for k in EVENT_STYLE if k in shown]
     if spans:
         handles.insert(0, Patch(color="tab:red", alpha=0.15, label="slipping"))
@@ -298,6 +364,8 @@ def figure(ds) -> Figure:
     label = P.OUTCOME_PALETTE.label(int(a["outcome"]))
     why = {"fall": "left the rim, F2 = 0", "periodic": "second transversal zero of omega1",
            "t_max": "reached t_max"}.get(str(a["reason"]), str(a["reason"]).replace("_", " "))
+    if t.size == 1 and str(a["reason"]) == "fall":
+        why = f"the ball leaves the rim at t = 0: F2 = {float(ds['F2'][0]):.4g} N at the initial state"
     if "t_followed" in a:
         why += f"; followed {int(a['periods_followed'])} more periods, to t = {float(a['t_followed']):.4g} s"
     fig.suptitle(f"{label} at t_end = {a['t_end']:.6g} s ({why})\n"
@@ -345,6 +413,7 @@ def _paths(top, side, ds) -> None:
 def run(args, command: str) -> int:
     """``study trace``: compute, write ``<out>/<name>.nc`` and ``.png``, print where."""
     sets = parse_sets(args.sets)
+    name = parse_name(args.name)
     if (args.state is None) == (args.file is None):
         raise UserError("give either --state BETA,OMEGA1,OMEGA2,OMEGA3 or a results FILE with --at DIM=VALUE,...")
     if args.file is not None:
@@ -367,21 +436,26 @@ def run(args, command: str) -> int:
         raise UserError(f"--samples must be >= 2; got {args.samples}")
     if not 0 <= args.periods <= MAX_PERIODS:
         raise UserError(f"--periods must be an integer 0 <= N <= {MAX_PERIODS}; got {args.periods}")
-    nc = io.check_target(pathlib.Path(args.out) / f"{args.name}.nc", "the trace")
+    nc = io.check_target(pathlib.Path(args.out) / f"{name}.nc", "the trace")
     io.check_target(nc.with_suffix(".png"), "the figure")
     if nc.exists() and not args.force:
         raise UserError(f"{nc} exists; use --force to replace it or --name to write another")
-    res = tr.trace(state, params, t_max=t_max, rtol=args.rtol, atol=args.atol, n=args.samples)
+    res = at_start(tr.trace(state, params, t_max=t_max, rtol=args.rtol, atol=args.atol, n=args.samples), state,
+                   params)
     if args.periods and res["reason"] == "periodic":
         res = follow(res, params, args.periods, args.rtol, args.atol, args.samples)
     ds = dataset(res, state, params, t_max, args.rtol, args.atol, command, extra)
-    io.write_dataset(ds, nc, (ds.sizes["time"],))
-    png = io.write_figure(figure(io.open_result(nc)), nc.with_suffix(".png"))
+    png = nc.with_suffix(".png")
+    with io.atomic_path(nc) as tmp:  # the .nc is moved into place last, after its figure: a failed plot leaves neither
+        io.write_dataset(ds, tmp, (ds.sizes["time"],))
+        io.write_figure(figure(io.open_result(tmp)), png)
     label = solver.OUTCOME_MEANINGS.get(res["outcome"], str(res["outcome"])).split(":")[0]
     more = ""
     if "half_periods" in res:
         more = f"; followed {res['half_periods'].size // 2} more periods to t = {res['t_followed']:.6g} s"
     elif res["reason"] == "periodic":
         more = "; --periods N follows the orbit N more periods"
+    elif res["reason"] == "fall" and res["t_end"] == 0.0:
+        more = f"; the ball leaves the rim at t = 0 (F2 = {res['F2'][0]:.4g} N at the initial state)"
     print(f"wrote {nc} and {png}: {label} at t_end = {res['t_end']:.6g} s ({res['reason']}){more}")
     return 0

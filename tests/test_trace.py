@@ -117,3 +117,83 @@ def test_periods_follow_a_periodic_orbit_repeating(tmp_path, capsys):
             for k in (1, 2):
                 assert np.interp(t0 + 2 * k * half, t, v) == pytest.approx(np.interp(t0, t, v), rel=1e-4, abs=1e-4)
     assert main(["trace", "--state", "1.2,0.5,65,10", "--periods", "-1", "--out", str(tmp_path), "--force"]) == 2
+
+
+@pytest.mark.parametrize("state", ["0,0,0,0", "1.2,50,65,10", "1.2,-200,65,10", "1.2,1e11,65,10"])
+def test_a_state_that_leaves_the_rim_at_once_is_a_trace_of_one_sample(state, tmp_path, capsys):
+    """F2 <= 0 at the start (or a slip onset that loses the contact at t = 0): the trace ends at
+    t_end = 0 with no phase; the file holds the initial state at t = 0 and its figure says so."""
+    assert main(["trace", "--state", state, "--out", str(tmp_path)]) == 0
+    assert "leaves the rim at t = 0" in capsys.readouterr().out
+    ds = xr.open_dataset(tmp_path / "trace.nc")
+    assert ds.attrs["reason"] == "fall" and ds.attrs["t_end"] == 0.0
+    assert ds.sizes["time"] == 1 and float(ds["time"][0]) == 0.0
+    x = np.array([float(v) for v in state.split(",")])
+    np.testing.assert_array_equal([float(ds[n][0]) for n in ("beta", "omega1", "omega2", "omega3")], x)
+    assert float(ds["F2"][0]) <= 0.0 and list(ds["event_time"].values) == [0.0] * ds.sizes["event"]
+    assert (tmp_path / "trace.png").is_file()
+    assert main(["plot", str(tmp_path / "trace.nc")]) == 0  # study plot re-draws it
+
+
+def test_a_failed_figure_leaves_no_file_behind(tmp_path, monkeypatch):
+    """The .nc is moved into place after its figure is written: a plot that fails leaves neither
+    file, and the rerun needs no --force."""
+    from rimroll.study import trace as study_trace
+
+    def broken(ds):
+        raise RuntimeError("the figure failed")
+
+    argv = ["trace", "--state", "1.2,0.5,65,10", "--set", "mu=inf", "--out", str(tmp_path)]
+    monkeypatch.setattr(study_trace, "figure", broken)
+    with pytest.raises(RuntimeError, match="the figure failed"):
+        main(argv)
+    assert list(tmp_path.iterdir()) == []
+    monkeypatch.undo()
+    assert main(argv) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["trace.nc", "trace.png"]
+
+
+def test_trace_picks_a_point_of_a_file_with_swept_axes(tmp_path, capsys):
+    """--at selects the point on every swept axis (mu, omega2 here; k_r, k_d hold one value each);
+    a swept axis it leaves out, or a value that is no number near the axis, is one line, exit 2."""
+    assert main(["run", "outcome-cube", "--quick", "--set", "mu=0.5,1", "--set", "omega2=35,65", "--set", "k_r=0",
+                 "--set", "k_d=0", "--set", "n_beta=3", "--set", "n_omega1=3", "--out", str(tmp_path),
+                 "--no-progress"]) == 0
+    cube = xr.open_dataset(tmp_path / "outcome-cube.nc")
+    assert cube.sizes["mu"] == 2 and cube.sizes["omega2"] == 2
+    capsys.readouterr()
+    for mu in (0.5, 1.0):  # the two scenes end differently from this state: fall_out at 0.30 s, fall_in at 0.14 s
+        cell = cube.sel(mu=mu, omega2=65.0, beta=0.8, omega1=0.0).squeeze()
+        assert main(["trace", str(tmp_path / "outcome-cube.nc"), "--at", f"mu={mu:g},omega2=64,beta=0,omega1=0",
+                     "--out", str(tmp_path), "--name", f"mu{mu:g}"]) == 0
+        pt = xr.open_dataset(tmp_path / f"mu{mu:g}.nc")
+        assert pt.attrs["param_mu"] == mu and pt.attrs["param_k_r"] == 0.0 and pt.attrs["t_max"] == float(cell["t_max"])
+        assert [pt.attrs[f"initial_{n}"] for n in ("beta", "omega1", "omega2", "omega3")] == [0.8, 0.0, 65.0, 10.0]
+        assert pt.attrs["outcome"] == int(cell["outcome"])
+        assert pt.attrs["t_end"] == pytest.approx(float(cell["t_end"]), rel=1e-4)
+    capsys.readouterr()
+    for at, words in (("mu=1,beta=1.3,omega1=0", ("'omega2'", "(35, 65)")),
+                      ("mu=1,omega2=65,beta=1.3,omega1=nan", ("omega1=nan", "(-20, 0, 20)")),
+                      ("mu=1,omega2=65,beta=1.3,omega1=1e300", ("omega1=1e300", "(-20, 0, 20)")),
+                      ("mu=inf,omega2=65,beta=1.3,omega1=0", ("mu=inf", "(0.5, 1)"))):
+        assert main(["trace", str(tmp_path / "outcome-cube.nc"), "--at", at, "--out", str(tmp_path),
+                     "--name", "bad"]) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.startswith("study: error:") and all(w in err for w in words) and "\n" not in err, err
+        assert not (tmp_path / "bad.nc").exists()
+
+
+@pytest.mark.parametrize("name", ["../escape", "a/b", "", ".", "..", ".hidden", ".nc", "a b", "x\\y"])
+def test_trace_name_is_a_plain_file_stem(name, tmp_path, capsys):
+    out = tmp_path / "results"
+    assert main(["trace", "--state", "1.2,0.5,65,10", "--set", "mu=inf", "--out", str(out), "--name", name]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("study: error: --name") and "letters, digits" in err and "\n" not in err
+    assert list(tmp_path.rglob("*")) == []  # nothing written, in results/ or beside it
+
+
+def test_trace_name_drops_a_trailing_nc(tmp_path, capsys):
+    assert main(["trace", "--state", "1.2,0.5,65,10", "--set", "mu=inf", "--out", str(tmp_path),
+                 "--name", "orbit-1.b.nc"]) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["orbit-1.b.nc", "orbit-1.b.png"]
+    capsys.readouterr()
