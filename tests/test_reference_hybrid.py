@@ -90,6 +90,21 @@ def test_periodic_states_match_in_the_slipping_scene():
     np.testing.assert_allclose(ours["t_end"], ref["t_end"], rtol=1e-6)
 
 
+@pytest.mark.parametrize("mu", [np.inf, 1.0])
+def test_a_start_at_omega1_zero_is_one_zero_not_two(mu):
+    """A rolling phase that starts at omega1 = 0 exactly: scipy reports that zero as an event at the
+    start, which the reference counted as the second zero (periodic at t_end = 0). Against the engine:
+    periodic, fall and periodic again, with its t_end and half period."""
+    x = np.array([[1.2, 0.0, 65.0, 10.0], [1.3, 0.0, 35.0, 10.0], [1.1, 0.0, 35.0, 10.0]])
+    p = Params(mu=mu)
+    ours = simulate(x, p, t_max=20.0, rtol=1e-10, atol=1e-12, method="dop853")
+    ref = reference(x, p, t_max=20.0, rtol=1e-10, atol=1e-12)
+    np.testing.assert_array_equal(ref["outcome"], ours["outcome"])
+    assert np.all(ref["t_end"] > 0.2)
+    np.testing.assert_allclose(ref["t_end"], ours["t_end"], rtol=1e-7)
+    np.testing.assert_allclose(ref["half_period"], ours["half_period"], rtol=1e-7)
+
+
 def test_slip_at_t0_outside_the_friction_cone():
     p = Params(mu=0.05)
     x = np.array([1.2, 0.5, 35.0, 10.0])

@@ -292,15 +292,19 @@ class _System:
         """solve_ivp of one rolling phase from (t, y): (solution, its transversal omega1 zeros, the
         pair of omega1 crossings that makes it periodic or None, rhs evaluations)."""
         t_start = t if self.conservative and _starts_crossing(y, self, self.rtol) else None
-        self.omega1_zero.terminal = 1 if t_start is not None else 2
+        # scipy reports a zero the phase starts at (omega1 = 0 exactly) as an event at t: it counts
+        # towards the terminal count and is not a zero of the phase (t_start stands for it)
+        at_start = int(y[1] == 0.0)
+        self.omega1_zero.terminal = (1 if t_start is not None else 2) + at_start
 
         def run():
             sol = solve_ivp(self.fun_roll, (t, self.t_max), y, method=self.method, rtol=self.rtol, atol=self.atol,
                             events=list(self.roll_events.values()), dense_output=True)
             if not self.conservative:
                 return sol, [], None
-            zeros = _transversal_zeros(sol.t_events[self.at["omega1"]], sol.y_events[self.at["omega1"]], self,
-                                       self.rtol)
+            later = sol.t_events[self.at["omega1"]] > t if at_start else slice(None)
+            zeros = _transversal_zeros(sol.t_events[self.at["omega1"]][later], sol.y_events[self.at["omega1"]][later],
+                                       self, self.rtol)
             crossings = ([t_start] if t_start is not None else []) + zeros
             return sol, zeros, (crossings[:2] if len(crossings) >= 2 else None)
 
