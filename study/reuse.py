@@ -3,7 +3,8 @@
 ``study run`` records the fingerprint of its plan (:attr:`study.plan.Plan.fingerprint`: the
 study, every setting and parameter, the grid, the chunking and the code version) in the global
 attribute ``run_fingerprint`` of the file it writes. A later run into the same ``--out`` reuses
-the file only if that attribute equals the new plan's fingerprint. A file that cannot be read
+the file only if that attribute equals the new plan's fingerprint and the file still records the
+checksums of its values (a file changed on purpose drops them: it is not reused). A file that cannot be read
 (truncated, not netCDF) is not a result: it is recomputed and replaced atomically. A readable
 file of other inputs is neither reused nor overwritten without ``--force``; the error names
 what differs.
@@ -15,6 +16,7 @@ import dataclasses
 import pathlib
 
 FINGERPRINT_ATTR = "run_fingerprint"
+CHECKSUM_ATTR = "data_sha256"  # = study.io.CHECKSUM_ATTR (io, with netCDF4, is imported only when a file is read)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -71,6 +73,9 @@ def inspect(path, fingerprint: str, request_attrs: dict, request_sizes: dict) ->
     except Exception as exc:  # noqa: BLE001  whatever the damage, it is not a result
         return Existing("unreadable", " ".join(str(exc).split()) or type(exc).__name__)
     if attrs.get(FINGERPRINT_ATTR) == fingerprint:
+        if CHECKSUM_ATTR not in attrs:  # dropped by whoever changed the file on purpose: not this run's numbers
+            return Existing("different", f"the file records this run's fingerprint but no {CHECKSUM_ATTR}: it was "
+                                         "changed after it was written")
         return Existing("same")
     diff = differences(attrs, sizes, request_attrs, request_sizes)
     if FINGERPRINT_ATTR not in attrs:

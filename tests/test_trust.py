@@ -93,6 +93,27 @@ def test_result_of_other_inputs_is_not_reused(tmp_path, capsys):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["fig8.nc", "fig8.png"]
 
 
+def test_a_result_changed_on_purpose_is_not_reused_as_its_run(probe, tmp_path, capsys):
+    """A file edited with xarray and saved without data_sha256 (as the README says to) keeps the run's
+    fingerprint, but its numbers are no longer the run's: the rerun stops in one line and keeps it."""
+    assert _run(tmp_path) == 0
+    nc = tmp_path / "fanout-probe.nc"
+    with xr.open_dataset(nc) as ds:
+        edited = ds.load()
+    edited.attrs.pop("data_sha256")
+    edited["f"] = edited["f"] * 2
+    edited.to_netcdf(tmp_path / "edited.nc")
+    os.replace(tmp_path / "edited.nc", nc)
+    capsys.readouterr()
+    assert _run(tmp_path) == 2
+    _one_line_error(capsys.readouterr().err, "no data_sha256", "--force")
+    with xr.open_dataset(nc) as ds:
+        np.testing.assert_array_equal(ds["f"].values, edited["f"].values)
+    assert _run(tmp_path, "--force") == 0
+    with xr.open_dataset(nc) as ds:
+        assert "data_sha256" in ds.attrs
+
+
 def test_truncated_result_is_recomputed(probe, tmp_path, capsys):
     assert _run(tmp_path) == 0
     nc = tmp_path / "fanout-probe.nc"
