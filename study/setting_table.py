@@ -116,8 +116,8 @@ def _physical(q: physical.Quantity) -> Setting:
 
 _SWEPT_PHYSICAL = ("mu", "j", "rho_over_R", *physical.TERM_KEYS)  # every term's strength
 _DOC_MORE = {  # what the study layer adds to a physical parameter's doc
-    "mu": "; a swept list may hold inf too: --set mu=1,inf puts slipping and rolling only on one axis (mu is "
-          "the only setting that takes inf)",
+    "mu": "; mu is the only setting that takes inf, and in a study that sweeps it a list may hold inf too: "
+          "--set mu=1,inf puts slipping and rolling only on one axis",
 }
 S = Setting
 _ENTRIES = (
