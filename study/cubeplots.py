@@ -86,16 +86,36 @@ def axis_label(ds, name: str) -> str:
     return f"{WORDS.get(name, attrs.get('long_name', name))} {SYMBOLS.get(name, '')} [{units}]".replace("  ", " ")
 
 
-def held_text(ds, names=()) -> str:
+def held_text(ds, names=(), fig=None, fontsize: float = 11, lead: int = 0) -> str:
     """The settings ``names`` (those a study can sweep) that ``ds`` holds at one value, by a selection
-    or because the run gave one value, as text ('' if none)."""
+    or because the run gave one value, as text ('' if none). With ``fig``: broken into lines (at the
+    commas) that fit its width at ``fontsize`` [pt], the first line ``lead`` characters shorter (the
+    title's words before it)."""
     values = held(ds)
     for name in names:
         if name not in values and name not in swept(ds):
             key = next((k for k in (f"setting_{name}", f"param_{name}") if k in ds.attrs), None)
             if key is not None:
                 values[name] = float(ds.attrs[key])
-    return ", ".join(quantity_text(ds, k, v) for k, v in values.items())
+    words = [quantity_text(ds, k, v) for k, v in values.items()]
+    if fig is None:
+        return ", ".join(words)
+    return fit_lines(words, fig, fontsize, lead)
+
+
+def fit_lines(words: list[str], fig, fontsize: float = 11, lead: int = 0) -> str:
+    """``words`` joined by ', ' into lines that fit the width of ``fig`` at ``fontsize`` [pt] (a
+    character taken as 0.55 em wide, mathtext markup counted as if drawn: a safe overestimate)."""
+    width = max(20, int(fig.get_figwidth() * 72 / (0.55 * fontsize) * 0.92))
+    lines, line = [], ""
+    for word in words:
+        room = width - (lead if not lines else 0)
+        if line and len(line) + 2 + len(word) > room:
+            lines.append(line + ",")
+            line = word
+        else:
+            line = f"{line}, {word}" if line else word
+    return "\n".join([*lines, line])
 
 
 def slices(ds, dims) -> list[dict]:

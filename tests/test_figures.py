@@ -86,6 +86,14 @@ def _overlaps(fig) -> list:
     return bad
 
 
+def _cut_off(fig) -> list:
+    """Texts of ``fig`` drawn partly outside the figure (by more than a pixel): a title too long for it."""
+    renderer = fig.canvas.get_renderer()
+    page = fig.bbox
+    return [t.get_text() for t in _texts(fig) for b in [t.get_window_extent(renderer)]
+            if b.width > 0 and (b.x0 < page.x0 - 1 or b.x1 > page.x1 + 1 or b.y0 < page.y0 - 1 or b.y1 > page.y1 + 1)]
+
+
 UNITS = re.compile(r"\[[^\]]+\]")
 
 
@@ -264,9 +272,10 @@ def test_invariants_and_solution_types_speak_plainly(tmp_path):
     b0 = inv["beta_t"].isel(t=0).values
     assert all(any(f"{b:.3f}" in t for t in texts) for b in b0)
     types = _run(tmp_path, "solution-types")
-    ax = get("solution-types").plot(types).axes[0]
-    assert ax.get_xlim() == (0.0, 1.0)
-    assert "subset" not in ax.get_title() and "seed 0" in ax.get_title()
+    fig = get("solution-types").plot(types)
+    title = fig._suptitle.get_text()
+    assert fig.axes[0].get_xlim() == (0.0, 1.0)
+    assert "subset" not in title and "seed 0" in title
 
 
 def test_realisable_cube_shows_every_swept_axis_and_a_slice_as_fig8(tmp_path):
@@ -366,7 +375,7 @@ def test_the_first_hour_sweep_shows_mu(sweep):
     maps = [ax for ax in fig.axes if "omega_1" in ax.get_xlabel()]
     assert sorted(ax.get_title() for ax in maps) == sorted(C.quantity_text(sweep, "mu", m) for m in (0.25, 0.5, 1, 2))
     assert "k_r" in fig.texts[0].get_text() if fig.texts else "k_r" in fig._suptitle.get_text()
-    assert not _labels_without_units(fig) and not _overlaps(fig)
+    assert not _labels_without_units(fig) and not _overlaps(fig) and not _cut_off(fig)
 
 
 def test_a_cube_slice_is_drawn_as_its_section_map(sweep, tmp_path):
@@ -418,6 +427,7 @@ def test_select_takes_several_pairs_in_one_word(tmp_path):
     ("predictability", ("omega2=65", "n_sample=20")),
     ("make-probability", ("n_beta=6", "n_omega1=8", "n_samples=4", "sigma=0.5,1", "mu=1,inf")),
     ("work-precision", ("n_states=16", "n_scipy=2", "n_scipy_hybrid=1", "n_rtol=2", "rtol_max=1e-6")),
+    ("continuation", ("n_beta=6", "n_omega1=8")),
 ])
 def test_figures_label_their_axes_with_units_and_no_text_covers_another(tmp_path, name, sets):
     """Every data axis says its units; every swept axis of a cube has a panel; no two texts (titles,
@@ -427,6 +437,7 @@ def test_figures_label_their_axes_with_units_and_no_text_covers_another(tmp_path
     fig = _rendered(get(name).plot(ds))
     assert not _labels_without_units(fig), name
     assert not _overlaps(fig), name
+    assert not _cut_off(fig), name
     xlabels = {ax.get_xlabel() for ax in _axes_of(fig)}
     assert all(C.axis_label(ds, d) in xlabels for d in C.swept(ds)), (name, C.swept(ds), xlabels)
 

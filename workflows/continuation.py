@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
 from scipy import ndimage
 
 from rimroll import solver
@@ -180,12 +181,13 @@ def _plot(ds):
                 a.axvline(w, color="0.5", lw=0.8, ls="--")
         ax.plot([], [], color="0.5", ls="--", label="the paper's sections (Figs. 11-13)")
     ax.set_ylabel("fraction of the initial states [-]")
-    bx.set_ylabel("islands")
+    bx.set_ylabel("islands [-]")
     bx.set_xlabel(C.axis_label(ds, x))
     ax.legend(fontsize=8, ncol=2)
     bx.legend(fontsize=8)
-    held = C.held_text(sel, SWEEPS)
-    fig.suptitle(f"Outcome fractions continued in {x}" + (f" at {held}" if held else ""), fontsize=11)
+    held = C.held_text(sel, SWEEPS, fig, 11)
+    fig.suptitle(f"Outcome fractions continued in {x}" + (f"\nat {held}" if held else ""), fontsize=11)
+    bx.yaxis.set_major_locator(MaxNLocator(integer=True))  # a count of islands
     return fig
 
 

@@ -79,9 +79,9 @@ def _realisable_plot(ds):
         _region_panel(ax, ds.isel(pick), small=True)
         ax.set_title(C.slice_text(ds, pick), fontsize=9)
     fig.legend(handles=handles, loc="outside lower center", ncol=3, fontsize=9, frameon=False)
-    held = C.held_text(ds, REALISABLE_SWEEPS)
+    held = C.held_text(ds, REALISABLE_SWEEPS, fig, 11, lead=3)
     fig.suptitle("Realisable steady motions (Fig. 8): areas of regions A, B, C" + (f"\nat {held}" if held else "")
-                 + ("; below: the map of each slice" if picks else f"\n{C.select_hint(ds)}"), fontsize=11)
+                 + ("\nbelow: the map of each slice" if picks else f"\n{C.select_hint(ds)}"), fontsize=11)
     return fig
 
 
@@ -194,9 +194,9 @@ def _outcome_plot(ds):
         ax.set_title(C.slice_text(ds, pick), fontsize=9)
     handles += [extras[k] for k in ("star", "time", "long") if k in extras]
     fig.legend(handles=handles, loc="outside lower center", ncol=3, fontsize=9, frameon=False)
-    held = C.held_text(ds, OUTCOME_SWEEPS)
+    held = C.held_text(ds, OUTCOME_SWEEPS, fig, 11, lead=3)
     fig.suptitle("Outcomes of rolling initial states over the section (Figs. 11-13)" + (f"\nat {held}" if held else "")
-                 + ("; below: the map of each slice" if picks else f"\n{C.select_hint(ds)}"), fontsize=11)
+                 + ("\nbelow: the map of each slice" if picks else f"\n{C.select_hint(ds)}"), fontsize=11)
     return fig
 
 

@@ -274,8 +274,10 @@ def _types_plot(ds):
     t_max = float(setting_of(ds, "t_max"))
     import textwrap
 
-    words = "\n".join(textwrap.wrap(f"{_sample_words(ds)}; each followed for up to {t_max:g} s", 80))
-    ax.set_title(f"Types of solutions of the rolling equations (Theorem 1)\n{words}", fontsize=11)
+    words = "\n".join(textwrap.wrap(f"{_sample_words(ds)}; each followed for up to {t_max:g} s", 76))
+    # over the figure, not the axes: the type names push the axes right, and a title centred on them ran
+    # off the figure's right edge
+    fig.suptitle(f"Types of solutions of the rolling equations (Theorem 1)\n{words}", fontsize=11)
     return fig
 
 
