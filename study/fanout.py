@@ -261,6 +261,7 @@ def run(plan: Plan, store: PartStore, todo: list[int], c, progress: ProgressLine
     inflight = {f for f in (submit() for _ in range(window)) if f is not None}
     no_worker_since = None
     estimated = False
+    seconds_of = []  # seconds of the chunks finished before the estimate, in the order they finished
     quiet_since, beat = t0, runguard.next_heartbeat(0.0)  # a "working" notice is due when nothing finished for beat s
     try:
         while inflight:
@@ -304,10 +305,12 @@ def run(plan: Plan, store: PartStore, todo: list[int], c, progress: ProgressLine
                 nxt = submit()
                 if nxt is not None:
                     inflight.add(nxt)
-            if not estimated and stats.computed >= min(threads, len(todo)):
-                estimated = True
-                runguard.estimate(plan, stats.compute_s / stats.computed,
-                                  len(todo) - stats.computed, threads)
+            if not estimated:
+                seconds_of.append(seconds)
+                per_chunk = runguard.seconds_per_chunk(seconds_of, threads, len(todo))
+                if per_chunk is not None:
+                    estimated = True
+                    runguard.estimate(plan, per_chunk, len(todo) - stats.computed, threads)
     except CommClosedError:
         raise lost("its connection closed", "scheduler") from None
     except BaseException:

@@ -171,6 +171,17 @@ def next_heartbeat(elapsed: float) -> float:
     return (elapsed // 60 + 1) * 60
 
 
+def seconds_per_chunk(finished: list[float], threads: int, n_chunks: int) -> float | None:
+    """Seconds a chunk takes, for the estimate of the time left, from the compute seconds of the chunks
+    ``finished`` so far (in the order they finished); None until there are enough. The first chunk of
+    each of the ``threads`` waited for the kernels to compile (a first run: 10-40 s that the later
+    chunks do not pay), so the estimate waits for a second round and leaves the first out."""
+    if len(finished) < min(2 * threads, n_chunks):
+        return None
+    later = finished[threads:] or finished  # a run of fewer chunks than two rounds: all of them
+    return sum(later) / len(later)
+
+
 def estimate(plan, seconds_per_chunk: float, n_left: int, threads: int, stream=None) -> None:
     """One notice with the time left, said once when it exceeds a minute."""
     total = seconds_per_chunk * n_left / max(threads, 1)
