@@ -18,7 +18,9 @@ omega3 = 0. One with lambda^2 = (r/rho) G_P'(beta*) > 0 is a saddle whose stable
 manifolds in the plane are the connections of Theorem 1 (types 3 and 4); lambda^2 is then h of
 (54) (g / (rho (1+j)) at x0+), the one non-zero eigenvalue pair of the 4-D linearisation.
 
-Only ``rho/R`` and ``j`` enter Phi; the functions take a conservative :class:`solver.Params`.
+Only ``rho/R`` and ``j`` enter Phi; the functions take a conservative :class:`solver.Params`
+(TypeError naming ``p`` for anything else). Units: beta [rad]; omega1, omega2, omega3 and the level
+P = (P_I, P_II) [1/s].
 """
 
 from __future__ import annotations
@@ -28,8 +30,10 @@ import numpy as np
 from rimroll.solver._jit import vectorised
 from rimroll.solver.analysis import floquet, steady
 from rimroll.solver.analysis.invariants import momenta
+from rimroll.solver.engine.simulate import real_number
 from rimroll.solver.physics import rolling
 from rimroll.solver.physics.params import Params
+from rimroll.solver.physics.steady_motion import check_params
 
 _rhs = vectorised(rolling.rolling_rhs)
 
@@ -45,25 +49,37 @@ TRIVIAL_TOL = 1e-9
 
 
 def _conservative(p: Params) -> None:
+    check_params(p)
     if p.dissipative:
         raise ValueError(f"the reduced dynamics needs the conservative rolling equations: k_r = k_d = 0; "
                          f"got k_r={p.k_r}, k_d={p.k_d}")
 
 
 def level(x, p: Params):
-    """(P_I, P_II) [1/s] of the rolling state(s) x (..., 4) = (beta, omega1, omega2, omega3): shape (..., 2)."""
+    """(P_I, P_II) [1/s] of the rolling state(s) x (..., 4) = (beta [rad], omega1, omega2, omega3 [1/s]):
+    shape (..., 2)."""
+    check_params(p)
     x = np.asarray(x, dtype=float)
     return np.stack(momenta(x[..., 0], x[..., 2], x[..., 3], p.rho / p.R, p.j), axis=-1)
 
 
 def spins(beta, P, p: Params):
-    """z(beta) = Phi(beta) P = (omega2, omega3) [1/s] on the level P = (P_I, P_II): shape (..., 2)."""
+    """z(beta) = Phi(beta) P = (omega2, omega3) [1/s] at beta [rad] on the level P = (P_I, P_II) [1/s]
+    (last axis 2; ValueError naming P otherwise): shape (..., 2)."""
+    check_params(p)
+    P = np.asarray(P, dtype=float)
+    if P.shape[-1:] != (2,):
+        raise ValueError(f"`P` must be the level (P_I, P_II) [1/s], shape (..., 2); got shape {P.shape}")
     phi = floquet.fundamental(beta, p.rho / p.R, p.j)
-    return np.einsum("...ik,...k->...i", phi, np.asarray(P, dtype=float))
+    return np.einsum("...ik,...k->...i", phi, P)
 
 
 def state_on_level(beta, omega1, P, p: Params):
-    """The rolling state (beta, omega1, z(beta)) on the level P: shape (..., 4)."""
+    """The rolling state (beta [rad], omega1 [1/s], z(beta) [1/s]) on the level P = (P_I, P_II) [1/s].
+
+    beta and omega1 broadcast; P has shape (2,) or one that broadcasts with them plus a last axis of 2
+    (ValueError naming P otherwise). Returns shape broadcast(beta, omega1) + (4,).
+    """
     beta, omega1 = np.broadcast_arrays(np.asarray(beta, float), np.asarray(omega1, float))
     z = spins(beta, P, p)
     return np.stack([beta, omega1, z[..., 0], z[..., 1]], axis=-1)
@@ -94,9 +110,10 @@ def equilibrium(P, beta_guess: float, p: Params):
     Newton's method on G_P(beta) = 0 from beta_guess [rad] (steps limited to NEWTON_MAX_STEP).
     Returns the state x* = (beta*, 0, omega2*, omega3*) (shape (4,)), or NaNs where Newton does
     not converge within NEWTON_MAX_ITER iterations. beta* is a real number, not reduced mod 2 pi.
+    P: the level (P_I, P_II) [1/s].
     """
     _conservative(p)
-    beta = float(beta_guess)
+    beta = real_number("beta_guess", beta_guess, allowed="an angle [rad]")
     for _ in range(NEWTON_MAX_ITER):
         g = float(omega1_rate(beta, P, p))
         slope = float(omega1_rate_slope(beta, P, p))
@@ -120,6 +137,7 @@ def eigenvalue_squared(x_eq, p: Params) -> float:
 
 def is_trivial(x_eq, p: Params) -> bool:
     """Whether the equilibrium x_eq is a trivial one, x0+- of (46): cos(beta) = 0 and omega3 = 0."""
+    check_params(p)
     beta, _, w2, w3 = np.asarray(x_eq, dtype=float)
     scale = max(abs(w2), abs(w3), np.sqrt(p.g / p.rho))
     return bool(abs(np.cos(beta)) <= TRIVIAL_TOL and abs(w3) <= TRIVIAL_TOL * scale)
@@ -145,6 +163,7 @@ def stable_manifold_state(x_eq, offset, p: Params):
     (the offset reaches past the saddle's own potential hill).
     """
     x_eq = np.asarray(x_eq, dtype=float)
+    real_number("offset", offset, allowed="an angle [rad]")
     if not eigenvalue_squared(x_eq, p) > 0:
         raise ValueError(f"x_eq={x_eq} is not a saddle of the reduced dynamics (lambda^2 <= 0)")
     P = level(x_eq, p)

@@ -72,8 +72,10 @@ import numpy as np
 from rimroll.solver._jit import vectorised
 from rimroll.solver.analysis import reduced, trajectory
 from rimroll.solver.engine import rules
+from rimroll.solver.engine.simulate import ATOL_MAX, RTOL_RANGE, positive_number, real_array, real_number
 from rimroll.solver.physics import kinematics, rolling
 from rimroll.solver.physics.params import Params
+from rimroll.solver.physics.steady_motion import check_params
 
 UNDETERMINED = 0
 TRIVIAL_EQUILIBRIUM = 1
@@ -143,7 +145,10 @@ _GAUSS_NODES, _GAUSS_WEIGHTS = np.polynomial.legendre.leggauss(8)
 
 
 def _check(states, p: Params):
-    states = np.asarray(states, dtype=float)
+    """``states`` as a float array (..., 4) of real numbers, ``p`` a conservative Params. A state with
+    NaN or inf is not refused: a map over many states marks it undetermined (``classify``)."""
+    check_params(p)
+    states = real_array("states", states)
     if states.shape[-1:] != (4,):
         raise ValueError(f"states must have shape (..., 4) = (beta, omega1, omega2, omega3); got {states.shape}")
     if p.dissipative:
@@ -152,13 +157,35 @@ def _check(states, p: Params):
     return states
 
 
+def _checked_eq_tol(eq_tol) -> float:
+    v = real_number("eq_tol", eq_tol, allowed="a relative tolerance, 0 <= eq_tol < 1")
+    if not 0.0 <= v < 1.0:
+        raise ValueError(f"`eq_tol` must be a relative tolerance, 0 <= eq_tol < 1; got {eq_tol!r}")
+    return v
+
+
+def _checked_tolerances(t_max, rtol, atol, connection_tol, return_tol):
+    """The checks of :func:`classify` of its time and tolerances (ValueError naming the argument)."""
+    positive_number("t_max", t_max)
+    allowed = f"in [{RTOL_RANGE[0]:g}, {RTOL_RANGE[1]:g}]"
+    if not RTOL_RANGE[0] <= real_number("rtol", rtol, allowed=allowed) <= RTOL_RANGE[1]:
+        raise ValueError(f"`rtol` must be {allowed} (as for solver.simulate); got {rtol!r}")
+    if not positive_number("atol", atol) <= ATOL_MAX:
+        raise ValueError(f"`atol` must be in (0, {ATOL_MAX:g}]; got {atol!r}")
+    for name, value in (("connection_tol", connection_tol), ("return_tol", return_tol)):
+        if value is not None:
+            positive_number(name, value)
+
+
 def equilibrium_kind(states, p: Params, eq_tol: float = DEFAULT_EQ_TOL):
     """Code per state: TRIVIAL_EQUILIBRIUM, NONTRIVIAL_EQUILIBRIUM, or -1 (not an equilibrium) (int8).
 
+    states: (..., 4) of (beta [rad], omega1, omega2, omega3 [1/s]); p: conservative Params.
     An equilibrium has ``rules.steady_residual`` <= eq_tol (omega1 and every rate vanish
-    relative to their scales); a trivial one also has |omega3| <= eq_tol S.
+    relative to their scales; 0 <= eq_tol < 1); a trivial one also has |omega3| <= eq_tol S.
     """
     states = _check(states, p)
+    eq_tol = _checked_eq_tol(eq_tol)
     beta, w1, w2, w3 = np.moveaxis(states, -1, 0)
     pa = p.as_array()
     eq = _steady_residual(beta, w1, w2, w3, pa) <= eq_tol
@@ -344,11 +371,15 @@ def classify(states, p: Params, t_max: float = DEFAULT_T_MAX, rtol: float = traj
     """Type of each rolling state (Theorem 1) with the evidence.
 
     states: (..., 4) of (beta [rad], omega1, omega2, omega3 [1/s]); p: conservative Params
-    (k_r = k_d = 0; mu ignored). t_max [s]: how long to follow each solution; rtol, atol:
-    DOP853 tolerances; eq_tol: relative tolerance of the equilibrium and pendulum tests;
-    connection_tol: scaled distance of closest approach to a saddle (default
-    CONNECTION_TOL_FACTOR sqrt(rtol)); return_tol: relative distance of a return of
-    (omega2, omega3) after q revolutions (default RETURN_TOL_FACTOR rtol). Returns, each of
+    (k_r = k_d = 0; mu ignored). t_max [s]: how long to follow each solution (finite, > 0);
+    rtol [1], atol [units of each component]: DOP853 tolerances (1e-14 <= rtol <= 1e-2 and
+    0 < atol <= 1, as for ``solver.simulate``; scipy raises an rtol below 100 eps to 100 eps, with a
+    warning); eq_tol [1]: relative tolerance of the equilibrium and pendulum tests
+    (0 <= eq_tol < 1); connection_tol [1]: scaled distance of closest approach to a saddle (> 0;
+    default CONNECTION_TOL_FACTOR sqrt(rtol)); return_tol [1]: relative distance of a return of
+    (omega2, omega3) after q revolutions (> 0; default RETURN_TOL_FACTOR rtol). A bad argument
+    raises ValueError naming it, TypeError for a ``p`` that is not a :class:`Params`; a state with
+    NaN or inf is UNDETERMINED (type 0), so that a map over many states goes on. Returns, each of
     shape states.shape[:-1]:
 
     - "type": int8 codes (module docstring);
@@ -365,6 +396,7 @@ def classify(states, p: Params, t_max: float = DEFAULT_T_MAX, rtol: float = traj
     - "connection": int8 CONNECTION_* codes (homoclinic, heteroclinic, other end unresolved).
     """
     states = _check(states, p)
+    _checked_tolerances(t_max, rtol, atol, connection_tol, return_tol)
     if connection_tol is None:
         connection_tol = CONNECTION_TOL_FACTOR * np.sqrt(rtol)
     if return_tol is None:
@@ -392,7 +424,7 @@ def classify(states, p: Params, t_max: float = DEFAULT_T_MAX, rtol: float = traj
         if rotating[i]:
             res["type"][i] = NON_PERIODIC_PENDULUM
             continue
-        if not np.all(np.isfinite(flat[i])):
+        if not np.all(np.isfinite(flat[i])):  # a NaN or inf state: UNDETERMINED, the other states go on
             continue
         evidence = _classify_one(flat[i], p, t_max, rtol, atol, connection_tol, return_tol)
         if separatrix[i] and evidence.get("type") != TRIVIAL_CONNECTION:
@@ -408,5 +440,11 @@ def classify(states, p: Params, t_max: float = DEFAULT_T_MAX, rtol: float = traj
 
 def solution_type(states, p: Params, t_max: float = DEFAULT_T_MAX, rtol: float = trajectory.DEFAULT_RTOL,
                   atol: float = trajectory.DEFAULT_ATOL, eq_tol: float = DEFAULT_EQ_TOL):
-    """Type code (int8, :data:`TYPE_MEANINGS`) of each rolling state; see :func:`classify`."""
+    """Type code (int8, :data:`TYPE_MEANINGS`) of each rolling state: ``classify(...)["type"]``.
+
+    states: (..., 4) of (beta [rad], omega1, omega2, omega3 [1/s]) (a non-finite one: 0, undetermined);
+    p: a conservative :class:`Params`; t_max [s]: how long to follow each solution (finite, > 0); rtol, atol, eq_tol:
+    the tolerances of :func:`classify`, checked there (ValueError naming a bad one). Returns an
+    int8 array of shape states.shape[:-1].
+    """
     return classify(states, p, t_max=t_max, rtol=rtol, atol=atol, eq_tol=eq_tol)["type"]

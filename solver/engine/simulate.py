@@ -12,8 +12,10 @@ from __future__ import annotations
 
 import logging
 import math
+import numbers
 import os
 import pathlib
+from collections.abc import Iterable, Mapping
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -38,6 +40,11 @@ ATOL_MAX = 1.0
 
 DEFAULT_MAX_STEPS = 1_000_000
 DEFAULT_MAX_SWITCHES = 10_000
+MAX_COUNT = int(np.iinfo(np.int64).max)
+"""Largest ``max_steps`` and ``max_switches`` (2**63 - 1): the kernels count steps and switches in int64."""
+MAX_WORKERS = 1024
+"""Most threads of the CPU backend (``workers``): the cap of the command line's ``--workers``
+(``study.checks.MAX_WORKERS``)."""
 _CHUNKS_PER_WORKER = 8  # chunks per thread: balances fast falls against long periodic runs
 
 
@@ -79,25 +86,29 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
     Parameters
     ----------
     states : array_like, shape (..., 4)
-        Rolling initial states (beta [rad], omega1, omega2, omega3 [1/s]), u1 = u3 = 0.
+        Rolling initial states (beta [rad], omega1, omega2, omega3 [1/s]), u1 = u3 = 0: finite
+        real numbers (int or float; not bool, complex, strings or None).
     params : Params
         Physical parameters; they pick the scene (mu = inf: rolling only; a term's parameter > 0
         switches it on: k_r, k_d (83), c_r, c_d (Coulomb resistance), rho_air (air drag); with any
         of them the run is dissipative, without periodic detection).
     t_max : float [s]
-        End of the run for states that stay on the rim (> 0).
-    rtol, atol : float
+        End of the run for states that stay on the rim (finite, > 0).
+    rtol, atol : float [1], [units of each state component]
         Relative tolerance (1e-14 <= rtol <= 1e-2) and absolute tolerance (0 < atol <= 1, in the
         units of each state component) of the embedded error estimate. rtol also sets what
         counts as a steady motion and as a transversal omega1 zero (``solver.engine.rules``).
     method : {"dp5", "dop853"}
         Dormand-Prince 5(4) with 4th-order dense output, or DOP853 with 7th-order dense output.
     max_steps : int
-        Budget of attempted steps per trajectory (status ``max_steps`` when spent).
+        Budget of attempted steps per trajectory, 1 <= max_steps <= ``MAX_COUNT`` (2**63 - 1)
+        (status ``max_steps`` when spent).
     max_switches : int
-        Budget of rolling/slipping switches per trajectory (status ``too_many_switches``).
+        Budget of rolling/slipping switches per trajectory, 0 <= max_switches <= ``MAX_COUNT``
+        (status ``too_many_switches``).
     workers : int or None
-        Threads of the CPU backend (default: ``os.cpu_count()``); the compiled kernels release the GIL.
+        Threads of the CPU backend, 1 <= workers <= ``MAX_WORKERS`` (1024) (default:
+        ``os.cpu_count()``, at most 1024); the compiled kernels release the GIL.
     switching : dict or None
         How slips are run. Overrides of the switching tolerances ``delta``, ``u_stop``,
         ``phi_tol``, ``u_floor``, ``dt_max`` [m/s, m/s, rad, m/s, s] of ``solver.physics.switching``
@@ -135,22 +146,24 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
     Raises
     ------
     ValueError
-        For a bad argument; the message names it and what is allowed.
+        For a bad argument, of a wrong type included (a string for a number, a list for
+        ``switching``); the message names it, what was given and what is allowed.
     solver.engine.backends.BackendUnavailable
         For ``backend="cuda"`` without the extra or a device (one line saying which).
     """
     x = _checked_states(states, params)
-    scene = scene_of(params, terms)
-    switching = dict(switching or {})
+    scene = scene_of(params, _checked_terms(terms))
+    switching = _checked_switching(switching)
     slip_method = switching.pop("slip_method", "rodas4")
-    if slip_method not in SLIP_METHODS:
+    if not isinstance(slip_method, str) or slip_method not in SLIP_METHODS:
         raise ValueError(f"switching `slip_method` must be one of {', '.join(map(repr, SLIP_METHODS))}; "
                          f"got {slip_method!r}")
     limits = _checked_limits(t_max, rtol, atol, max_steps, max_switches)._replace(
         periodic=not scene.dissipates(params), stiff_slips=slip_method == "rodas4")
-    if method not in TABLEAUS:
+    if not isinstance(method, str) or method not in TABLEAUS:
         raise ValueError(f"`method` must be one of {sorted(TABLEAUS)}; got {method!r}")
-    workers = _count("workers", (os.cpu_count() or 1) if workers is None else workers)
+    workers = integer("workers", min(os.cpu_count() or 1, MAX_WORKERS) if workers is None else workers,
+                     maximum=MAX_WORKERS)
     sw = default_tolerances(**switching)
     where = backends.resolve(backend)
 
@@ -201,26 +214,50 @@ def _checked_states(states, params) -> np.ndarray:
     """``states`` as a float array (..., 4) after the checks of :func:`simulate`."""
     if not isinstance(params, Params):
         raise ValueError(f"`params` must be a solver.Params; got {type(params).__name__}")
-    x = np.asarray(states, dtype=float)
+    x = real_array("states", states)
     if x.ndim < 1 or x.shape[-1] != 4:
         raise ValueError(f"`states` must have last axis 4 (beta, omega1, omega2, omega3); got shape {x.shape}")
-    if not np.all(np.isfinite(x)):
-        raise ValueError("`states` must be finite; got inf or NaN")
+    finite_array("states", x)
     return x
+
+
+def _checked_terms(terms):
+    """``terms`` of :func:`simulate` after a check of its type (the names are checked by ``scene_of``)."""
+    if terms is None or isinstance(terms, str):
+        return terms
+    names = tuple(terms) if isinstance(terms, Iterable) and not isinstance(terms, (Mapping, bytes)) else None
+    if names is None or not all(isinstance(t, str) for t in names):
+        raise ValueError(f"`terms` must be a term's name or a sequence of names (str); got {terms!r}")
+    return names
+
+
+def _checked_switching(switching) -> dict:
+    """A copy of ``switching`` of :func:`simulate` after a check of its type and of its values' types
+    (their ranges and the names of the tolerances are checked by ``default_tolerances``)."""
+    if switching is None:
+        return {}
+    if not isinstance(switching, Mapping):
+        raise ValueError("`switching` must be None or a dict of switching tolerances (solver.physics.switching) "
+                         f"and slip_method; got {type(switching).__name__} {switching!r}")
+    out = dict(switching)
+    for key, value in out.items():
+        if key != "slip_method":
+            real_number(f"switching[{key!r}]", value, finite=False, allowed="a positive tolerance")
+    return out
 
 
 def _checked_limits(t_max, rtol, atol, max_steps, max_switches) -> kernels.Limits:
     """The :class:`~rimroll.solver.engine.kernels.Limits` of a run after the checks of :func:`simulate`."""
-    t_max = _positive("t_max", t_max)
-    rtol = _real("rtol", rtol)
+    t_max = positive_number("t_max", t_max)
+    rtol = real_number("rtol", rtol, allowed=f"in [{RTOL_RANGE[0]:g}, {RTOL_RANGE[1]:g}]")
     if not RTOL_RANGE[0] <= rtol <= RTOL_RANGE[1]:
         raise ValueError(f"`rtol` must be in [{RTOL_RANGE[0]:g}, {RTOL_RANGE[1]:g}], where the error control "
                          f"means something; got {rtol!r}")
-    atol = _positive("atol", atol)
+    atol = positive_number("atol", atol)
     if atol > ATOL_MAX:
         raise ValueError(f"`atol` must be in (0, {ATOL_MAX:g}]; got {atol!r}")
-    return kernels.Limits(t_max, rtol, atol, _count("max_steps", max_steps),
-                          _count("max_switches", max_switches, minimum=0), True)
+    return kernels.Limits(t_max, rtol, atol, integer("max_steps", max_steps, maximum=MAX_COUNT),
+                          integer("max_switches", max_switches, minimum=0, maximum=MAX_COUNT), True)
 
 
 def _fields(flat, shape, res_f, res_i, params):
@@ -244,26 +281,83 @@ def _steady_h(flat, outcome, params):
     return h
 
 
-def _real(name, value):
-    if isinstance(value, bool):
-        raise ValueError(f"`{name}` must be a real number; got {value!r}")
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"`{name}` must be a real number; got {value!r}") from None
-    if not math.isfinite(v):
-        raise ValueError(f"`{name}` must be finite; got {value!r}")
+# ------------------------------------------------------------------------------ argument checks
+# The checks of the solver's public functions (simulate here; solver.analysis.steady, .reduced and
+# .solution_types import them): ValueError naming the argument, what was given and what is allowed.
+
+def _is_real(value) -> bool:
+    """A real number: int, float, a numpy integer or floating scalar, or a 0-d array of one; not a bool,
+    str, complex or None."""
+    if isinstance(value, (bool, np.bool_)):
+        return False
+    if isinstance(value, numbers.Real):
+        return True
+    return getattr(value, "ndim", None) == 0 and getattr(getattr(value, "dtype", None), "kind", "") in "iuf"
+
+
+def real_number(name, value, finite=True, allowed="") -> float:
+    """``value`` as a float; ValueError naming ``name``, the value and what is ``allowed`` (a phrase, in
+    parentheses) unless it is a real number (:func:`_is_real`), not NaN and, with ``finite``, not inf."""
+    hint = f" ({allowed})" if allowed else ""
+    if not _is_real(value):
+        raise ValueError(f"`{name}` must be a real number{hint}; got {value!r}")
+    v = float(value)
+    if math.isnan(v):
+        raise ValueError(f"`{name}` must be a real number, not NaN{hint}; got {value!r}")
+    if finite and not math.isfinite(v):
+        raise ValueError(f"`{name}` must be finite{hint}; got {value!r}")
     return v
 
 
-def _positive(name, value):
-    v = _real(name, value)
+def positive_number(name, value) -> float:
+    """``value`` as a float; ValueError naming ``name`` unless it is a finite real number > 0."""
+    v = real_number(name, value, allowed="> 0")
     if not v > 0:
         raise ValueError(f"`{name}` must be > 0; got {value!r}")
     return v
 
 
-def _count(name, value, minimum=1):
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
-        raise ValueError(f"`{name}` must be an integer >= {minimum}; got {value!r}")
+def integer(name, value, minimum=1, maximum=None) -> int:
+    """``value`` as an int; ValueError naming ``name`` unless it is an integer (int or numpy integer, not
+    bool) in [minimum, maximum] (no upper bound for ``maximum=None``)."""
+    if (isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum
+            or (maximum is not None and value > maximum)):
+        upto = "" if maximum is None else f" and <= {'2**63 - 1 (int64)' if maximum == MAX_COUNT else maximum}"
+        raise ValueError(f"`{name}` must be an integer >= {minimum}{upto}; got {value!r}")
     return int(value)
+
+
+def real_array(name, values) -> np.ndarray:
+    """``values`` as a float array; ValueError naming ``name`` unless it is an array_like of real numbers
+    (int or float; not ragged, bool, complex, strings, None). NaN and inf pass (:func:`finite_array`)."""
+    try:
+        raw = values if isinstance(values, np.ndarray) else np.asarray(values)
+    except (ValueError, TypeError):  # ragged nesting
+        raise ValueError(f"`{name}` must be an array_like of real numbers of one shape (not ragged); "
+                         f"got {_short(values)}") from None
+    kind = raw.dtype.kind
+    if kind == "O":
+        bad = [v for v in raw.flat if not _is_real(v)]
+        if bad:
+            bad = bad[0]
+            where = f" in {_short(values)}" if raw.ndim else ""
+            raise ValueError(f"`{name}` must hold real numbers (int or float); got {bad!r} "
+                             f"({type(bad).__name__}, not a number){where}")
+    elif kind not in "iuf":
+        what = {"b": "bool", "c": "complex", "U": "strings", "S": "bytes"}.get(kind, f"dtype {raw.dtype}")
+        raise ValueError(f"`{name}` must hold real numbers (int or float); got {what}: {_short(values)}")
+    return np.asarray(values, dtype=float)
+
+
+def finite_array(name, x: np.ndarray) -> None:
+    """ValueError naming ``name`` and the first non-finite entry of the float array ``x``."""
+    finite = np.isfinite(x)
+    if not finite.all():
+        where = np.unravel_index(int(np.argmin(finite)), x.shape) if x.ndim else ()
+        raise ValueError(f"`{name}` must be finite; got {float(x[where])!r} at index {tuple(map(int, where))} "
+                         f"({int(finite.size - finite.sum())} of {finite.size} entries inf or NaN)")
+
+
+def _short(values, n=80) -> str:
+    text = repr(values)
+    return text if len(text) <= n else text[:n - 3] + "..."
