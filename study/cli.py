@@ -338,8 +338,12 @@ def main(argv=None) -> int:
     words = sys.argv[1:] if argv is None else list(argv)
     command = shlex.join(["study", *words])
     _ignore_file_size_signal()
-    with _messages.command_line():  # notices (logging) on stderr, whatever logging the caller set up
-        return _main(words, command)
+    previous = _terminate_as_interrupt()
+    try:
+        with _messages.command_line():  # notices (logging) on stderr, whatever logging the caller set up
+            return _main(words, command)
+    finally:
+        _restore_sigterm(previous)
 
 
 def _main(words: list[str], command: str) -> int:
@@ -353,9 +357,11 @@ def _main(words: list[str], command: str) -> int:
         message = " ".join(str(exc).split())
         print(f"study: error: {message}", file=sys.stderr)
         return getattr(exc, "exit_status", EXIT_USAGE)
-    except KeyboardInterrupt:
-        print("study: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:  # Ctrl-C, SIGTERM (registry.Terminated), a run's (runguard.RunInterrupted)
+        term = isinstance(exc, registry.Terminated)
+        message = " ".join(str(exc).split()) or ("terminated (SIGTERM)" if term else "interrupted")
+        print(f"study: {message}", file=sys.stderr)
+        return getattr(exc, "exit_status", 143 if term else 130)
     except ImportError as exc:  # a lazy import (the figure's backend) that Ctrl-C broke
         if not registry.interrupted(exc):
             raise
@@ -402,6 +408,34 @@ def _dispatch(args, command: str) -> int:
 
         return trace.run(args, command)
     return _cmd_info(args)
+
+
+def _terminate_as_interrupt():
+    """SIGTERM (``timeout``, a batch system) stops the command as Ctrl-C does, with what it finished
+    saved, one line and exit 143, instead of killing it with no word and its lock file left behind;
+    only where SIGTERM has its default action (an application that set its own keeps it). Returns the
+    handler to restore when the command returns (None: nothing changed)."""
+    import signal
+
+    def terminated(signum, frame):
+        raise registry.Terminated()
+
+    try:
+        if signal.getsignal(signal.SIGTERM) == signal.SIG_DFL:
+            return signal.signal(signal.SIGTERM, terminated)
+    except ValueError:  # not the main thread
+        pass
+    return None
+
+
+def _restore_sigterm(previous) -> None:
+    import signal
+
+    if previous is not None:
+        try:
+            signal.signal(signal.SIGTERM, previous)
+        except ValueError:
+            pass
 
 
 def _ignore_file_size_signal() -> None:

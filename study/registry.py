@@ -41,6 +41,11 @@ _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 _STUDY_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_-]*$")  # study names may also use '-' (realisable-cube)
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM to the ``study`` command (``timeout``, a batch system ending a job): stops a run as Ctrl-C
+    does, saving what is finished, with exit status 143 (128 + SIGTERM)."""
+
+
 class UserError(ValueError):
     """An error the user can fix (bad name, bad setting, missing file): one line, exit 2.
 

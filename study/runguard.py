@@ -14,7 +14,7 @@ import tempfile
 
 import numpy as np
 
-from rimroll.study import io
+from rimroll.study import io, registry
 from rimroll.study.parts import PARTS
 from rimroll.study.registry import UserError
 
@@ -27,9 +27,19 @@ HEARTBEATS = (2.0, 10.0, 30.0, 60.0)  # [s] "working" notices while no chunk fin
 
 
 class RunStopped(UserError):
-    """A run stopped before its end (Ctrl-C, disk full); ``exit_status`` for the command line."""
+    """A run stopped before its end by a failed write (disk full); ``exit_status`` for the command line."""
 
     def __init__(self, message: str, exit_status: int = 2):
+        super().__init__(message)
+        self.exit_status = exit_status
+
+
+class RunInterrupted(KeyboardInterrupt):
+    """A run stopped by Ctrl-C (exit status 130) or SIGTERM (143): a KeyboardInterrupt still (an
+    ``except ValueError`` around :func:`rimroll.run` does not swallow it), its message saying what was
+    saved; ``exit_status`` for the command line."""
+
+    def __init__(self, message: str, exit_status: int = 130):
         super().__init__(message)
         self.exit_status = exit_status
 
@@ -71,13 +81,14 @@ def _saved(store, plan) -> str:
 
 @contextlib.contextmanager
 def saved_on_stop(store, plan):
-    """Turn Ctrl-C and write failures (disk full, file size limit, read-only) into one line that
-    says how much was saved; exit 130 for Ctrl-C, 2 otherwise."""
+    """Turn Ctrl-C, SIGTERM and write failures (disk full, file size limit, read-only) into one line
+    that says how much was saved; exit 130 for Ctrl-C, 143 for SIGTERM, 2 otherwise."""
     try:
         yield
-    except KeyboardInterrupt:
-        raise RunStopped(f"interrupted; {_saved(store, plan)}; rerun the same command to resume",
-                         exit_status=130) from None
+    except KeyboardInterrupt as exc:
+        term = isinstance(exc, registry.Terminated)
+        raise RunInterrupted(f"{'terminated (SIGTERM)' if term else 'interrupted'}; {_saved(store, plan)}; rerun "
+                             "the same command to resume", exit_status=143 if term else 130) from None
     except OSError as exc:
         if exc.errno not in (errno.ENOSPC, errno.EFBIG, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EIO):
             raise

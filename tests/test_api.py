@@ -125,6 +125,20 @@ def test_run_names_a_bad_argument_and_raises_a_value_error(probe, tmp_path, kwar
     assert isinstance(bad.value, UserError) and "--" not in str(bad.value)
 
 
+def test_an_interrupted_run_is_a_keyboard_interrupt_saying_what_was_saved(probe, tmp_path, monkeypatch):
+    """Ctrl-C in a notebook stops rimroll.run as a KeyboardInterrupt (``except ValueError`` around the
+    call does not swallow it), its message saying what was saved."""
+    from rimroll.study import fanout, runguard
+
+    def stopped(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(fanout, "run", stopped)
+    with pytest.raises(KeyboardInterrupt, match="interrupted; 0 of .* chunks saved") as stop:
+        rimroll.run("fanout-probe", out=tmp_path)
+    assert isinstance(stop.value, runguard.RunInterrupted) and not isinstance(stop.value, ValueError)
+
+
 @pytest.mark.parametrize("path", [3, "", None])
 def test_open_names_a_path_that_is_not_one(path):
     with pytest.raises(ValueError, match="path must be a path"):

@@ -506,7 +506,11 @@ def test_file_size_limit_mid_run_is_one_line(tmp_path):
     assert rerun.returncode == 0 and "chunks resumed" in rerun.stdout, rerun.stderr
 
 
-def test_ctrl_c_says_what_was_saved(tmp_path):
+@pytest.mark.parametrize("sig, status, word", [(signal.SIGINT, 130, "study: interrupted;"),
+                                               (signal.SIGTERM, 143, "study: terminated (SIGTERM);")])
+def test_ctrl_c_says_what_was_saved(tmp_path, sig, status, word):
+    """Ctrl-C, and SIGTERM as ``timeout`` or a batch system sends it (it killed the run with no word and
+    left the lock file), stop a run in one line saying what was saved; the rerun resumes."""
     out = tmp_path / "out"
     proc = subprocess.Popen([sys.executable, "-m", "rimroll.study", "run", "fanout-probe", "--out", str(out),
                              "--no-progress", "--workers", "1", "--set", "delay=0.3"], env=_env(),
@@ -515,12 +519,14 @@ def test_ctrl_c_says_what_was_saved(tmp_path):
     while len(_parts(out)) < 2:
         assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
         time.sleep(0.02)
-    proc.send_signal(signal.SIGINT)
+    proc.send_signal(sig)
     _, err = proc.communicate(timeout=60)
-    assert proc.returncode == 130
+    assert proc.returncode == status, err
     lines = err.strip().splitlines()
-    assert len(lines) == 1 and "interrupted;" in lines[0] and "chunks saved" in lines[0] and "Traceback" not in err
+    assert len(lines) == 1 and lines[0].startswith(word) and "chunks saved" in lines[0] and "Traceback" not in err
     assert not list((out / ".parts").glob("*.lock"))
+    rerun = _cli("run", "fanout-probe", "--out", str(out), "--no-progress", "--workers", "1", "--set", "delay=0.3")
+    assert rerun.returncode == 0 and "chunks resumed" in rerun.stdout, rerun.stderr
 
 
 def test_plot_of_a_file_missing_a_variable(quick_results, tmp_path, capsys):
