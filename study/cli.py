@@ -13,6 +13,7 @@ import math
 import pathlib
 import shlex
 import sys
+import warnings
 
 from rimroll import _messages
 from rimroll.study import checks, execute, fanout, io, keyvalue, registry, runguard
@@ -339,11 +340,23 @@ def main(argv=None) -> int:
     command = shlex.join(["study", *words])
     _ignore_file_size_signal()
     previous = _terminate_as_interrupt()
+    shown = warnings.showwarning
+    warnings.showwarning = _one_line_warning
     try:
         with _messages.command_line():  # notices (logging) on stderr, whatever logging the caller set up
             return _main(words, command)
     finally:
+        warnings.showwarning = shown
         _restore_sigterm(previous)
+
+
+def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """A Python warning during a command (numpy's overflow at extreme settings, a library's deprecation)
+    as one line, ``study: warning: RuntimeWarning: overflow encountered in square (steady.py:100)``,
+    not Python's two lines with the source."""
+    where = f" ({pathlib.Path(filename).name}:{lineno})" if filename else ""
+    text = " ".join(str(message).split())
+    print(f"study: warning: {category.__name__}: {text}{where}", file=file or sys.stderr)
 
 
 def _main(words: list[str], command: str) -> int:

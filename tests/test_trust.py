@@ -638,3 +638,13 @@ def test_estimate_line_only_for_long_runs(probe):
     runguard.estimate(plan, 2.0, 5400, 2, stream=loud)  # 5400 s of work left
     assert quiet.getvalue() == ""
     assert loud.getvalue() == "study: fanout-probe: about 1.5 h left for 5400 chunks (2 s per chunk on 2 threads)\n"
+
+
+def test_a_python_warning_during_a_command_is_one_line(tmp_path):
+    """numpy's overflow at an extreme (valid) setting printed Python's two lines, the second the source;
+    the command prints one, naming the warning and where it came from, and its exit status stands."""
+    run = _cli("run", "fig8", "--quick", "--set", "j=1e-300", "--out", str(tmp_path), "--no-progress")
+    assert run.returncode == 0, run.stderr
+    lines = run.stderr.strip().splitlines()
+    assert lines and all(line.startswith("study: ") for line in lines), run.stderr
+    assert any(line.startswith("study: warning: RuntimeWarning: overflow") for line in lines)
