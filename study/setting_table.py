@@ -130,7 +130,7 @@ _ENTRIES = (
     S("omega2", "s-1", "initial orthogonal angular velocity", NUMBER, sweep=True, long_name="initial omega2"),
     S("omega3", "s-1", "initial circular angular velocity", NUMBER, sweep=True, long_name="initial omega3"),
     S("omega30", "s-1", "circular angular velocity of the steady motion", NUMBER),
-    S("omega30_max", "s-1", "grid: omega30 in [-omega30_max, omega30_max]", NUMBER),
+    S("omega30_max", "s-1", "grid: omega30 in [-omega30_max, omega30_max]", POSITIVE),
     S("omega1_max", "s-1", "grid/sample: omega1 in [-omega1_max, omega1_max]", NUMBER),
     S("omega2_max", "s-1", "sample: |omega2| <= omega2_max", NUMBER),
     S("omega3_max", "s-1", "sample: |omega3| <= omega3_max", NUMBER),
