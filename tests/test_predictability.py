@@ -296,6 +296,8 @@ def test_wilson_interval_closed_forms():
     assert lo == 0 and hi == pytest.approx(z2 / (10 + z2))
     lo, hi = P.wilson_interval(10, 10, 0.95)
     assert hi == pytest.approx(1) and lo == pytest.approx(10 / (10 + z2))
+    n = np.arange(1, 400)  # no count gives a rounding residue for the exact 0 (1) of k = 0 (k = n)
+    assert np.all(P.wilson_interval(0, n, 0.95)[0] == 0.0) and np.all(P.wilson_interval(n, n, 0.95)[1] == 1.0)
     lo, hi = P.wilson_interval(50, 100, 0.95)
     assert (lo + hi) / 2 == pytest.approx(0.5) and hi - lo == pytest.approx(2 * np.sqrt(z2) / (1 + z2 / 100) *
                                                                             np.sqrt(0.25 / 100 + z2 / 40000))

@@ -468,7 +468,10 @@ def wilson_interval(k, n, confidence: float = 0.95):
     denom = 1 + z * z / n
     centre = (p + z * z / (2 * n)) / denom
     half = z / denom * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
-    return np.clip(centre - half, 0.0, 1.0), np.clip(centre + half, 0.0, 1.0)
+    # exactly 0 (1) where k = 0 (k = n), as the formula is: rounding left ~3e-18 there
+    lower = np.where(k == 0, 0.0, np.clip(centre - half, 0.0, 1.0))
+    upper = np.where(k == n, 1.0, np.clip(centre + half, 0.0, 1.0))
+    return lower, upper
 
 
 def noise_draws(n_samples: int, seed) -> np.ndarray:
