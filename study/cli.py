@@ -15,6 +15,8 @@ import shlex
 import sys
 import warnings
 
+import numpy as np
+
 from rimroll import _messages
 from rimroll.study import checks, execute, fanout, io, keyvalue, registry, runguard
 from rimroll.study.plan import make_plan
@@ -173,7 +175,25 @@ def _selection(words: list[str], ds) -> dict:
         if not math.isfinite(out[key]) and not (key in ds.coords and out[key] in ds[key].values):
             # inf is a value of an axis such as mu (rolling only), where the file holds it
             raise UserError(f"--select {key}={value}: VALUE must be a finite number (or inf where the axis holds it)")
+        _check_near_axis(ds, key, value, out[key])
     return out
+
+
+def _check_near_axis(ds, key: str, text: str, value: float) -> None:
+    """A finite --select value must lie on the file's axis, or within half a grid step of its ends: the
+    nearest grid value stands for it there; beyond, it names no slice of the file (mu=99 drew mu=2)."""
+    if key not in ds.coords or not math.isfinite(value):
+        return
+    coord = np.asarray(ds[key].values, dtype=float)
+    finite = np.sort(coord[np.isfinite(coord)])
+    if finite.size == 0 or value in coord:
+        return
+    lo, hi = float(finite[0]), float(finite[-1])
+    step = (hi - lo) / (finite.size - 1) if finite.size > 1 else 0.0
+    if not lo - 0.5 * step <= value <= hi + 0.5 * step:
+        values = ", ".join(f"{v:g}" for v in coord[:8]) + (" ..." if coord.size > 8 else "")
+        raise UserError(f"--select {key}={text}: outside the file's {key} axis ({values}); the nearest grid value "
+                        "is taken for a value on the axis")
 
 
 def _cmd_run(args, command: str) -> int:

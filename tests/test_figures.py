@@ -420,6 +420,17 @@ def test_select_takes_several_pairs_in_one_word(tmp_path):
     assert (tmp_path / "realisable-cube_j=0.5_mu=1.png").is_file()
 
 
+def test_select_refuses_a_value_outside_the_axis(tmp_path, capsys):
+    """Nearest grid value on the axis; far outside it (mu=99 of mu = 0.5, 1) names no slice: one line."""
+    _run(tmp_path, "realisable-cube", "mu=0.5,1", "v_throw=3,7", "n_beta0=24", "n_omega30=16")
+    nc = str(tmp_path / "realisable-cube.nc")
+    capsys.readouterr()
+    assert main(["plot", nc, "--select", "mu=99"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("study: error: --select mu=99: outside the file's mu axis (0.5, 1)") and err.count("\n") == 1
+    assert main(["plot", nc, "--select", "mu=0.8,v_throw=3.2"]) == 0  # on the axes: the nearest values
+
+
 @pytest.mark.parametrize("name, sets", [
     ("fig7", ()), ("fig8", ()), ("fig9", ()), ("fig13", ()),
     ("realisable-cube", ("n_beta0=24", "n_omega30=16")),
