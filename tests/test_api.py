@@ -39,6 +39,7 @@ def test_import_rimroll_loads_no_numerics():
                   "print(sorted(m for m in ('numpy', 'xarray', 'dask', 'numba', 'rimroll.study') if m in sys.modules))")
     assert run.returncode == 0 and run.stdout.strip() == "[]", run.stderr
     assert callable(rimroll.run) and callable(rimroll.open) and "run" in dir(rimroll)
+    assert dir(rimroll) == sorted(rimroll.__all__)  # not the helpers it imports (version, install, importlib)
 
 
 def test_studies_lists_every_study_with_its_title():

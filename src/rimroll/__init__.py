@@ -61,4 +61,6 @@ def __getattr__(name: str):
 
 
 def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+    """The public names (``__all__``), not the helpers this module imports (``version``, ``install``,
+    ``importlib``, ...), which tab completion would offer as rimroll's own."""
+    return sorted(__all__)
