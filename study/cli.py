@@ -33,6 +33,13 @@ class _Parser(argparse.ArgumentParser):
         raise UserError(message)
 
 
+def _folder(text: str) -> str:
+    """An ``--out`` folder: not empty (``--out ""`` wrote into the current directory)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty folder name; give a folder, e.g. --out results (. for here)")
+    return text
+
+
 def _parser() -> argparse.ArgumentParser:
     p = _Parser(prog="study", description="Run and inspect rimroll's named studies.")
     p.add_argument("--version", action=_Version, nargs=0, help="show rimroll's version (and git revision) and exit")
@@ -41,7 +48,7 @@ def _parser() -> argparse.ArgumentParser:
     run = sub.add_parser("run", help="run a named study, write <out>/<name>.nc and .png")
     run.add_argument("name")
     run.add_argument("--quick", action="store_true", help="coarse settings for a fast look")
-    run.add_argument("--out", default="results", help="output directory (default: results)")
+    run.add_argument("--out", default="results", type=_folder, help="output directory (default: results)")
     run.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUES",
                      help="override a setting or a physical parameter (repeatable); a list a,b,c or a "
                           "range start:stop:num of a sweepable setting becomes an axis of the cube")
@@ -63,7 +70,7 @@ def _parser() -> argparse.ArgumentParser:
                      help="bound on waiting for a --scheduler (or its file) and for workers (default: %(default)g s)")
     plot = sub.add_parser("plot", help="re-draw the PNG of an existing results file")
     plot.add_argument("target", help="a study name (meaning <out>/NAME.nc) or a .nc file")
-    plot.add_argument("--out", default="results", help="directory holding NAME.nc (default: results)")
+    plot.add_argument("--out", default="results", type=_folder, help="directory holding NAME.nc (default: results)")
     plot.add_argument("--select", action="append", default=[], metavar="DIM=VALUE",
                       help="draw the cube at the value nearest to VALUE of a swept axis DIM (repeatable, or "
                            "DIM=VALUE,DIM=VALUE), e.g. --select j=0.5,mu=1; held on every swept axis, a slice "
@@ -80,7 +87,7 @@ def _parser() -> argparse.ArgumentParser:
     ref = sub.add_parser("reference", help="stored reference slices (study/reference_slices): build them")
     ref.add_argument("--build", action="store_true", required=True,
                      help="compute the slices (outcome sections at rtol 1e-12, DOP853) and write them")
-    ref.add_argument("--out", default=None,
+    ref.add_argument("--out", default=None, type=_folder,
                      help="directory to write (default: a source checkout's study/reference_slices; "
                           "required when rimroll is installed)")
     ref.add_argument("--only", action="append", default=[], metavar="STUDY", help="build only this study's slices")
@@ -97,7 +104,8 @@ def _trace_parser(sub) -> None:
     t = sub.add_parser("trace", help="one trajectory: netCDF time series and figure (study.trace)")
     t.add_argument("file", nargs="?", default=None, help="an outcome map (fig11-13, outcome-cube) to pick --at from")
     t.add_argument("--state", default=None, metavar="BETA,OMEGA1,OMEGA2,OMEGA3",
-                   help="the rolling initial state [rad, 1/s, 1/s, 1/s]")
+                   help="the rolling initial state [rad, 1/s, 1/s, 1/s]; a negative beta is written "
+                        "--state=-1.57,0,0,0 (with '=': after a space, argparse takes it for an option)")
     t.add_argument("--at", default=None, metavar="DIM=VALUE,...",
                    help="the point of FILE, e.g. omega1=2,beta=1.1,scene=slipping (nearest grid point; every axis "
                         "of FILE with more than one value, a swept mu, k_r, k_d, omega2 too, needs one)")
@@ -110,7 +118,7 @@ def _trace_parser(sub) -> None:
     t.add_argument("--periods", type=int, default=0, metavar="N",
                    help="a periodic state: follow the orbit N more periods past the second omega1 zero that "
                         "decides it, to watch it repeat (default 0: end where simulate ends)")
-    t.add_argument("--out", default="results", help="output directory (default: results)")
+    t.add_argument("--out", default="results", type=_folder, help="output directory (default: results)")
     t.add_argument("--name", default="trace",
                    help="the files' name, <out>/NAME.nc and NAME.png: letters, digits, '-', '_' and '.', not starting "
                         "with '.', no folder; a trailing .nc is dropped (default: trace)")

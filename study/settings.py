@@ -103,7 +103,7 @@ def parse_values(key: str, text: str):
             raise UserError(f"setting {key}={text}: a range is start:stop:num, e.g. {key}=0.4:0.6:5")
         start, stop = _float(key, parts[0]), _float(key, parts[1])
         try:
-            num = int(parts[2])
+            num = int(_plain(parts[2]))
         except ValueError:
             raise UserError(f"setting {key}={text}: num of start:stop:num must be an integer") from None
         if num < 2:
@@ -128,9 +128,18 @@ def parse_values(key: str, text: str):
     return None
 
 
+def _plain(text: str) -> str:
+    """``text`` if it is written in plain ASCII without '_' (Python's float() and int() also read
+    full-width digits, '１', and digit groups, '1_0', which a setting should not take for 1 and 10);
+    else ValueError."""
+    if not text.isascii() or "_" in text:
+        raise ValueError(text)
+    return text
+
+
 def _float(key: str, text: str) -> float:
     try:
-        return float(text)
+        return float(_plain(text))
     except ValueError:
         raise UserError(f"setting {key}={text}: expected a number") from None
 
@@ -145,9 +154,9 @@ def _convert(key: str, text: str, default):
                 return False
             raise ValueError
         if isinstance(default, int):
-            return int(text)
+            return int(_plain(text))
         if isinstance(default, float):
-            return float(text)
+            return float(_plain(text))
         return type(default)(text)
     except ValueError:
         kind = {bool: "true/false", int: "an integer", float: "a number"}.get(type(default), type(default).__name__)

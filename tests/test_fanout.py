@@ -104,6 +104,10 @@ def test_set_forms_make_axes(probe):
     ("v_throw=-2:3:4", "v_throw=-2.0 is out of range"),
     ("mu=2,1,2", "strictly monotonic"),
     ("mu=-1e308:1e308:3", "the range's points are not finite numbers"),
+    ("v_throw=\uff11", "expected a number"),  # a full-width digit: float() reads it as 1
+    ("v_throw=1_0", "expected a number"),  # a digit group: float() reads it as 10
+    ("mu=1_0,2", "expected a number"),
+    ("mu=0.5:2:1_0", "must be an integer"),
 ])
 def test_bad_set_is_one_line_exit_2(probe, tmp_path, capsys, item, expect):
     assert _run(tmp_path, "--set", item) == 2
@@ -314,3 +318,12 @@ def test_the_event_loops_logs_are_silenced_while_a_stopped_local_cluster_is_torn
         pass
     assert seen == [False, True]  # silenced only when stopped
     assert logging.getLogger("tornado.application").level == before
+
+
+def test_an_empty_out_folder_is_refused(probe, tmp_path, capsys, monkeypatch):
+    """--out "" wrote into the current directory."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["run", "fanout-probe", "--out", "", "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("study: error: argument --out: an empty folder name") and len(err.splitlines()) == 1
+    assert not list(tmp_path.iterdir())
