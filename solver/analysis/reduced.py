@@ -27,10 +27,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from rimroll.solver._arguments import real_number
 from rimroll.solver._jit import vectorised
 from rimroll.solver.analysis import floquet, steady
 from rimroll.solver.analysis.invariants import momenta
-from rimroll.solver.engine.simulate import real_number
 from rimroll.solver.physics import rolling
 from rimroll.solver.physics.params import Params
 from rimroll.solver.physics.steady_motion import check_params

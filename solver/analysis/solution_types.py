@@ -69,10 +69,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from rimroll.solver._arguments import ATOL_MAX, RTOL_RANGE, positive_number, real_array, real_number
 from rimroll.solver._jit import vectorised
 from rimroll.solver.analysis import reduced, trajectory
 from rimroll.solver.engine import rules
-from rimroll.solver.engine.simulate import ATOL_MAX, RTOL_RANGE, positive_number, real_array, real_number
 from rimroll.solver.physics import kinematics, rolling
 from rimroll.solver.physics.params import Params
 from rimroll.solver.physics.steady_motion import check_params

@@ -18,8 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from rimroll.solver._arguments import integer, real_number
 from rimroll.solver._jit import vectorised
-from rimroll.solver.engine.simulate import integer, real_number
 from rimroll.solver.physics import rolling
 from rimroll.solver.physics.params import Params
 from rimroll.solver.physics.steady_motion import check_params, omega20, stability, steady_state, trivial_state

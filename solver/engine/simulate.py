@@ -11,8 +11,6 @@ trajectory).
 from __future__ import annotations
 
 import logging
-import math
-import numbers
 import os
 import pathlib
 from collections.abc import Iterable, Mapping
@@ -21,6 +19,16 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from rimroll.solver import _jit
+from rimroll.solver._arguments import (
+    ATOL_MAX,
+    MAX_COUNT,
+    RTOL_RANGE,
+    finite_array,
+    integer,
+    positive_number,
+    real_array,
+    real_number,
+)
 from rimroll.solver.engine import backends, kernels, scene_code
 from rimroll.solver.engine.outcomes import STEADY_MOTION, on_rim_reason
 from rimroll.solver.engine.outputs import OUTPUTS, column
@@ -30,18 +38,10 @@ from rimroll.solver.physics.params import Params
 from rimroll.solver.physics.steady_motion import stability
 from rimroll.solver.physics.switching import default_tolerances
 
-RTOL_RANGE = (1e-14, 1e-2)
 SLIP_METHODS = ("rodas4", "explicit")  # simulate(switching={"slip_method": ...}): see its docstring
-"""Relative tolerances for which the error control means something: below 1e-14 the steps
-drown in round-off, above 1e-2 an accepted step can miss the dynamics entirely (at rtol = 1 a
-periodic state 'falls in')."""
-ATOL_MAX = 1.0
-"""Largest absolute tolerance (the state's components are O(1e-2..1e2) in SI units)."""
 
 DEFAULT_MAX_STEPS = 1_000_000
 DEFAULT_MAX_SWITCHES = 10_000
-MAX_COUNT = int(np.iinfo(np.int64).max)
-"""Largest ``max_steps`` and ``max_switches`` (2**63 - 1): the kernels count steps and switches in int64."""
 MAX_WORKERS = 1024
 """Most threads of the CPU backend (``workers``): the cap of the command line's ``--workers``
 (``study.checks.MAX_WORKERS``)."""
@@ -279,85 +279,3 @@ def _steady_h(flat, outcome, params):
     if on.any():
         h[on] = stability(flat[on, 0], flat[on, 3], params)
     return h
-
-
-# ------------------------------------------------------------------------------ argument checks
-# The checks of the solver's public functions (simulate here; solver.analysis.steady, .reduced and
-# .solution_types import them): ValueError naming the argument, what was given and what is allowed.
-
-def _is_real(value) -> bool:
-    """A real number: int, float, a numpy integer or floating scalar, or a 0-d array of one; not a bool,
-    str, complex or None."""
-    if isinstance(value, (bool, np.bool_)):
-        return False
-    if isinstance(value, numbers.Real):
-        return True
-    return getattr(value, "ndim", None) == 0 and getattr(getattr(value, "dtype", None), "kind", "") in "iuf"
-
-
-def real_number(name, value, finite=True, allowed="") -> float:
-    """``value`` as a float; ValueError naming ``name``, the value and what is ``allowed`` (a phrase, in
-    parentheses) unless it is a real number (:func:`_is_real`), not NaN and, with ``finite``, not inf."""
-    hint = f" ({allowed})" if allowed else ""
-    if not _is_real(value):
-        raise ValueError(f"`{name}` must be a real number{hint}; got {value!r}")
-    v = float(value)
-    if math.isnan(v):
-        raise ValueError(f"`{name}` must be a real number, not NaN{hint}; got {value!r}")
-    if finite and not math.isfinite(v):
-        raise ValueError(f"`{name}` must be finite{hint}; got {value!r}")
-    return v
-
-
-def positive_number(name, value) -> float:
-    """``value`` as a float; ValueError naming ``name`` unless it is a finite real number > 0."""
-    v = real_number(name, value, allowed="> 0")
-    if not v > 0:
-        raise ValueError(f"`{name}` must be > 0; got {value!r}")
-    return v
-
-
-def integer(name, value, minimum=1, maximum=None) -> int:
-    """``value`` as an int; ValueError naming ``name`` unless it is an integer (int or numpy integer, not
-    bool) in [minimum, maximum] (no upper bound for ``maximum=None``)."""
-    if (isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum
-            or (maximum is not None and value > maximum)):
-        upto = "" if maximum is None else f" and <= {'2**63 - 1 (int64)' if maximum == MAX_COUNT else maximum}"
-        raise ValueError(f"`{name}` must be an integer >= {minimum}{upto}; got {value!r}")
-    return int(value)
-
-
-def real_array(name, values) -> np.ndarray:
-    """``values`` as a float array; ValueError naming ``name`` unless it is an array_like of real numbers
-    (int or float; not ragged, bool, complex, strings, None). NaN and inf pass (:func:`finite_array`)."""
-    try:
-        raw = values if isinstance(values, np.ndarray) else np.asarray(values)
-    except (ValueError, TypeError):  # ragged nesting
-        raise ValueError(f"`{name}` must be an array_like of real numbers of one shape (not ragged); "
-                         f"got {_short(values)}") from None
-    kind = raw.dtype.kind
-    if kind == "O":
-        bad = [v for v in raw.flat if not _is_real(v)]
-        if bad:
-            bad = bad[0]
-            where = f" in {_short(values)}" if raw.ndim else ""
-            raise ValueError(f"`{name}` must hold real numbers (int or float); got {bad!r} "
-                             f"({type(bad).__name__}, not a number){where}")
-    elif kind not in "iuf":
-        what = {"b": "bool", "c": "complex", "U": "strings", "S": "bytes"}.get(kind, f"dtype {raw.dtype}")
-        raise ValueError(f"`{name}` must hold real numbers (int or float); got {what}: {_short(values)}")
-    return np.asarray(values, dtype=float)
-
-
-def finite_array(name, x: np.ndarray) -> None:
-    """ValueError naming ``name`` and the first non-finite entry of the float array ``x``."""
-    finite = np.isfinite(x)
-    if not finite.all():
-        where = np.unravel_index(int(np.argmin(finite)), x.shape) if x.ndim else ()
-        raise ValueError(f"`{name}` must be finite; got {float(x[where])!r} at index {tuple(map(int, where))} "
-                         f"({int(finite.size - finite.sum())} of {finite.size} entries inf or NaN)")
-
-
-def _short(values, n=80) -> str:
-    text = repr(values)
-    return text if len(text) <= n else text[:n - 3] + "..."
