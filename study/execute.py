@@ -132,23 +132,28 @@ def run_to_file(plan: Plan, out, command: str, cluster: Cluster, *, force: bool 
     request = file_attrs(plan, command)
     sizes = {a.name: a.values.size for a in plan.axes}
     store = PartStore(out, plan.study.name, plan.fingerprint)
-    if not force and _reusable(plan, nc, request, sizes):
+    if not force and _reusable(plan, nc, request, sizes, store):
         _tidy(store)
         return Outcome(nc, None)
     with runguard.saved_on_stop(store, plan), store.lock():  # a full disk already at the lock: one line
-        if not force and _reusable(plan, nc, request, sizes, quiet=True):
+        if not force and _reusable(plan, nc, request, sizes, store, quiet=True):
             return Outcome(nc, None)  # a run that held the lock just finished it
         stats = produce(plan, store, nc, command, progress=progress, cluster=cluster)
     return Outcome(nc, stats)
 
 
-def _reusable(plan: Plan, nc: pathlib.Path, request: dict, sizes: dict, quiet: bool = False) -> bool:
+def _reusable(plan: Plan, nc: pathlib.Path, request: dict, sizes: dict, store: PartStore,
+              quiet: bool = False) -> bool:
     """True if ``nc`` is this very run; False if it must be (re)computed; UserError if it holds
-    another run (the fingerprint rule of ``study.reuse``)."""
+    another run (the fingerprint rule of ``study.reuse``), saying so when chunks of this very run,
+    interrupted, wait in the parts folder (--force resumes them)."""
     found = reuse.inspect(nc, plan.fingerprint, request, sizes)
     if found.state == "different":
-        raise UserError(f"{nc} holds another run of {plan.study.name} ({found.detail}); use --force to replace "
-                        "it (it is kept until the new file is complete), or another --out")
+        saved = store.count()
+        resume = (f"; {saved} chunk{'' if saved == 1 else 's'} of this very run, interrupted, wait in {store.dir}: "
+                  "--force resumes them" if saved else "")
+        raise UserError(f"{nc} holds another run of {plan.study.name} ({found.detail}){resume}; use --force to "
+                        "replace it (it is kept until the new file is complete), or another --out")
     if found.state == "unreadable" and not quiet:
         log.warning("%s is not a readable result (%s); recomputing it", nc, found.detail)
     return found.state == "same"
@@ -171,4 +176,5 @@ def _name_others(store: PartStore) -> None:
     """A notice for each parts folder of this study's other inputs: kept, and how to use or drop it."""
     for folder, n in store.others():
         log.info("%s holds %d chunk%s saved by an interrupted run of %s with other settings: kept; rerun "
-                 "that command to resume it, or delete the folder", folder, n, "" if n == 1 else "s", store.study)
+                 "that command to resume it (with --force once %s holds this run's result), or delete the folder",
+                 folder, n, "" if n == 1 else "s", store.study, store.target.name)

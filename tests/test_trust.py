@@ -607,6 +607,23 @@ def test_a_run_that_reuses_its_file_keeps_the_parts_of_other_inputs(probe, tmp_p
     assert len(list(stale.glob("chunk-*.npz"))) == 3
 
 
+def test_an_interrupted_run_whose_file_another_run_wrote_is_told_that_force_resumes_it(probe, tmp_path, capsys):
+    """A interrupted (its chunks saved), B of other settings writes NAME.nc, A again: refused as another
+    run's file, and the line says A's chunks wait and --force resumes them; --force does."""
+    plan = make_plan(probe, sets=["v_throw=7"])
+    store = PartStore(tmp_path, "fanout-probe", plan.fingerprint)  # as A's interrupted run left them
+    arrays = {"f": np.zeros((1, 1, 4, 3)), "code": np.zeros((1, 1, 4, 3), dtype=np.int8)}
+    store.save(0, arrays)
+    assert _run(tmp_path) == 0  # B: other settings; A's parts are kept
+    capsys.readouterr()
+    assert _run(tmp_path, "--set", "v_throw=7") == 2
+    _one_line_error(capsys.readouterr().err, "holds another run", "1 chunk of this very run, interrupted, wait in",
+                    "--force resumes them")
+    assert _run(tmp_path, "--set", "v_throw=7", "--force") == 0
+    with xr.open_dataset(tmp_path / "fanout-probe.nc") as ds:
+        assert ds.attrs["run_fingerprint"] == plan.fingerprint
+
+
 def test_parts_left_by_a_kill_during_cleanup_are_removed(probe, tmp_path, capsys):
     assert _run(tmp_path) == 0
     plan = make_plan(probe)
