@@ -47,6 +47,14 @@ def open(path: str | os.PathLike, lazy: bool = True) -> xr.Dataset:  # noqa: A00
     return io.open_result(pathlib.Path(path), lazy=lazy)
 
 
+def _check_client(client: Any) -> None:
+    from distributed import Client
+
+    if not isinstance(client, Client):
+        raise UserError(f"client must be a dask.distributed.Client (or use scheduler= with an address); got "
+                        f"{type(client).__name__} {client!r}")
+
+
 def _check_flag(key: str, value: Any) -> None:
     if not isinstance(value, (bool, np.bool_)):
         raise UserError(f"{key} must be True or False; got {value!r}")
@@ -116,6 +124,8 @@ def run(name: str, quick: bool = False, out: str | os.PathLike | None = None, cl
         raise UserError(f"timeout must be a number of seconds, > 0 and <= 86400; got {timeout!r}")
     sets = [f"{key}={_word(key, value)}" for key, value in settings.items()]
     checks.check_workers(workers, "workers")
+    if client is not None:
+        _check_client(client)
     remote = bool(client is not None or scheduler or scheduler_file)
     if workers is not None and remote:
         raise UserError("workers= is for local runs; a cluster has its own workers")
@@ -130,7 +140,12 @@ def run(name: str, quick: bool = False, out: str | os.PathLike | None = None, cl
     shown = _progress.wanted(progress)
     if out is None:
         with tempfile.TemporaryDirectory(prefix="rimroll-") as tmp:
-            outcome = execute.run_to_file(plan, tmp, command, cluster, progress=shown)
+            try:
+                outcome = execute.run_to_file(plan, tmp, command, cluster, progress=shown)
+            except runguard.RunInterrupted as stop:  # its chunks were in the temporary folder, deleted now
+                raise runguard.RunInterrupted(
+                    f"{stop.args[0].split(';')[0]}; without out= nothing is kept (the run's temporary folder is "
+                    "deleted): give out= to keep what a run finishes and resume it", stop.exit_status) from None
             _warn_lanes(outcome.path, f"rimroll.run({name!r})")
             return io.open_result(outcome.path)
     outcome = execute.run_to_file(plan, out, command, cluster, force=force, progress=shown)

@@ -118,6 +118,8 @@ def test_run_refuses_bad_input_in_one_line_before_any_work(probe, tmp_path):
     ({"timeout": "5"}, "timeout must be a number of seconds"),
     ({"mu": []}, r"setting mu=\[\]: an empty list"),
     ({"mu": [[0.5, 1.0], [2.0, 4.0]]}, "must be flat"),
+    ({"client": 3}, "client must be a dask.distributed.Client"),
+    ({"client": "tcp://127.0.0.1:1"}, "client must be a dask.distributed.Client .*scheduler="),
 ])
 def test_run_names_a_bad_argument_and_raises_a_value_error(probe, tmp_path, kwargs, message):
     """The API's errors are ValueErrors (UserError is one) naming the keyword, before any work."""
@@ -138,6 +140,10 @@ def test_an_interrupted_run_is_a_keyboard_interrupt_saying_what_was_saved(probe,
     with pytest.raises(KeyboardInterrupt, match="interrupted; 0 of .* chunks saved") as stop:
         rimroll.run("fanout-probe", out=tmp_path)
     assert isinstance(stop.value, runguard.RunInterrupted) and not isinstance(stop.value, ValueError)
+    # without out= the chunks were in a temporary folder, deleted: it says so, not 'saved ... resume'
+    with pytest.raises(KeyboardInterrupt, match="^interrupted; without out= nothing is kept") as stop:
+        rimroll.run("fanout-probe")
+    assert "saved" not in str(stop.value)
 
 
 @pytest.mark.parametrize("path", [3, "", None])
