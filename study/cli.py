@@ -18,7 +18,7 @@ import warnings
 import numpy as np
 
 from rimroll import _messages
-from rimroll.study import checks, execute, fanout, io, keyvalue, registry, runguard
+from rimroll.study import checks, execute, fanout, io, keyvalue, registry, runguard, settings
 from rimroll.study.plan import make_plan
 from rimroll.study.registry import UserError, natural_order
 from rimroll.study.setting_table import lookup
@@ -55,7 +55,7 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--backend", default=None, choices=lookup("backend").labels(),
                      help="where solver.simulate runs (same as --set backend=...; studies that simulate only): "
                           "cpu, cuda (one GPU per worker; extra rimroll[gpu]) or auto (the GPU when usable)")
-    run.add_argument("--workers", type=int, default=None, help="local threads (default: one per core)")
+    run.add_argument("--workers", type=settings.integer, default=None, help="local threads (default: one per core)")
     run.add_argument("--scheduler", default=None, metavar="ADDRESS",
                      help="run the chunks on an existing dask.distributed cluster, e.g. tcp://host:8786 "
                           "(tls://... with the TLS settings of the dask configuration)")
@@ -66,7 +66,7 @@ def _parser() -> argparse.ArgumentParser:
                      help="show chunks done/total on stderr (default: when stderr is a terminal)")
     run.add_argument("--force", action="store_true",
                      help="recompute and replace the file even if it holds this run or another one")
-    run.add_argument("--timeout", type=float, default=fanout.DEFAULT_TIMEOUT, metavar="SECONDS",
+    run.add_argument("--timeout", type=settings.number, default=fanout.DEFAULT_TIMEOUT, metavar="SECONDS",
                      help="bound on waiting for a --scheduler (or its file) and for workers (default: %(default)g s)")
     plot = sub.add_parser("plot", help="re-draw the PNG of an existing results file")
     plot.add_argument("target", help="a study name (meaning <out>/NAME.nc) or a .nc file")
@@ -94,7 +94,7 @@ def _parser() -> argparse.ArgumentParser:
     ref.add_argument("--grid", action="append", default=[], choices=("default", "quick"),
                      help="build only the slice of this grid: a sub-grid of the default grid, or the whole "
                           "--quick grid (default: both)")
-    ref.add_argument("--workers", type=int, default=None, help="local threads (default: one per core)")
+    ref.add_argument("--workers", type=settings.integer, default=None, help="local threads (default: one per core)")
     ref.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None)
     p.set_defaults(run_parser=run)
     return p
@@ -106,16 +106,17 @@ def _trace_parser(sub) -> None:
     t.add_argument("--state", default=None, metavar="BETA,OMEGA1,OMEGA2,OMEGA3",
                    help="the rolling initial state [rad, 1/s, 1/s, 1/s]; a negative beta is written "
                         "--state=-1.57,0,0,0 (with '=': after a space, argparse takes it for an option)")
-    t.add_argument("--at", default=None, metavar="DIM=VALUE,...",
+    t.add_argument("--at", action="append", default=[], metavar="DIM=VALUE,...",
                    help="the point of FILE, e.g. omega1=2,beta=1.1,scene=slipping (nearest grid point; every axis "
                         "of FILE with more than one value, a swept mu, k_r, k_d, omega2 too, needs one)")
     t.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
                    help=f"a physical parameter ({' '.join(registry.PHYSICAL_KEYS)}); repeatable")
-    t.add_argument("--t-max", type=float, default=None, help="end of the run [s] (default 20, or the map's)")
-    t.add_argument("--rtol", type=float, default=1e-10, help="relative tolerance (default 1e-10)")
-    t.add_argument("--atol", type=float, default=1e-12, help="absolute tolerance (default 1e-12)")
-    t.add_argument("--samples", type=int, default=2000, help="time samples (default 2000, plus phase ends)")
-    t.add_argument("--periods", type=int, default=0, metavar="N",
+    t.add_argument("--t-max", type=settings.number, default=None, help="end of the run [s] (default 20, or the map's)")
+    t.add_argument("--rtol", type=settings.number, default=1e-10, help="relative tolerance (default 1e-10)")
+    t.add_argument("--atol", type=settings.number, default=1e-12, help="absolute tolerance (default 1e-12)")
+    t.add_argument("--samples", type=settings.integer, default=2000,
+                   help="time samples (default 2000, plus phase ends)")
+    t.add_argument("--periods", type=settings.integer, default=0, metavar="N",
                    help="a periodic state: follow the orbit N more periods past the second omega1 zero that "
                         "decides it, to watch it repeat (default 0: end where simulate ends)")
     t.add_argument("--out", default="results", type=_folder, help="output directory (default: results)")
@@ -173,11 +174,13 @@ def _selection(words: list[str], ds) -> dict:
     out = {}
     swept = str(ds.attrs.get("swept", "")).split()
     for key, value in keyvalue.parse(words, "--select", "DIM=VALUE", "--select j=0.5"):
+        if key in out:
+            raise UserError(f"--select {key} is given twice ({out[key]:g} and {value}): one value per axis")
         if key not in swept:
             raise UserError(f"--select {key}={value}: expected DIM=VALUE with DIM one of the file's swept axes "
                             f"({', '.join(swept) or 'none: the file is not a cube'})")
         try:
-            out[key] = float(value)
+            out[key] = settings.number(value)
         except ValueError:
             raise UserError(f"--select {key}={value}: VALUE must be a number") from None
         if not math.isfinite(out[key]) and not (key in ds.coords and out[key] in ds[key].values):
@@ -300,9 +303,9 @@ def _cmd_info(args) -> int:
     # a parameter that is a coordinate along a dimension (a scene's mu, k_r, k_d) has its values above
     params = [f"{k[6:]}={v}" for k, v in ds.attrs.items() if k.startswith("param_")
               and not (k[6:] in ds.coords and ds[k[6:]].ndim)]
-    settings = [f"{k[8:]}={v}" for k, v in ds.attrs.items() if k.startswith("setting_")]
+    recorded = [f"{k[8:]}={v}" for k, v in ds.attrs.items() if k.startswith("setting_")]
     print("parameters: " + " ".join(params))
-    print("settings: " + " ".join(settings))
+    print("settings: " + " ".join(recorded))
     for key in ("rimroll_version", "git_revision", "created", "history"):
         if key in ds.attrs:
             print(f"{key}: {ds.attrs[key]}")

@@ -137,6 +137,18 @@ def _plain(text: str) -> str:
     return text
 
 
+def number(text: str) -> float:
+    """A number the user wrote (a setting, an option, a state): ``float`` of plain ASCII without '_'
+    ('inf', '1e-3', '-2' are numbers; '１' and '1_0' are not); ValueError otherwise. Its name is the
+    word argparse uses: "invalid number value"."""
+    return float(_plain(text))
+
+
+def integer(text: str) -> int:
+    """A whole number the user wrote, as :func:`number`: "invalid integer value" for argparse."""
+    return int(_plain(text))
+
+
 def _float(key: str, text: str) -> float:
     try:
         return float(_plain(text))

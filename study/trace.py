@@ -26,7 +26,7 @@ from matplotlib.patches import Circle, Patch
 
 from rimroll import solver
 from rimroll.solver.analysis import trace as tr
-from rimroll.study import io, keyvalue
+from rimroll.study import io, keyvalue, settings
 from rimroll.study import plotting as P
 from rimroll.study.dataset import params_of, provenance, setting_of
 from rimroll.study.registry import PHYSICAL_KEYS, UserError
@@ -62,7 +62,7 @@ EVENT_STYLE = {  # how the figure marks each kind of event
 def parse_state(text: str) -> np.ndarray:
     """'BETA,OMEGA1,OMEGA2,OMEGA3' -> array (4,) [rad, 1/s, 1/s, 1/s]; UserError otherwise."""
     try:
-        x = np.array([float(v) for v in text.split(",")])
+        x = np.array([settings.number(v) for v in text.split(",")])
     except ValueError:
         x = np.empty(0)
     if x.shape != (4,) or not np.all(np.isfinite(x)):
@@ -92,7 +92,7 @@ def parse_sets(words: list[str]) -> dict:
         if key not in PHYSICAL_KEYS:
             raise UserError(f"--set {key}={value}: expected KEY=VALUE with KEY one of {' '.join(PHYSICAL_KEYS)}")
         try:
-            out[key] = float(value)
+            out[key] = settings.number(value)
         except ValueError:
             raise UserError(f"--set {key}={value}: VALUE must be a number (inf allowed for mu)") from None
     return out
@@ -105,10 +105,17 @@ def _params(**values) -> solver.Params:
         raise UserError(str(exc)) from None
 
 
-def _parse_at(text: str) -> dict:
-    """``--at DIM=VALUE,DIM=VALUE,...`` -> {dim: value text} (``study.keyvalue``)."""
-    pairs = keyvalue.split(text, "--at", "DIM=VALUE,DIM=VALUE,...", "--at omega1=2,beta=1.1,scene=slipping")
-    return dict(pairs)
+def _parse_at(words) -> dict:
+    """``--at DIM=VALUE,DIM=VALUE,...`` words (the option may be repeated) -> {dim: value text}
+    (``study.keyvalue``); a dimension given twice is a UserError."""
+    out = {}
+    for text in [words] if isinstance(words, str) else words:
+        for key, value in keyvalue.split(text, "--at", "DIM=VALUE,DIM=VALUE,...",
+                                         "--at omega1=2,beta=1.1,scene=slipping"):
+            if key in out:
+                raise UserError(f"--at {key} is given twice ({out[key]} and {value}): one value per axis")
+            out[key] = value
+    return out
 
 
 def _values_text(ds, dim: str) -> str:
@@ -121,13 +128,13 @@ def _values_text(ds, dim: str) -> str:
 def _index(ds, dim: str, value: str) -> int:
     """Index along ``dim`` of ``value``: nearest number, or a label (scene labels work on old files too).
 
-    A number must be finite (or +-inf where the axis holds it, a swept mu = inf) and no farther
-    outside the axis than its span (one value: than the value's size, at least 1): a typo such as
-    1e300 is not moved to the nearest grid point."""
+    A number must be finite (or +-inf where the axis holds it, a swept mu = inf) and lie on the axis
+    or within half a grid step of its ends, as ``study plot --select`` (an axis of one value: that
+    value): omega1=55 on an axis ending at 20 is not moved to 20."""
     coord = ds[dim].values
     if coord.dtype.kind in "fiu":
         try:
-            number = float(value)
+            number = settings.number(value)
         except ValueError:
             number = None
             if dim == "scene" and value in P.SCENE_KEYS:
@@ -140,11 +147,11 @@ def _index(ds, dim: str, value: str) -> int:
             finite = coord[np.isfinite(coord)]
             if np.isfinite(number) and finite.size:
                 lo, hi = finite.min(), finite.max()
-                margin = hi - lo if hi > lo else max(abs(hi), 1.0)
+                margin = 0.5 * (hi - lo) / (finite.size - 1) if finite.size > 1 else 1e-9 * max(abs(hi), 1.0)
                 if lo - margin <= number <= hi + margin:
                     return int(np.argmin(np.where(np.isfinite(coord), np.abs(coord - number), np.inf)))
-            raise UserError(f"--at {dim}={value}: not near the file's {dim} axis ({_values_text(ds, dim)}); "
-                            "a finite number within the axis' span of its ends is taken to the nearest grid point")
+            raise UserError(f"--at {dim}={value}: outside the file's {dim} axis ({_values_text(ds, dim)}); a "
+                            "finite number on the axis is taken to the nearest grid point")
     labels = [P.scene_key(v) if dim == "scene" else str(v) for v in coord]
     if value in labels:
         return labels.index(value)
@@ -457,5 +464,6 @@ def run(args, command: str) -> int:
         more = "; --periods N follows the orbit N more periods"
     elif res["reason"] == "fall" and res["t_end"] == 0.0:
         more = f"; the ball leaves the rim at t = 0 (F2 = {res['F2'][0]:.4g} N at the initial state)"
-    print(f"wrote {nc} and {png}: {label} at t_end = {res['t_end']:.6g} s ({res['reason']}){more}")
+    point = f" from {extra['source_point']} of {extra['source_file']}" if extra and "source_point" in extra else ""
+    print(f"wrote {nc} and {png}{point}: {label} at t_end = {res['t_end']:.6g} s ({res['reason']}){more}")
     return 0

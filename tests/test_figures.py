@@ -429,6 +429,10 @@ def test_select_refuses_a_value_outside_the_axis(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.startswith("study: error: --select mu=99: outside the file's mu axis (0.5, 1)") and err.count("\n") == 1
     assert main(["plot", nc, "--select", "mu=0.8,v_throw=3.2"]) == 0  # on the axes: the nearest values
+    capsys.readouterr()
+    assert main(["plot", nc, "--select", "mu=1", "--select", "mu=0.5"]) == 2  # the last one won silently
+    assert "--select mu is given twice" in capsys.readouterr().err
+    assert main(["plot", nc, "--select", "mu=0\uff15"]) == 2  # a full-width digit: not a number
 
 
 @pytest.mark.parametrize("name, sets", [

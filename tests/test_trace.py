@@ -164,8 +164,9 @@ def test_trace_picks_a_point_of_a_file_with_swept_axes(tmp_path, capsys):
     capsys.readouterr()
     for mu in (0.5, 1.0):  # the two scenes end differently from this state: fall_out at 0.30 s, fall_in at 0.14 s
         cell = cube.sel(mu=mu, omega2=65.0, beta=0.8, omega1=0.0).squeeze()
-        assert main(["trace", str(tmp_path / "outcome-cube.nc"), "--at", f"mu={mu:g},omega2=64,beta=0,omega1=0",
-                     "--out", str(tmp_path), "--name", f"mu{mu:g}"]) == 0
+        assert main(["trace", str(tmp_path / "outcome-cube.nc"), "--at", f"mu={mu:g},omega2=64",
+                     "--at", "beta=0.9,omega1=0", "--out", str(tmp_path), "--name", f"mu{mu:g}"]) == 0
+        assert f"mu={mu:g}, omega2=65, beta=0.8, omega1=0" in capsys.readouterr().out  # the grid point taken
         pt = xr.open_dataset(tmp_path / f"mu{mu:g}.nc")
         assert pt.attrs["param_mu"] == mu and pt.attrs["param_k_r"] == 0.0 and pt.attrs["t_max"] == float(cell["t_max"])
         assert [pt.attrs[f"initial_{n}"] for n in ("beta", "omega1", "omega2", "omega3")] == [0.8, 0.0, 65.0, 10.0]
@@ -175,6 +176,8 @@ def test_trace_picks_a_point_of_a_file_with_swept_axes(tmp_path, capsys):
     for at, words in (("mu=1,beta=1.3,omega1=0", ("'omega2'", "(35, 65)")),
                       ("mu=1,omega2=65,beta=1.3,omega1=nan", ("omega1=nan", "(-20, 0, 20)")),
                       ("mu=1,omega2=65,beta=1.3,omega1=1e300", ("omega1=1e300", "(-20, 0, 20)")),
+                      ("mu=1,omega2=65,beta=1.3,omega1=55", ("omega1=55: outside", "(-20, 0, 20)")),
+                      ("mu=1,omega2=65,beta=1.3,omega1=0,mu=0.5", ("--at mu is given twice",)),
                       ("mu=inf,omega2=65,beta=1.3,omega1=0", ("mu=inf", "(0.5, 1)"))):
         assert main(["trace", str(tmp_path / "outcome-cube.nc"), "--at", at, "--out", str(tmp_path),
                      "--name", "bad"]) == 2
