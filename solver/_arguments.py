@@ -80,6 +80,9 @@ def real_array(name, values) -> np.ndarray:
     elif kind not in "iuf":
         what = {"b": "bool", "c": "complex", "U": "strings", "S": "bytes"}.get(kind, f"dtype {raw.dtype}")
         raise ValueError(f"`{name}` must hold real numbers (int or float); got {what}: {_short(values)}")
+    elif not isinstance(values, np.ndarray) and kind in "iu":  # numpy made True an int among ints
+        if any(isinstance(v, (bool, np.bool_)) for v in np.asarray(values, dtype=object).flat):
+            raise ValueError(f"`{name}` must hold real numbers (int or float); got a bool in {_short(values)}")
     return np.asarray(values, dtype=float)
 
 

@@ -190,3 +190,9 @@ def test_a_non_finite_state_is_undetermined_and_the_others_are_classified():
     not stop the others (the solution-types study's samples)."""
     both = st.solution_type(np.array([[np.nan, 0, 65, 10], STATE]), ROLL)
     assert both[0] == st.UNDETERMINED and both[1] == st.solution_type(STATE, ROLL)
+
+
+def test_a_bool_among_ints_is_not_a_number():
+    """numpy makes [True, 0, 65, 10] an int array: the list is looked at, as an all-bool one is refused."""
+    with pytest.raises(ValueError, match="`states` must hold real numbers .*got a bool"):
+        solver.simulate([[True, 0, 65, 10]], ROLL)
