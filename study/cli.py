@@ -228,7 +228,13 @@ def _cmd_run(args, command: str) -> int:
     nc, stats = outcome.path, outcome.stats
     if stats is None:
         return _exists(study, nc)
-    png = _draw(study, nc)
+    try:
+        png = _draw(study, nc)
+    except KeyboardInterrupt as stop:  # the result is complete: say so, not only "interrupted"
+        what = "terminated (SIGTERM)" if isinstance(stop, registry.Terminated) else "interrupted"
+        raise runguard.RunInterrupted(f"{what} while drawing the figure; {nc} is complete ({stats.total} of "
+                                      f"{stats.total} chunks); the same command draws the figure",
+                                      143 if isinstance(stop, registry.Terminated) else 130) from None
     resumed = f" ({stats.resumed} of {stats.total} chunks resumed)" if stats.resumed else ""
     print(f"wrote {nc}" + (f" and {png}" if png else "") + resumed)
     warning = runguard.status_summary(nc)

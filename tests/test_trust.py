@@ -665,3 +665,17 @@ def test_a_python_warning_during_a_command_is_one_line(tmp_path):
     lines = run.stderr.strip().splitlines()
     assert lines and all(line.startswith("study: ") for line in lines), run.stderr
     assert any(line.startswith("study: warning: RuntimeWarning: overflow") for line in lines)
+
+
+def test_ctrl_c_while_the_figure_is_drawn_says_the_result_is_complete(probe, tmp_path, capsys, monkeypatch):
+    """The .nc is written when the figure is drawn: a Ctrl-C there said only 'interrupted'."""
+    from rimroll.study import cli
+
+    def drawing(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "_draw", drawing)
+    assert _run(tmp_path) == 130
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("study: interrupted while drawing the figure;") and "\n" not in err
+    assert f"{tmp_path / 'fanout-probe.nc'} is complete" in err and (tmp_path / "fanout-probe.nc").is_file()
