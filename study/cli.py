@@ -191,17 +191,14 @@ def _selection(words: list[str], ds) -> dict:
 
 
 def _check_near_axis(ds, key: str, text: str, value: float) -> None:
-    """A finite --select value must lie on the file's axis, or within half a grid step of its ends: the
-    nearest grid value stands for it there; beyond, it names no slice of the file (mu=99 drew mu=2)."""
+    """A finite --select value must lie on the file's axis (``cubeplots.on_axis``: within half a grid step
+    of its ends); beyond, it names no slice of the file (mu=99 drew mu=2)."""
+    from rimroll.study import cubeplots
+
     if key not in ds.coords or not math.isfinite(value):
         return
     coord = np.asarray(ds[key].values, dtype=float)
-    finite = np.sort(coord[np.isfinite(coord)])
-    if finite.size == 0 or value in coord:
-        return
-    lo, hi = float(finite[0]), float(finite[-1])
-    step = (hi - lo) / (finite.size - 1) if finite.size > 1 else 0.0
-    if not lo - 0.5 * step <= value <= hi + 0.5 * step:
+    if value not in coord and not cubeplots.on_axis(coord, value):
         values = ", ".join(f"{v:g}" for v in coord[:8]) + (" ..." if coord.size > 8 else "")
         raise UserError(f"--select {key}={text}: outside the file's {key} axis ({values}); the nearest grid value "
                         "is taken for a value on the axis")

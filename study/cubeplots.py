@@ -49,6 +49,18 @@ def select(ds, values: dict):
     return ds.isel(pick)
 
 
+def on_axis(coord, value: float) -> bool:
+    """Whether the finite ``value`` lies on the axis ``coord`` (its finite values), or within half a grid
+    step of its ends (an axis of one value: that value, to 1e-9 of it): the nearest grid value then
+    stands for it (``study plot --select``, ``study trace --at``); beyond, it names no point of the axis."""
+    finite = np.sort(np.asarray(coord, dtype=float)[np.isfinite(np.asarray(coord, dtype=float))])
+    if finite.size == 0:
+        return False
+    lo, hi = float(finite[0]), float(finite[-1])
+    margin = 0.5 * (hi - lo) / (finite.size - 1) if finite.size > 1 else 1e-9 * max(abs(hi), 1.0)
+    return lo - margin <= value <= hi + margin
+
+
 def swept(ds) -> list[str]:
     """The file's swept axes that still vary in ``ds`` (after a selection: those not held)."""
     names = str(ds.attrs.get("swept", "")).split()

@@ -26,7 +26,7 @@ from matplotlib.patches import Circle, Patch
 
 from rimroll import solver
 from rimroll.solver.analysis import trace as tr
-from rimroll.study import io, keyvalue, settings
+from rimroll.study import cubeplots, io, keyvalue, settings
 from rimroll.study import plotting as P
 from rimroll.study.dataset import params_of, provenance, setting_of
 from rimroll.study.registry import PHYSICAL_KEYS, UserError
@@ -144,12 +144,8 @@ def _index(ds, dim: str, value: str) -> int:
             exact = np.flatnonzero(coord == number)
             if exact.size:
                 return int(exact[0])
-            finite = coord[np.isfinite(coord)]
-            if np.isfinite(number) and finite.size:
-                lo, hi = finite.min(), finite.max()
-                margin = 0.5 * (hi - lo) / (finite.size - 1) if finite.size > 1 else 1e-9 * max(abs(hi), 1.0)
-                if lo - margin <= number <= hi + margin:
-                    return int(np.argmin(np.where(np.isfinite(coord), np.abs(coord - number), np.inf)))
+            if np.isfinite(number) and cubeplots.on_axis(coord, number):
+                return int(np.argmin(np.where(np.isfinite(coord), np.abs(coord - number), np.inf)))
             raise UserError(f"--at {dim}={value}: outside the file's {dim} axis ({_values_text(ds, dim)}); a "
                             "finite number on the axis is taken to the nearest grid point")
     labels = [P.scene_key(v) if dim == "scene" else str(v) for v in coord]
