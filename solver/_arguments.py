@@ -51,6 +51,15 @@ def positive_number(name, value) -> float:
     return v
 
 
+def nonnegative_number(name, value, allowed: str) -> float:
+    """``value`` as a float; ValueError naming ``name`` and what is ``allowed`` unless it is a real number
+    >= 0 (inf allowed: a friction coefficient that never slips, a throw speed without a limit)."""
+    v = real_number(name, value, finite=False, allowed=allowed)
+    if not v >= 0:
+        raise ValueError(f"`{name}` must be {allowed}; got {value!r}")
+    return v
+
+
 def integer(name, value, minimum=1, maximum=None) -> int:
     """``value`` as an int; ValueError naming ``name`` unless it is an integer (int or numpy integer, not
     bool) in [minimum, maximum] (no upper bound for ``maximum=None``)."""
@@ -83,7 +92,7 @@ def real_array(name, values) -> np.ndarray:
     elif not isinstance(values, np.ndarray) and kind in "iu":  # numpy made True an int among ints
         if any(isinstance(v, (bool, np.bool_)) for v in np.asarray(values, dtype=object).flat):
             raise ValueError(f"`{name}` must hold real numbers (int or float); got a bool in {_short(values)}")
-    return np.asarray(values, dtype=float)
+    return raw.astype(float, copy=False)
 
 
 def finite_array(name, x: np.ndarray) -> None:

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from rimroll.solver.engine.simulate import MAX_WORKERS  # the CPU backend's cap is the --workers cap
 from rimroll.study.registry import UserError
 from rimroll.study.setting_table import MAX_AXIS, MAX_MAGNITUDE, ORDERED, lookup
 
@@ -25,7 +26,6 @@ __all__ = ["MAX_AXIS", "MAX_CHUNKS", "MAX_MAGNITUDE", "MAX_POINTS", "MAX_WORKERS
 
 MAX_CHUNKS = 200_000  # chunks of one cube (one part file each)
 MAX_POINTS = 10**10  # grid points of one cube
-MAX_WORKERS = 1024  # --workers: threads of the local cluster
 
 
 def check_setting(study: str, key: str, value, what: str = "setting") -> None:

@@ -228,10 +228,9 @@ def _cmd_run(args, command: str) -> int:
     try:
         png = _draw(study, nc)
     except KeyboardInterrupt as stop:  # the result is complete: say so, not only "interrupted"
-        what = "terminated (SIGTERM)" if isinstance(stop, registry.Terminated) else "interrupted"
+        what, status = registry.stopped_by(stop)
         raise runguard.RunInterrupted(f"{what} while drawing the figure; {nc} is complete ({stats.total} of "
-                                      f"{stats.total} chunks); the same command draws the figure",
-                                      143 if isinstance(stop, registry.Terminated) else 130) from None
+                                      f"{stats.total} chunks); the same command draws the figure", status) from None
     resumed = f" ({stats.resumed} of {stats.total} chunks resumed)" if stats.resumed else ""
     print(f"wrote {nc}" + (f" and {png}" if png else "") + resumed)
     warning = runguard.status_summary(nc)
@@ -405,10 +404,9 @@ def _main(words: list[str], command: str) -> int:
         print(f"study: error: {message}", file=sys.stderr)
         return getattr(exc, "exit_status", EXIT_USAGE)
     except KeyboardInterrupt as exc:  # Ctrl-C, SIGTERM (registry.Terminated), a run's (runguard.RunInterrupted)
-        term = isinstance(exc, registry.Terminated)
-        message = " ".join(str(exc).split()) or ("terminated (SIGTERM)" if term else "interrupted")
-        print(f"study: {message}", file=sys.stderr)
-        return getattr(exc, "exit_status", 143 if term else 130)
+        what, status = registry.stopped_by(exc)
+        print(f"study: {' '.join(str(exc).split()) or what}", file=sys.stderr)
+        return getattr(exc, "exit_status", status)
     except ImportError as exc:  # a lazy import (the figure's backend) that Ctrl-C broke
         if not registry.interrupted(exc):
             raise

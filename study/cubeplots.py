@@ -53,7 +53,8 @@ def on_axis(coord, value: float) -> bool:
     """Whether the finite ``value`` lies on the axis ``coord`` (its finite values), or within half a grid
     step of its ends (an axis of one value: that value, to 1e-9 of it): the nearest grid value then
     stands for it (``study plot --select``, ``study trace --at``); beyond, it names no point of the axis."""
-    finite = np.sort(np.asarray(coord, dtype=float)[np.isfinite(np.asarray(coord, dtype=float))])
+    coord = np.asarray(coord, dtype=float)
+    finite = np.sort(coord[np.isfinite(coord)])
     if finite.size == 0:
         return False
     lo, hi = float(finite[0]), float(finite[-1])

@@ -46,6 +46,12 @@ class Terminated(KeyboardInterrupt):
     does, saving what is finished, with exit status 143 (128 + SIGTERM)."""
 
 
+def stopped_by(exc: BaseException) -> tuple[str, int]:
+    """How a command stopped by ``exc`` says so, and its exit status: ("terminated (SIGTERM)", 143) for
+    :class:`Terminated`, ("interrupted", 130) for Ctrl-C."""
+    return ("terminated (SIGTERM)", 143) if isinstance(exc, Terminated) else ("interrupted", 130)
+
+
 class UserError(ValueError):
     """An error the user can fix (bad name, bad setting, missing file): one line, exit 2.
 

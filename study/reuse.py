@@ -16,7 +16,6 @@ import dataclasses
 import pathlib
 
 FINGERPRINT_ATTR = "run_fingerprint"
-CHECKSUM_ATTR = "data_sha256"  # = study.io.CHECKSUM_ATTR (io, with netCDF4, is imported only when a file is read)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -73,6 +72,8 @@ def inspect(path, fingerprint: str, request_attrs: dict, request_sizes: dict) ->
     except Exception as exc:  # noqa: BLE001  whatever the damage, it is not a result
         return Existing("unreadable", " ".join(str(exc).split()) or type(exc).__name__)
     if attrs.get(FINGERPRINT_ATTR) == fingerprint:
+        from rimroll.study.io import CHECKSUM_ATTR  # io is imported with the header's read (_read_header)
+
         if CHECKSUM_ATTR not in attrs:  # dropped by whoever changed the file on purpose: not this run's numbers
             return Existing("different", f"the file records this run's fingerprint but no {CHECKSUM_ATTR}: it was "
                                          "changed after it was written")

@@ -86,9 +86,8 @@ def saved_on_stop(store, plan):
     try:
         yield
     except KeyboardInterrupt as exc:
-        term = isinstance(exc, registry.Terminated)
-        raise RunInterrupted(f"{'terminated (SIGTERM)' if term else 'interrupted'}; {_saved(store, plan)}; rerun "
-                             "the same command to resume", exit_status=143 if term else 130) from None
+        what, status = registry.stopped_by(exc)
+        raise RunInterrupted(f"{what}; {_saved(store, plan)}; rerun the same command to resume", status) from None
     except OSError as exc:
         if exc.errno not in (errno.ENOSPC, errno.EFBIG, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EIO):
             raise

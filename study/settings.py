@@ -103,7 +103,7 @@ def parse_values(key: str, text: str):
             raise UserError(f"setting {key}={text}: a range is start:stop:num, e.g. {key}=0.4:0.6:5")
         start, stop = _float(key, parts[0]), _float(key, parts[1])
         try:
-            num = int(_plain(parts[2]))
+            num = integer(parts[2])
         except ValueError:
             raise UserError(f"setting {key}={text}: num of start:stop:num must be an integer") from None
         if num < 2:
@@ -151,7 +151,7 @@ def integer(text: str) -> int:
 
 def _float(key: str, text: str) -> float:
     try:
-        return float(_plain(text))
+        return number(text)
     except ValueError:
         raise UserError(f"setting {key}={text}: expected a number") from None
 
@@ -166,9 +166,9 @@ def _convert(key: str, text: str, default):
                 return False
             raise ValueError
         if isinstance(default, int):
-            return int(_plain(text))
+            return integer(text)
         if isinstance(default, float):
-            return float(_plain(text))
+            return number(text)
         return type(default)(text)
     except ValueError:
         kind = {bool: "true/false", int: "an integer", float: "a number"}.get(type(default), type(default).__name__)

@@ -154,7 +154,7 @@ def _index(ds, dim: str, value: str) -> int:
     raise UserError(f"--at {dim}={value}: not a value of the file's {dim} ({_values_text(ds, dim)})")
 
 
-def from_map(path, at_text: str, sets: dict) -> tuple[np.ndarray, solver.Params, float, dict]:
+def from_map(path, at_text: str | list[str], sets: dict) -> tuple[np.ndarray, solver.Params, float, dict]:
     """(state, params, t_max [s], provenance) of the point ``--at`` of an outcome map file."""
     ds = io.open_result(pathlib.Path(path))
     if "outcome" not in ds:

@@ -58,9 +58,9 @@ def test_simulate_refuses_bad_input_naming_it(kwargs, match):
 
 
 def test_workers_cap_is_the_command_lines():
-    from rimroll.study.checks import MAX_WORKERS as CLI_MAX_WORKERS
+    from rimroll.study import checks
 
-    assert MAX_WORKERS == CLI_MAX_WORKERS
+    assert checks.MAX_WORKERS is MAX_WORKERS  # one number, not a copy kept equal
 
 
 # ------------------------------------------------------------------------------ simulate: valid input unchanged

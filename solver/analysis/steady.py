@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rimroll.solver._arguments import integer, real_number
+from rimroll.solver._arguments import integer, nonnegative_number
 from rimroll.solver._jit import vectorised
 from rimroll.solver.physics import rolling
 from rimroll.solver.physics.params import Params
@@ -91,7 +91,7 @@ def rolls_without_slipping(beta0, omega30, p: Params, mu: float | None = None):
     coefficient mu [-] (a number >= 0, inf allowed; default p.mu); with mu = inf the fall condition (57).
     """
     check_params(p)
-    mu = p.mu if mu is None else _friction(mu)
+    mu = p.mu if mu is None else nonnegative_number("mu", mu, "a friction coefficient >= 0 (inf: never slips)")
     F1, F2, F3 = contact_forces(beta0, omega30, p)
     if np.isinf(mu):
         return F2 >= 0
@@ -136,7 +136,7 @@ def realisable(beta0, omega30, p: Params, v_throw: float, mu: float | None = Non
     >= 0 (inf: no energy limit); mu: a number >= 0 (inf: never slips). ValueError naming them
     otherwise (NaN, negative, not a number).
     """
-    _throw_speed_limit(v_throw)
+    nonnegative_number("v_throw", v_throw, "a throw speed >= 0 [m/s] (inf: no energy limit)")
     with np.errstate(invalid="ignore"):
         return (
             (stability(beta0, omega30, p) < 0)
@@ -185,21 +185,6 @@ def minimal_throw_speed(region: int, p: Params, mu: float | None = None, n: int 
         b_lo, b_hi = b[max(i - 3, 0)], b[min(i + 3, b.size - 1)]
         w_lo, w_hi = w[max(jw - 3, 0)], w[min(jw + 3, w.size - 1)]
     return best
-
-
-def _friction(mu) -> float:
-    """mu [-] of :func:`rolls_without_slipping` as a float: a number >= 0, inf allowed."""
-    v = real_number("mu", mu, finite=False, allowed="a friction coefficient >= 0, inf: never slips")
-    if not v >= 0:
-        raise ValueError(f"`mu` must be a friction coefficient >= 0 (inf: never slips); got {mu!r}")
-    return v
-
-
-def _throw_speed_limit(v_throw) -> None:
-    """v_throw [m/s] of :func:`realisable`: a number >= 0, inf allowed."""
-    v = real_number("v_throw", v_throw, finite=False, allowed="a throw speed >= 0 [m/s], inf: no energy limit")
-    if not v >= 0:
-        raise ValueError(f"`v_throw` must be a throw speed >= 0 [m/s] (inf: no energy limit); got {v_throw!r}")
 
 
 __all__ = ["omega20", "stability", "steady_state", "trivial_state", "beta_star", "beta_hat",

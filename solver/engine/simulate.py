@@ -43,8 +43,7 @@ SLIP_METHODS = ("rodas4", "explicit")  # simulate(switching={"slip_method": ...}
 DEFAULT_MAX_STEPS = 1_000_000
 DEFAULT_MAX_SWITCHES = 10_000
 MAX_WORKERS = 1024
-"""Most threads of the CPU backend (``workers``): the cap of the command line's ``--workers``
-(``study.checks.MAX_WORKERS``)."""
+"""Most threads of the CPU backend (``workers``), and of the command line's ``--workers`` (``study.checks``)."""
 _CHUNKS_PER_WORKER = 8  # chunks per thread: balances fast falls against long periodic runs
 
 
