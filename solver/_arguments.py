@@ -51,6 +51,18 @@ def positive_number(name, value) -> float:
     return v
 
 
+def tolerances(rtol, atol) -> tuple[float, float]:
+    """(rtol, atol) as floats; ValueError naming the one outside RTOL_RANGE or (0, ATOL_MAX]."""
+    allowed = f"in [{RTOL_RANGE[0]:g}, {RTOL_RANGE[1]:g}]"
+    rtol_value = real_number("rtol", rtol, allowed=allowed)
+    if not RTOL_RANGE[0] <= rtol_value <= RTOL_RANGE[1]:
+        raise ValueError(f"`rtol` must be {allowed}, where the error control means something; got {rtol!r}")
+    atol_value = positive_number("atol", atol)
+    if atol_value > ATOL_MAX:
+        raise ValueError(f"`atol` must be in (0, {ATOL_MAX:g}]; got {atol!r}")
+    return rtol_value, atol_value
+
+
 def nonnegative_number(name, value, allowed: str) -> float:
     """``value`` as a float; ValueError naming ``name`` and what is ``allowed`` unless it is a real number
     >= 0 (inf allowed: a friction coefficient that never slips, a throw speed without a limit)."""

@@ -23,7 +23,8 @@ import dataclasses
 import math
 from collections.abc import Callable
 
-from rimroll.solver.engine.simulate import ATOL_MAX, RTOL_RANGE, SLIP_METHODS
+from rimroll.solver._arguments import ATOL_MAX, RTOL_RANGE
+from rimroll.solver.engine.simulate import SLIP_METHODS
 from rimroll.solver.physics import params as physical
 
 MAX_AXIS = 100_000  # values of one swept list/range, and of an n_* grid size

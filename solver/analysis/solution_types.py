@@ -69,7 +69,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rimroll.solver._arguments import ATOL_MAX, RTOL_RANGE, positive_number, real_array, real_number
+from rimroll.solver._arguments import positive_number, real_array, real_number, tolerances
 from rimroll.solver._jit import vectorised
 from rimroll.solver.analysis import reduced, trajectory
 from rimroll.solver.engine import rules
@@ -167,11 +167,7 @@ def _checked_eq_tol(eq_tol) -> float:
 def _checked_tolerances(t_max, rtol, atol, connection_tol, return_tol):
     """The checks of :func:`classify` of its time and tolerances (ValueError naming the argument)."""
     positive_number("t_max", t_max)
-    allowed = f"in [{RTOL_RANGE[0]:g}, {RTOL_RANGE[1]:g}]"
-    if not RTOL_RANGE[0] <= real_number("rtol", rtol, allowed=allowed) <= RTOL_RANGE[1]:
-        raise ValueError(f"`rtol` must be {allowed} (as for solver.simulate); got {rtol!r}")
-    if not positive_number("atol", atol) <= ATOL_MAX:
-        raise ValueError(f"`atol` must be in (0, {ATOL_MAX:g}]; got {atol!r}")
+    tolerances(rtol, atol)  # as for solver.simulate
     for name, value in (("connection_tol", connection_tol), ("return_tol", return_tol)):
         if value is not None:
             positive_number(name, value)

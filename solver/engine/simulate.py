@@ -20,14 +20,13 @@ import numpy as np
 
 from rimroll.solver import _jit
 from rimroll.solver._arguments import (
-    ATOL_MAX,
     MAX_COUNT,
-    RTOL_RANGE,
     finite_array,
     integer,
     positive_number,
     real_array,
     real_number,
+    tolerances,
 )
 from rimroll.solver.engine import backends, kernels, scene_code
 from rimroll.solver.engine.outcomes import STEADY_MOTION, on_rim_reason
@@ -248,13 +247,7 @@ def _checked_switching(switching) -> dict:
 def _checked_limits(t_max, rtol, atol, max_steps, max_switches) -> kernels.Limits:
     """The :class:`~rimroll.solver.engine.kernels.Limits` of a run after the checks of :func:`simulate`."""
     t_max = positive_number("t_max", t_max)
-    rtol = real_number("rtol", rtol, allowed=f"in [{RTOL_RANGE[0]:g}, {RTOL_RANGE[1]:g}]")
-    if not RTOL_RANGE[0] <= rtol <= RTOL_RANGE[1]:
-        raise ValueError(f"`rtol` must be in [{RTOL_RANGE[0]:g}, {RTOL_RANGE[1]:g}], where the error control "
-                         f"means something; got {rtol!r}")
-    atol = positive_number("atol", atol)
-    if atol > ATOL_MAX:
-        raise ValueError(f"`atol` must be in (0, {ATOL_MAX:g}]; got {atol!r}")
+    rtol, atol = tolerances(rtol, atol)
     return kernels.Limits(t_max, rtol, atol, integer("max_steps", max_steps, maximum=MAX_COUNT),
                           integer("max_switches", max_switches, minimum=0, maximum=MAX_COUNT), True)
 
