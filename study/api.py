@@ -148,12 +148,22 @@ def run(name: str, quick: bool = False, out: str | os.PathLike | None = None, cl
                     "deleted): give out= to keep what a run finishes and resume it", stop.exit_status) from None
             _warn_lanes(outcome.path, f"rimroll.run({name!r})")
             return io.open_result(outcome.path)
-    outcome = execute.run_to_file(plan, out, command, cluster, force=force, progress=shown)
+    try:
+        outcome = execute.run_to_file(plan, out, command, cluster, force=force, progress=shown)
+    except UserError as exc:  # said in the command line's words (--out, --force): in this function's
+        raise UserError(_api_words(str(exc))) from None
     _warn_lanes(outcome.path, str(outcome.path))
     if plot and study.plot is not None:
         with io.open_result(outcome.path, lazy=True) as ds:
             io.write_figure(study.plot(ds), outcome.path.with_suffix(".png"))
     return io.open_result(outcome.path, lazy=True)
+
+
+def _api_words(message: str) -> str:
+    """A refusal of the study layer in the words of :func:`run`: ``out=`` and ``force=True`` where the
+    command line says ``--out`` and ``--force``."""
+    return message.replace("another --out", "another out=").replace("use --force", "use force=True").replace(
+        "--force resumes", "force=True resumes").replace("(with --force", "(with force=True")
 
 
 def _word(key: str, value: Any) -> str:

@@ -11,6 +11,7 @@ import argparse
 import errno
 import math
 import pathlib
+import re
 import shlex
 import sys
 import warnings
@@ -30,6 +31,10 @@ class _Parser(argparse.ArgumentParser):
     """argparse that reports usage errors as one line (no usage dump) and exit 2."""
 
     def error(self, message):
+        match = re.fullmatch(r"argument (--[\w-]+)(?:/[\w-]+)*: expected one argument", message)
+        if match:  # `--state -1.57,0,0,0`: argparse takes a value that starts with '-' for an option
+            example = "-1.57,0,0,0" if match[1] == "--state" else "-VALUE"
+            message += f" (a value that starts with '-' is written with '=': {match[1]}={example})"
         raise UserError(message)
 
 

@@ -232,7 +232,11 @@ def open_result(path, lazy: bool = False) -> xr.Dataset:
     """
     path = pathlib.Path(path)
     if not path.is_file():
-        raise UserError(f"no such results file: {path}")
+        from rimroll.study import parts  # parts imports io
+
+        writing = parts.run_in_progress(path)
+        raise UserError(f"no such results file: {path}" + (f" yet: {writing}; open it when that run has finished"
+                                                            if writing else ""))
     damaged = (OSError, ValueError, RuntimeError, KeyError, IndexError, TypeError, AttributeError)
     try:
         if lazy:

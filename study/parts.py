@@ -45,6 +45,30 @@ def checksum(arrays: dict[str, np.ndarray]) -> str:
     return h.hexdigest()
 
 
+def run_in_progress(target) -> str | None:
+    """What a run writing the results file ``target`` (``<out>/<study>.nc``) holds: a phrase naming the
+    run's lock file ``<out>/.parts/<study>.lock`` and its process, or None when no run holds that lock.
+    The file appears only when the run finishes (it is written whole), so until then it is missing."""
+    target = pathlib.Path(target)
+    lock = target.parent / PARTS / f"{target.stem}.lock"
+    try:
+        fd = os.open(lock, os.O_RDONLY)
+    except OSError:
+        return None
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+        except BlockingIOError:
+            pid = os.read(fd, 32).decode(errors="replace").strip()
+            return f"a run of {target.stem!r} is writing it (lock {lock} held" + (f" by process {pid})" if pid else ")")
+        except OSError:
+            return None
+        fcntl.flock(fd, fcntl.LOCK_UN)
+        return None
+    finally:
+        os.close(fd)
+
+
 class PartStore:
     """The part files of one (study, fingerprint)."""
 

@@ -254,3 +254,39 @@ def test_progress_in_a_terminal_redraws_one_line(monkeypatch):
     assert stream.getvalue().startswith("\rstudy: probe chunks 1/2") and stream.getvalue().endswith("\n")
     monkeypatch.setattr(progress, "in_notebook", lambda: True)
     assert progress.wanted(None) and not progress.wanted(False)
+
+
+def _held_lock(out: pathlib.Path, study: str):
+    """The lock of ``<out>/<study>.nc`` held (as a run holds it, with its process id), as an open file."""
+    import fcntl
+
+    (out / ".parts").mkdir(parents=True)
+    held = open(out / ".parts" / f"{study}.lock", "w")
+    fcntl.flock(held, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    held.write(f"{os.getpid()}\n")
+    held.flush()
+    return held
+
+
+def test_opening_a_result_its_run_is_writing_names_the_run(tmp_path, capsys):
+    """The file is written whole when the run ends: until then, rimroll.open and study info say that a run
+    is writing it and name its lock, not only "no such results file"."""
+    with _held_lock(tmp_path, "fig11"):
+        with pytest.raises(UserError) as err:
+            rimroll.open(tmp_path / "fig11.nc")
+        assert main(["info", str(tmp_path / "fig11.nc")]) == 2
+    text = " ".join(str(err.value).split())
+    assert "a run of 'fig11' is writing it" in text and str(tmp_path / ".parts" / "fig11.lock") in text
+    assert f"by process {os.getpid()}" in text
+    assert "a run of 'fig11' is writing it" in capsys.readouterr().err
+    with pytest.raises(UserError) as err:  # the run has finished (its lock released) without the file
+        rimroll.open(tmp_path / "fig11.nc")
+    assert "writing" not in str(err.value)
+
+
+def test_the_api_refuses_a_concurrent_run_in_its_own_words(tmp_path, probe):
+    with _held_lock(tmp_path, "fanout-probe"):
+        with pytest.raises(UserError) as err:
+            rimroll.run("fanout-probe", out=tmp_path)
+    text = str(err.value)
+    assert "is in progress" in text and "another out=" in text and "--out" not in text

@@ -11,6 +11,7 @@ import contextlib
 import json
 import os
 import pathlib
+import re
 import shutil
 import subprocess
 import sys
@@ -83,6 +84,11 @@ def _study(*args, env=None, timeout=180):
                           timeout=timeout, env=env or _env())
 
 
+_HEARTBEAT = re.compile(r"study: [\w-]+: working, \d+ of \d+ chunks done after [\w .]+ "
+                        r"\(Ctrl-C stops, a rerun resumes\)$")
+"""A line of ``study.runguard.heartbeat``: said when no chunk finished for 2 s, on a slow machine too."""
+
+
 def _errors(err: str) -> list[str]:
     return [line for line in err.strip().splitlines() if ": dashboard of the cluster at " not in line]
 
@@ -126,7 +132,9 @@ def test_a_worker_with_other_code_refuses_the_chunks(tmp_path):
     with cluster(tmp_path, workers=[{"preload": PRELOAD}]) as sfile:
         run = _study("run", "fig8", "--quick", "--out", str(tmp_path / "out"), "--no-progress",
                      "--scheduler-file", str(sfile), "--timeout", "30")
-    lines = _errors(run.stderr)
+    # on a busy machine the run may say it is still working before the refusal comes: those notices
+    # (runguard.heartbeat) are set aside, every other line still counts
+    lines = [line for line in _errors(run.stderr) if not _HEARTBEAT.match(line)]
     assert run.returncode == 2 and len(lines) == 1, run.stderr
     assert lines[0].startswith("study: error: worker tcp://127.0.0.1:") and "refuses chunks of fig8" in lines[0]
     assert f"its code digest {mine[::-1][:16]} differs from the client's {mine[:16]}" in lines[0]

@@ -90,6 +90,7 @@ def test_study_trace_writes_file_and_figure_and_picks_a_map_point(tmp_path, caps
     (["trace", "--state", "1,2,65,10", "--set", "mu=-1"], "mu"),
     (["trace", "--state", "1,2,65,10", "--set", "nope=1"], "KEY=VALUE"),
     (["trace", "--state", "1,2,65,10", "--rtol", "1"], "--rtol"),
+    (["trace", "--state", "-1.57,0,0,0"], "--state=-1.57,0,0,0"),  # argparse took the value for an option
 ])
 def test_trace_user_errors_are_one_line(argv, words, capsys, tmp_path):
     assert main([*argv, "--out", str(tmp_path)]) == 2
