@@ -27,6 +27,7 @@ import contextlib
 import dataclasses
 import logging
 import os
+import sys
 import time
 import uuid
 
@@ -343,8 +344,17 @@ def run(plan: Plan, store: PartStore, todo: list[int], c, progress: ProgressLine
     except BaseException:
         for f in inflight:
             f.cancel()
+        _stop_compiles()
         raise
     finally:
         progress.close()
     stats.wall_s = time.perf_counter() - t0
     return stats
+
+
+def _stop_compiles() -> None:
+    """A run stopped while its threads wait for kernels compiled in child processes: stop those now, not
+    after the compile (``solver.engine.compiling.stop_all``; nothing when no kernel was compiled here)."""
+    compiling = sys.modules.get("rimroll.solver.engine.compiling")
+    if compiling is not None:
+        compiling.stop_all()

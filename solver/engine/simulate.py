@@ -10,15 +10,12 @@ trajectory).
 
 from __future__ import annotations
 
-import logging
 import os
-import pathlib
 from collections.abc import Iterable, Mapping
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from rimroll.solver import _jit
 from rimroll.solver._arguments import (
     MAX_COUNT,
     finite_array,
@@ -28,10 +25,10 @@ from rimroll.solver._arguments import (
     real_number,
     tolerances,
 )
-from rimroll.solver.engine import backends, kernels, scene_code
+from rimroll.solver.engine import backends, compiling, kernels, scene_code
 from rimroll.solver.engine.outcomes import STEADY_MOTION, on_rim_reason
 from rimroll.solver.engine.outputs import OUTPUTS, column
-from rimroll.solver.engine.scenes import Scene, scene_of
+from rimroll.solver.engine.scenes import scene_of
 from rimroll.solver.engine.tableaus import TABLEAUS
 from rimroll.solver.physics.params import Params
 from rimroll.solver.physics.steady_motion import stability
@@ -44,36 +41,6 @@ DEFAULT_MAX_SWITCHES = 10_000
 MAX_WORKERS = 1024
 """Most threads of the CPU backend (``workers``), and of the command line's ``--workers`` (``study.checks``)."""
 _CHUNKS_PER_WORKER = 8  # chunks per thread: balances fast falls against long periodic runs
-
-
-COLD_COMPILE_S = {"scene_rolling": 13, "scene_hybrid": 24}
-"""Measured first compile of each scene's kernel on 2 cores [s], in a fresh process (printed, not
-enforced); a scene compiled after another one reuses the step loops they share."""
-_announced = set()
-
-
-def kernels_cached(scene: Scene | None = None) -> bool:
-    """Whether the kernel of ``scene`` (default: the four scene kernels of ``kernels``) is compiled in
-    this process or cached on disk."""
-    funcs = list(kernels.SCENE_KERNELS.values()) if scene is None else [scene_code.kernel_of(scene)]
-    for func in funcs:
-        stem = pathlib.Path(func.py_func.__code__.co_filename).stem
-        if not (func.signatures or any(_jit.cache_dir().glob(f"**/{stem}.{func.py_func.__name__}-*.nbi"))):
-            return False
-    return True
-
-
-def _announce_compile(scene: Scene):
-    """One notice (logging, INFO, logger ``rimroll.solver...``) before a scene kernel's first compile in this
-    environment: a long silence otherwise."""
-    key = (scene.kernel, tuple(t.name for t in scene.loads))
-    if key in _announced or _jit._DISABLE or kernels_cached(scene):
-        return
-    _announced.add(key)
-    name = scene.kernel.removeprefix("scene_") + "".join(f" + {t.name}" for t in scene.loads)
-    logging.getLogger(__name__).info(
-        "compiling the simulation kernel of the %s scene, first run only: about %s s on 2 cores (cached in %s)",
-        name, COLD_COMPILE_S[scene.kernel], _jit.cache_dir())
 
 
 def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="dp5", *,
@@ -184,7 +151,7 @@ def _run_cpu(scene, method, flat, p, sw, limits, workers, res_f, res_i):
     into the rows of res_f, res_i. Chunk c takes the states c, c + n_chunks, ...: costly states sit
     together (a boundary, an island that stays on the rim), and contiguous blocks would hand them
     all to one thread."""
-    _announce_compile(scene)
+    compiling.ensure_compiled(scene, method, (flat, p, sw, method, limits, kernels.new_work(method), res_f, res_i))
     scene_kernel = scene_code.kernel_of(scene)
     m = flat.shape[0]
     n_chunks = min(m, workers * _CHUNKS_PER_WORKER) if workers > 1 else min(m, 1)
