@@ -15,6 +15,11 @@ integrations of ``solver.analysis``): below 1e-14 the steps drown in round-off, 
 accepted step can miss the dynamics entirely (at rtol = 1 a periodic state 'falls in')."""
 ATOL_MAX = 1.0
 """Largest absolute tolerance (the state's components are O(1e-2..1e2) in SI units)."""
+SLIP_METHODS = ("rodas4", "explicit")
+"""How ``solver.simulate`` runs slips (``switching={"slip_method": ...}``, see its docstring)."""
+MAX_WORKERS = 1024
+"""Most threads of the CPU backend (``simulate``'s ``workers``), and of the command line's ``--workers``
+(``study.checks``): here, so that the study layer reads both without importing the engine."""
 MAX_COUNT = int(np.iinfo(np.int64).max)
 """Largest count the kernels keep (``max_steps``, ``max_switches``: int64), 2**63 - 1."""
 

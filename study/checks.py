@@ -17,13 +17,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from rimroll.solver.engine.simulate import MAX_WORKERS  # the CPU backend's cap is the --workers cap
+from rimroll.solver._arguments import MAX_WORKERS  # the CPU backend's cap (solver.simulate) is the --workers cap
 from rimroll.study.registry import UserError
 from rimroll.study.setting_table import MAX_AXIS, MAX_MAGNITUDE, ORDERED, lookup
 
 __all__ = ["MAX_AXIS", "MAX_CHUNKS", "MAX_MAGNITUDE", "MAX_POINTS", "MAX_WORKERS", "check_setting",
            "check_order", "check_settings", "check_size", "check_values", "check_workers"]
 
+DEFAULT_TIMEOUT = 30.0  # [s] bound on waiting for a scheduler and for its workers (study.fanout)
 MAX_CHUNKS = 200_000  # chunks of one cube (one part file each)
 MAX_POINTS = 10**10  # grid points of one cube
 

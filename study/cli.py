@@ -3,6 +3,10 @@
 Only argument parsing and orchestration live here; settings are resolved by ``study.settings``
 into a ``study.plan`` and every run goes through ``study.execute``. Every user error is one line
 ``study: error: ...`` on stderr and exit status 2.
+
+``study --help``, ``study list``, ``study info NAME`` and the refusal of a bad argument import
+neither numba, dask nor xarray (tests/test_cli_info.py): what runs, opens or draws a file imports
+them in the function that needs them.
 """
 
 from __future__ import annotations
@@ -19,8 +23,8 @@ import warnings
 import numpy as np
 
 from rimroll import _messages
-from rimroll.study import checks, execute, fanout, io, keyvalue, registry, runguard, settings
-from rimroll.study.plan import make_plan
+from rimroll.study import checks, keyvalue, registry, settings
+from rimroll.study.checks import DEFAULT_TIMEOUT
 from rimroll.study.registry import UserError, natural_order
 from rimroll.study.setting_table import lookup
 
@@ -71,7 +75,7 @@ def _parser() -> argparse.ArgumentParser:
                      help="show chunks done/total on stderr (default: when stderr is a terminal)")
     run.add_argument("--force", action="store_true",
                      help="recompute and replace the file even if it holds this run or another one")
-    run.add_argument("--timeout", type=settings.number, default=fanout.DEFAULT_TIMEOUT, metavar="SECONDS",
+    run.add_argument("--timeout", type=settings.number, default=DEFAULT_TIMEOUT, metavar="SECONDS",
                      help="bound on waiting for a --scheduler (or its file) and for workers (default: %(default)g s)")
     plot = sub.add_parser("plot", help="re-draw the PNG of an existing results file")
     plot.add_argument("target", help="a study name (meaning <out>/NAME.nc) or a .nc file")
@@ -152,6 +156,8 @@ def _cmd_list(args) -> int:
 
 def _draw(study, nc: pathlib.Path, select: dict | None = None) -> pathlib.Path | None:
     """Re-open ``nc`` lazily and save the study's plot next to it as PNG (of a slice: ``select``)."""
+    from rimroll.study import io
+
     if study.plot is None:
         return None
     png = nc.with_suffix(".png")
@@ -210,14 +216,17 @@ def _check_near_axis(ds, key: str, text: str, value: float) -> None:
 
 
 def _cmd_run(args, command: str) -> int:
-    study = registry.get(args.name)
-    checks.check_workers(args.workers)
+    checks.check_workers(args.workers)  # the refusals that need no study first, then a misspelt name: at once
     if args.scheduler and args.scheduler_file:
         raise UserError("give --scheduler ADDRESS or --scheduler-file PATH, not both")
     if args.workers is not None and (args.scheduler or args.scheduler_file):
         raise UserError("--workers is for local runs; a --scheduler cluster has its own workers")
     if not (0 < args.timeout <= 86400):
         raise UserError(f"--timeout must be > 0 and <= 86400 s; got {args.timeout}")
+    study = registry.get(args.name)
+    from rimroll.study import execute, fanout, runguard
+    from rimroll.study.plan import make_plan
+
     fanout.check_address(args.scheduler)
     sets = list(args.sets) + ([f"backend={args.backend}"] if args.backend else [])
     if args.backend and "backend" not in study.settings:
@@ -258,6 +267,8 @@ def _cmd_plot(args) -> int:
         nc = target
     else:
         nc = pathlib.Path(args.out) / f"{registry.get(args.target).name}.nc"
+    from rimroll.study import io
+
     ds = io.open_result(nc)
     if ds.attrs["study"] == "trace":
         from rimroll.study import trace
@@ -273,14 +284,16 @@ def _cmd_plot(args) -> int:
 def _cmd_info(args) -> int:
     target = pathlib.Path(args.file)
     is_file = target.is_file() or target.suffix == ".nc"
-    if not is_file and args.file in registry.names():
+    if not is_file and args.file in registry.known_names():
         from rimroll.study.describe import describe
 
         print("\n".join(describe(args.file)))
         return 0
     if not is_file:
         raise UserError(f"{args.file!r} is neither a results file nor a study; "
-                        f"studies: {', '.join(natural_order(registry.names()))}")
+                        f"studies: {', '.join(natural_order(registry.known_names()))}")
+    from rimroll.study import io
+
     ds = io.open_result(target)
     print(f"{args.file}: {ds.attrs.get('title', '')} [study {ds.attrs['study']}]")
     print("dimensions: " + ", ".join(f"{k}={v}" for k, v in ds.sizes.items()))
@@ -325,7 +338,7 @@ def _cmd_verify(args) -> int:
 
     A study has a slice of its default grid and one of its ``--quick`` grid; the file is compared
     with the one sharing the most points with it (the default slice on a tie)."""
-    from rimroll.study import compare, reference
+    from rimroll.study import compare, io, reference
 
     ds = io.open_result(pathlib.Path(args.file))
     name = str(ds.attrs["study"])
@@ -359,7 +372,7 @@ def _study_help(words: list[str]) -> bool:
     if not words or words[0] != "run" or not {"-h", "--help"} & set(words):
         return False
     names = [w for w in words[1:] if not w.startswith("-")]
-    if not names or names[0] not in registry.names():
+    if not names or names[0] not in registry.known_names():
         return False
     from rimroll.study.describe import settings_lines
 

@@ -31,12 +31,12 @@ import sys
 import time
 import uuid
 
+from rimroll.study.checks import DEFAULT_TIMEOUT  # [s] bound on waiting for a scheduler and for its workers
 from rimroll.study.parts import PartStore
 from rimroll.study.plan import Plan, compute_chunk
 from rimroll.study.progress import ProgressLine
 from rimroll.study.registry import UserError
 
-DEFAULT_TIMEOUT = 30.0  # [s] bound on waiting for a scheduler and for its workers
 POLL = 0.5  # [s] how often a run checks that its cluster still has workers
 
 

@@ -389,18 +389,29 @@ def natural_order(names) -> list[str]:
     return sorted(names, key=key)
 
 
+def known_names() -> list[str]:
+    """The names of the studies, sorted, read from the entry points (one per study, named as the study) and
+    the studies registered so far, without importing a studies module: a misspelt name is refused at once.
+    With none, the studies are loaded (:class:`UserError` "no studies found" where there are none at all)."""
+    found = {ep.name for ep in study_entry_points()} | set(_REGISTRY)
+    if not found:
+        _load_studies()
+        found = set(_REGISTRY)
+    return sorted(found)
+
+
 def get(name: str) -> Study:
     """The registered study called ``name``; :class:`UserError` listing known names otherwise.
 
     Imports only the module of the entry point named ``name`` when there is one (a warm
-    ``study run fig11`` then skips the other families' imports), else every study module."""
+    ``study run fig11`` then skips the other families' imports). A name that is no entry point's is refused
+    without importing any studies module (unless ``$RIMROLL_STUDY_MODULES`` names modules to search)."""
     if name not in _REGISTRY and not _loaded_entry_points:
         for ep in study_entry_points():
             if ep.name == name:
                 _load_entry_point(ep)
-    if name not in _REGISTRY:
+    if name not in _REGISTRY and (_loaded_entry_points or os.environ.get(PLUGIN_ENV)):
         _load_studies()
-    try:
-        return _REGISTRY[name]
-    except KeyError:
-        raise UserError(f"unknown study {name!r}; known studies: {', '.join(sorted(_REGISTRY)) or 'none'}") from None
+    if name not in _REGISTRY:
+        raise UserError(f"unknown study {name!r}; known studies: {', '.join(known_names()) or 'none'}")
+    return _REGISTRY[name]

@@ -23,8 +23,7 @@ import dataclasses
 import math
 from collections.abc import Callable
 
-from rimroll.solver._arguments import ATOL_MAX, RTOL_RANGE
-from rimroll.solver.engine.simulate import SLIP_METHODS
+from rimroll.solver._arguments import ATOL_MAX, RTOL_RANGE, SLIP_METHODS
 from rimroll.solver.physics import params as physical
 
 MAX_AXIS = 100_000  # values of one swept list/range, and of an n_* grid size
@@ -47,7 +46,7 @@ FRICTION = Range(0.0, math.inf)  # a Coulomb coefficient; inf: never slips
 
 
 def _methods() -> tuple:
-    from rimroll.solver.engine.simulate import TABLEAUS
+    from rimroll.solver.engine.tableaus import TABLEAUS
 
     return tuple(sorted(TABLEAUS))
 

@@ -97,3 +97,33 @@ def test_info_of_an_outcome_file_gives_each_scenes_parameters(tmp_path, capsys):
     assert re.search(r"^  k_r \[s-1\] .*: 0, 0, 0, 0\.02 \(per scene\)", out, re.M)
     (params,) = [line for line in out.splitlines() if line.startswith("parameters:")]
     assert not re.search(r"\b(mu|k_r|k_d)=", params)  # no one global value of what each scene sets
+
+
+_HEAVY = ("numba", "dask", "xarray", "distributed", "matplotlib", "rimroll.solver.engine.kernels", "rimroll.workflows")
+_LOADED = ("import sys\n"
+           "from rimroll.study.cli import main\n"
+           "try:\n"
+           "    status = main(sys.argv[1:])\n"
+           "except SystemExit as exc:\n"
+           "    status = exc.code\n"
+           f"print(status, *sorted(m for m in {_HEAVY!r} if m in sys.modules), file=sys.stderr)\n")
+
+
+@pytest.mark.parametrize("argv, status", [
+    (["--help"], 0),
+    (["run", "--help"], 0),
+    (["run", "fig1l"], 2),  # a misspelt study name
+    (["info", "fig1l"], 2),
+    (["plot", "fig1l"], 2),
+    (["run", "fig11", "--workers", "0"], 2),
+    (["trace", "--state", "-1.57,0,0,0"], 2),
+])
+def test_help_and_refusals_answer_without_the_numerical_libraries(argv, status):
+    """`study --help` and the refusal of a misspelt name import neither numba, dask, xarray nor the studies'
+    modules (a fresh process: what the command itself imports): they answer in a fraction of a second."""
+    import subprocess
+    import sys
+
+    out = subprocess.run([sys.executable, "-c", _LOADED, *argv], capture_output=True, text=True, timeout=120)
+    last = out.stderr.strip().splitlines()[-1].split()
+    assert last == [str(status)], out.stderr[-2000:]

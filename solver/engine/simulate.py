@@ -18,6 +18,8 @@ import numpy as np
 
 from rimroll.solver._arguments import (
     MAX_COUNT,
+    MAX_WORKERS,
+    SLIP_METHODS,
     finite_array,
     integer,
     positive_number,
@@ -34,12 +36,8 @@ from rimroll.solver.physics.params import Params
 from rimroll.solver.physics.steady_motion import stability
 from rimroll.solver.physics.switching import default_tolerances
 
-SLIP_METHODS = ("rodas4", "explicit")  # simulate(switching={"slip_method": ...}): see its docstring
-
 DEFAULT_MAX_STEPS = 1_000_000
 DEFAULT_MAX_SWITCHES = 10_000
-MAX_WORKERS = 1024
-"""Most threads of the CPU backend (``workers``), and of the command line's ``--workers`` (``study.checks``)."""
 _CHUNKS_PER_WORKER = 8  # chunks per thread: balances fast falls against long periodic runs
 
 
