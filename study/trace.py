@@ -56,6 +56,30 @@ EVENT_STYLE = {  # how the figure marks each kind of event
     "fall": dict(color="k", ls="-", lw=1.3, label="leaves the rim ($F_2 = 0$)"),
     "periodic": dict(color="tab:purple", ls="-", lw=1.3, label="periodic: second $\\omega_1$ zero"),
 }
+REVOLUTIONS_SIGN = ("signed: + while alpha grows, anticlockwise seen from above (about the rim's axis e3, up); "
+                    "rolling with omega3 > 0 goes round clockwise, alpha' = (u1 - r omega3) / (R - rho cos beta) (19)")
+"""The sign of ``revolutions`` (the file's ``revolutions_sign``, the figure's and the summary line's words)."""
+
+
+def rim_numbers(res: dict) -> dict:
+    """What a reader looks for first in one trajectory (``solver.analysis.trace.trace`` result ``res``), up to
+    t_end, the end ``solver.simulate`` decides: ``revolutions`` around the rim (alpha(t_end) / 2 pi, signed,
+    :data:`REVOLUTIONS_SIGN`; ``simulate``'s output of that name), ``slip_time`` [s] (the time in slip phases,
+    ``simulate``'s ``slip_time``) and ``time_on_rim`` [s] (t_end: to the fall, the periodic decision or t_max)."""
+    t, t_end = np.asarray(res["t"]), float(res["t_end"])
+    alpha = float(np.interp(t_end, t, res["alpha"])) if t.size else 0.0
+    slip = sum(min(t1, t_end) - t0 for t0, t1 in _slip_spans(t, res["phase"]) if t0 < t_end)
+    return {"revolutions": alpha / (2 * np.pi), "slip_time": float(slip), "time_on_rim": t_end}
+
+
+def rim_words(numbers: dict) -> str:
+    """:func:`rim_numbers` as words: '-1.370 revolutions around the rim (alpha falling: clockwise seen from
+    above), 0.12 s slipping, 2.5 s on the rim'."""
+    turns = numbers["revolutions"]
+    way = "" if turns == 0 else (" (alpha growing: anticlockwise seen from above)" if turns > 0
+                                 else " (alpha falling: clockwise seen from above)")
+    return (f"{turns:+.3f} revolutions around the rim{way}, {numbers['slip_time']:.4g} s slipping, "
+            f"{numbers['time_on_rim']:.4g} s on the rim")
 
 
 # ------------------------------------------------------------------ the initial state
@@ -292,6 +316,9 @@ def dataset(res: dict, state, params: solver.Params, t_max: float, rtol: float, 
                   "outcome": outcome, "outcome_meaning": meaning, "t_end": float(res["t_end"]),
                   "reason": str(res["reason"]), "half_period": float(res["half_period"]),
                   "slip_phases": int(res["slip_phases"])})
+    numbers = rim_numbers(res)
+    attrs.update({"revolutions": numbers["revolutions"], "revolutions_sign": REVOLUTIONS_SIGN,
+                  "slip_time": numbers["slip_time"], "time_on_rim": numbers["time_on_rim"]})
     if "half_periods" in res:
         halves = res["half_periods"]
         attrs.update({"periods_followed": int(halves.size // 2), "t_followed": float(res["t_followed"]),
@@ -371,8 +398,9 @@ def figure(ds) -> Figure:
         why = f"the ball leaves the rim at t = 0: F2 = {float(ds['F2'][0]):.4g} N at the initial state"
     if "t_followed" in a:
         why += f"; followed {int(a['periods_followed'])} more periods, to t = {float(a['t_followed']):.4g} s"
-    fig.suptitle(f"{label} at t_end = {a['t_end']:.6g} s ({why})\n"
-                 rf"from ($\beta$, $\omega_1$, $\omega_2$, $\omega_3$) = ({state}); {scene}", fontsize=11)
+    rim = rim_words({k: float(a[k]) for k in ("revolutions", "slip_time", "time_on_rim")}) if "revolutions" in a else ""
+    fig.suptitle(f"{label} at t_end = {a['t_end']:.6g} s ({why})\n" + (f"{rim}\n" if rim else "")
+                 + rf"from ($\beta$, $\omega_1$, $\omega_2$, $\omega_3$) = ({state}); {scene}", fontsize=11)
     return fig
 
 
@@ -461,5 +489,6 @@ def run(args, command: str) -> int:
     elif res["reason"] == "fall" and res["t_end"] == 0.0:
         more = f"; the ball leaves the rim at t = 0 (F2 = {res['F2'][0]:.4g} N at the initial state)"
     point = f" from {extra['source_point']} of {extra['source_file']}" if extra and "source_point" in extra else ""
-    print(f"wrote {nc} and {png}{point}: {label} at t_end = {res['t_end']:.6g} s ({res['reason']}){more}")
+    print(f"wrote {nc} and {png}{point}: {label} at t_end = {res['t_end']:.6g} s ({res['reason']}); "
+          f"{rim_words(rim_numbers(res))}{more}")
     return 0

@@ -13,6 +13,7 @@ import xarray as xr
 from rimroll import solver
 from rimroll.solver.analysis.trace import SLIPPING, trace
 from rimroll.solver.engine import outcomes
+from rimroll.study import trace as trace_module
 from rimroll.study.cli import main
 
 SCENES = {
@@ -201,3 +202,25 @@ def test_trace_name_drops_a_trailing_nc(tmp_path, capsys):
                  "--name", "orbit-1.b.nc"]) == 0
     assert sorted(p.name for p in tmp_path.iterdir()) == ["orbit-1.b.nc", "orbit-1.b.png"]
     capsys.readouterr()
+
+
+@pytest.mark.parametrize("state, mu", [((1.2, 0.5, 65.0, 10.0), 0.5), ((1.2, 0.5, 65.0, 10.0), float("inf"))])
+def test_revolutions_slip_time_and_time_on_the_rim_in_line_file_and_figure(state, mu, tmp_path, capsys):
+    """The numbers agree with solver.simulate's outputs of the same names (the compiled engine, an independent
+    integration), and the sign of the revolutions is the way the centre goes round seen from above (the path
+    x, y of the file): omega3 > 0 rolls clockwise, alpha falling (19)."""
+    text = f"{state[0]},{state[1]},{state[2]},{state[3]}"
+    assert main(["trace", "--state", text, "--set", f"mu={mu}", "--out", str(tmp_path)]) == 0
+    line = capsys.readouterr().out
+    ds = xr.open_dataset(tmp_path / "trace.nc")
+    ref = solver.simulate([state], solver.Params(mu=mu), rtol=1e-10, atol=1e-12)
+    assert ds.attrs["revolutions"] == pytest.approx(float(ref["revolutions"][0]), abs=1e-6)
+    assert ds.attrs["slip_time"] == pytest.approx(float(ref["slip_time"][0]), abs=1e-6)
+    assert ds.attrs["time_on_rim"] == pytest.approx(float(ref["t_end"][0]), abs=1e-6)
+    turned = np.unwrap(np.arctan2(ds["y"].values, ds["x"].values))
+    assert np.sign(turned[-1] - turned[0]) == np.sign(ds.attrs["revolutions"]) == -1
+    assert "clockwise seen from above" in ds.attrs["revolutions_sign"]
+    assert f"{ds.attrs['revolutions']:+.3f} revolutions around the rim (alpha falling: clockwise seen from above)" \
+        in line and f"{ds.attrs['slip_time']:.4g} s slipping" in line
+    title = trace_module.figure(ds).texts[0].get_text()  # the suptitle
+    assert f"{ds.attrs['revolutions']:+.3f} revolutions around the rim" in title
