@@ -34,6 +34,12 @@ WORDS = {"mu": "friction coefficient", "k_r": "rolling resistance", "k_d": "dril
          "v_throw": "throw speed", "sigma": "noise level"}
 """The words before the symbol in an axis label (the coordinate's long_name otherwise)."""
 BAND = dict(alpha=0.18, lw=0)
+MIN_WIDTH = 8.0
+"""[in] Narrowest cube figure: the title and the legend below the panels fit (one swept axis without maps
+drew 4.5 in, and both were clipped)."""
+SMALL_SHARE = 0.1
+"""A curve whose largest value is below this share of the largest on its axis gets a log scale
+(:func:`fraction_scale`): a periodic fraction of 0.02 beside 0.7 looked flat on a linear one."""
 
 
 def select(ds, values: dict):
@@ -110,10 +116,42 @@ def held_text(ds, names=(), fig=None, fontsize: float = 11, lead: int = 0) -> st
             key = next((k for k in (f"setting_{name}", f"param_{name}") if k in ds.attrs), None)
             if key is not None:
                 values[name] = float(ds.attrs[key])
-    words = [quantity_text(ds, k, v) for k, v in values.items()]
+    words = [quantity_text(ds, k, v) for k, v in values.items() if _acts(ds, k, values)]
     if fig is None:
         return ", ".join(words)
     return fit_lines(words, fig, fontsize, lead)
+
+
+def _acts(ds, name: str, values: dict) -> bool:
+    """Whether the setting ``name`` acts in ``ds``: not a parameter whose switch (``ACTS_ONLY_WITH``: C_D's is
+    rho_air) is 0 or absent where it is held (a swept switch: it acts where the switch is on)."""
+    from rimroll.solver.physics.params import ACTS_ONLY_WITH
+
+    switch = ACTS_ONLY_WITH.get(name)
+    if switch is None or switch in swept(ds):
+        return True
+    value = values.get(switch, next((float(ds.attrs[k]) for k in (f"setting_{switch}", f"param_{switch}")
+                                     if k in ds.attrs), 0.0))
+    return value != 0
+
+
+def fraction_scale(ax, curves) -> bool:
+    """Put ``ax`` on a symmetric-log scale (linear from 0 to the power of ten below the smallest curve's peak, at
+    least 0.001; logarithmic above) when one of ``curves`` (arrays of fractions) stays below
+    :data:`SMALL_SHARE` of the largest value among them while above 0: small fractions then show their changes.
+    Returns whether it did."""
+    peaks = [float(np.nanmax(c)) for c in curves if np.size(c) and np.any(np.isfinite(c))]
+    top = max(peaks, default=0.0)
+    small = [p for p in peaks if 0 < p < SMALL_SHARE * top]
+    if not small:
+        return False
+    linthresh = max(1e-3, 10.0 ** np.floor(np.log10(min(small))))
+    ax.set_yscale("symlog", linthresh=linthresh, linscale=0.4)
+    ax.set_ylim(0.0, 1.02 if top > 0.5 else top * 1.2)
+    ticks = [t for t in (0.0, 0.001, 0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0)
+             if (t == 0 or t >= linthresh) and t <= ax.get_ylim()[1]]
+    ax.set_yticks(ticks, [f"{t:g}" for t in ticks])
+    return True
 
 
 def fit_lines(words: list[str], fig, fontsize: float = 11, lead: int = 0) -> str:
@@ -149,7 +187,7 @@ def layout(ds, n_maps: int, panel: float = 3.9, legend: float = 0.6):
         return -(-n // max(cols, 1)), cols
 
     (s_rows, s_cols), (rows, cols) = grid(len(swept(ds))), grid(n_maps)
-    width = max(s_cols, cols) * panel + legend
+    width = max(max(s_cols, cols) * panel + legend, MIN_WIDTH)
     fig = Figure(figsize=(width, 1.6 + 3.3 * s_rows + 3.6 * rows), layout="constrained")
     if not n_maps:
         top = fig
@@ -197,6 +235,8 @@ def sweep_panels(axes, ds, series, ylabel: str, ylim=None) -> list:
         ax.grid(alpha=0.3)
         if ylim is not None:
             ax.set_ylim(*ylim)
+        if ylim is not None and ylim[1] <= 1.5:  # fractions: a small one on a log scale
+            fraction_scale(ax, [da.values for _, da, _ in series])
     for ax in axes:
         if ax.get_subplotspec().is_first_col():
             ax.set_ylabel(ylabel)

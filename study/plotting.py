@@ -336,7 +336,11 @@ def time_on_rim(ax, w1, beta, t_end, t_max: float, b0=None, labels: bool = True)
         if labels:
             place_contour_labels(ax, cs, fmt="%g s", clear=0.09, avoid=[(0.0, b0)] if b0 is not None else [],
                                  crowded="skip")
-        out["time"] = Line2D([], [], color="0.6", lw=1.6, label=r"time on the rim, white lines: "
+        from matplotlib import patheffects
+
+        outline = [patheffects.Stroke(linewidth=3.2, foreground="0.25"), patheffects.Normal()]
+        out["time"] = Line2D([], [], color=TIME_STYLE["colors"], lw=1.6, path_effects=outline,  # white, as drawn
+                             label=r"time on the rim, white lines: "
                              + ", ".join(f"{lv:g}" for lv in TIME_LEVELS) + " s")
     if np.nanmax(t_end) >= LONG_TIME:
         ax.contourf(w1, beta, np.nan_to_num(t_end, nan=0.0), levels=[LONG_TIME, np.nanmax(t_end) + 1.0],

@@ -7,6 +7,7 @@ other, one label per realisable region and sign.
 
 from __future__ import annotations
 
+import pathlib
 import re
 
 import numpy as np
@@ -18,6 +19,7 @@ from matplotlib.colors import to_rgba
 
 from rimroll import solver
 from rimroll.solver.analysis import boundaries
+from rimroll.solver.engine import outcomes
 from rimroll.study import cubeplots as C
 from rimroll.study import plotting as P
 from rimroll.study.cli import main
@@ -547,3 +549,102 @@ def test_axis_labels_fit_one_line_of_xarrays_plots():
     for key in SWEEP_KEYS:
         if not TABLE[key].physical:
             assert len(f"{TABLE[key].axis_long_name} [{TABLE[key].units}]") <= 30, key
+
+
+# ---------------------------------------------------------------- cubes of every shape, small fractions
+_SLICES = pathlib.Path(C.__file__).with_name("reference_slices") / "quick"
+
+
+def _outcome_cube(shape: dict) -> xr.Dataset:
+    """A cube of the outcome-cube study's quick reference slice with the swept axes ``shape`` ({axis: values});
+    the other axes held at their first value. Values beyond the slice's repeat its maps (the figure is tested,
+    not the physics)."""
+    ds = xr.open_dataset(_SLICES / "outcome-cube.nc").load()
+    ds = ds.isel({d: 0 for d in ("mu", "k_r", "k_d", "omega2") if d not in shape})
+    for d, n in shape.items():
+        picked = xr.concat([ds.isel({d: [i % ds.sizes[d]]}) for i in range(n)], d)
+        values = np.linspace(0.1, 1.8, n) if d == "mu" else np.linspace(0.0, 0.05 * n, n)
+        ds = picked.assign_coords({d: (d, values, ds[d].attrs)})
+    ds.attrs["swept"] = " ".join(shape)
+    return ds
+
+
+def _titles_and_legends(fig) -> list:
+    """The titles, legends and axis labels of a figure, its subfigures' and its visible axes'."""
+    found = [t for t in (fig._suptitle, *fig.legends) if t is not None]
+    for sub in getattr(fig, "subfigs", []):
+        found += _titles_and_legends(sub)
+    for ax in fig.get_children():
+        if hasattr(ax, "get_xlabel") and ax.get_visible():
+            found += [a for a in (ax.title, ax.xaxis.label, ax.yaxis.label, ax.get_legend()) if a is not None]
+    return found
+
+
+def _outside(fig) -> list[str]:
+    """The titles, legends and axis labels of a drawn figure that reach beyond its edges (by more than a pixel)."""
+    from matplotlib.text import Text
+
+    renderer = fig.canvas.get_renderer()
+    box = fig.bbox
+    out = []
+    for artist in _titles_and_legends(fig):
+        if not artist.get_visible() or (isinstance(artist, Text) and not artist.get_text().strip()):
+            continue
+        ext = artist.get_window_extent(renderer)
+        if ext.x0 < box.x0 - 1 or ext.y0 < box.y0 - 1 or ext.x1 > box.x1 + 1 or ext.y1 > box.y1 + 1:
+            out.append(artist.get_text() if isinstance(artist, Text) else "a legend")
+    return out
+
+
+@pytest.mark.parametrize("shape", [{"mu": 2}, {"mu": 18}, {"mu": 2, "k_r": 2}, {"mu": 3, "k_r": 3},
+                                   {"mu": 2, "k_r": 2, "k_d": 2, "omega2": 2}, {"mu": 18, "k_r": 2}])
+def test_every_cube_shape_keeps_its_title_and_legend_inside_the_figure(shape):
+    """One swept axis of 18 values drew 4.5 in wide, its title and legend clipped at both sides."""
+    fig = _rendered(get("outcome-cube").plot(_outcome_cube(shape)))
+    assert _outside(fig) == []
+
+
+def test_a_parameter_without_effect_is_not_in_a_title():
+    """C_D acts only with air (rho_air > 0): a title that lists it at rho_air = 0 names a switched-off term."""
+    ds = _outcome_cube({"mu": 2})
+    ds.attrs.update(param_rho_air=0.0, param_C_D=0.5)
+    title = get("outcome-cube").plot(ds)._suptitle.get_text()
+    assert "C_D" not in title and r"\rho_{air}$ = 0" in title
+    ds.attrs.update(param_rho_air=1.2)
+    assert "$C_D$ = 0.5" in get("outcome-cube").plot(ds)._suptitle.get_text()
+
+
+def _span_px(ax, line) -> float:
+    """The height [px] that a drawn line's values cover on its axes."""
+    y = np.asarray(line.get_ydata(), dtype=float)
+    pts = ax.transData.transform(np.column_stack([np.zeros(y.size), y]))
+    return float(np.ptp(pts[:, 1]))
+
+
+def test_a_small_fraction_shows_its_changes_beside_large_ones():
+    """The periodic fraction (0.016-0.049) beside falls out (0.55-0.74) in the continuation figure, and the
+    periodic fraction of a cube: their changes span at least a tenth of the panel's height (on one linear axis
+    with 0.7 they spanned 3 %)."""
+    ds = xr.open_dataset(_SLICES / "continuation.nc").load()
+    fig = _rendered(get("continuation").plot(ds))
+    ax = fig.axes[0]
+    name = P.OUTCOME_PALETTE.label(outcomes.PERIODIC_ROLLING)
+    periodic = next(line for line in ax.get_lines() if line.get_label() == name)
+    assert np.ptp(periodic.get_ydata()) < 0.05  # a small fraction that changes
+    assert _span_px(ax, periodic) > 0.1 * ax.bbox.height
+    cube = _rendered(get("outcome-cube").plot(_outcome_cube({"mu": 2, "k_r": 2})))
+    panel = cube.axes[0]
+    small = next(line for line in panel.get_lines() if line.get_label() == name)
+    assert np.ptp(small.get_ydata()) > 0 and _span_px(panel, small) > 0.1 * panel.bbox.height
+
+
+def test_the_legend_draws_the_time_on_the_rim_white_as_its_lines():
+    """The contours are white: their legend entry is a white line (outlined, to show on white), not grey."""
+    from matplotlib.figure import Figure
+
+    ax = Figure().add_subplot()
+    w1, beta = np.linspace(-5, 5, 20), np.linspace(0.5, 1.5, 15)
+    t_end = np.add.outer(beta * 10, 2.5 * np.abs(w1))  # 5 .. 27.5 s over the map
+    handle = P.time_on_rim(ax, w1, beta, t_end, 30.0, labels=False)["time"]
+    assert to_rgba(handle.get_color()) == to_rgba(P.TIME_STYLE["colors"]) == to_rgba("white")
+    assert handle.get_path_effects()  # outlined

@@ -180,6 +180,7 @@ def _plot(ds):
             for a in (ax, bx):
                 a.axvline(w, color="0.5", lw=0.8, ls="--")
         ax.plot([], [], color="0.5", ls="--", label="the paper's sections (Figs. 11-13)")
+    C.fraction_scale(ax, [sel[f"fraction_{name}"].values for name, _ in FRACTIONS])  # a small one visible
     ax.set_ylabel("fraction of the initial states [-]")
     bx.set_ylabel("islands [-]")
     bx.set_xlabel(C.axis_label(ds, x))

@@ -269,6 +269,9 @@ DISSIPATION_KEYS = ("k_r", "k_d", "c_r", "c_d", "rho_air")
 TERM_KEYS = (*DISSIPATION_KEYS, "C_D")
 """Every parameter of a term beyond the conservative equations (C_D acts only with rho_air > 0): what a
 study that runs no such term ignores."""
+ACTS_ONLY_WITH = {"C_D": "rho_air"}
+"""A parameter that has no effect while another one is 0 (the drag coefficient without air): a figure's
+title does not list it then."""
 if FIELDS != tuple(QUANTITIES)[: len(FIELDS)]:
     raise ImportError(f"QUANTITIES must declare every field of Params, in order: {FIELDS}")
 
