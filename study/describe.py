@@ -86,7 +86,8 @@ def estimate(study: Study, points: int, workers: int, quick: bool = False) -> st
     seconds = study.core_seconds(points, {**study.settings, **(study.quick if quick else {})}) / max(workers, 1)
     text = f"about {seconds:.0f} s" if seconds >= 1 else "under a second"
     if study.compiles:
-        text += " (a first run in a fresh environment also compiles the simulation kernels, 1-2 min, cached)"
+        text += (" (the first run of an install also compiles its simulation kernels, once: announced, with the time "
+                 "their last compile took on this machine)")
     return text
 
 

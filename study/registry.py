@@ -221,7 +221,7 @@ class Study:
     What ``study info`` estimates: ``cost``, seconds per grid point on one core, warm (measured with
     ``--quick``), growing in proportion to the setting ``cost_scale`` (if any; measured at its
     ``--quick`` value) and multiplied by ``cost_factor(settings)`` (if any: a setting that changes the
-    work per point, such as another method); ``compiles``: a first run in a fresh environment compiles the simulation
+    work per point, such as another method); ``compiles``: the first run of an install compiles the simulation
     kernels. ``reference``: how its stored reference slices are made (None: the study has none).
     """
 
@@ -240,7 +240,7 @@ class Study:
     cost: float | None = None  # seconds per grid point on one core (None: no estimate)
     cost_scale: str | None = None  # the setting the cost per point is proportional to
     cost_factor: Callable[[dict], float] | None = None  # a multiplier from the run's settings (another method)
-    compiles: bool = False  # a first run compiles the simulation kernels (1-2 min, cached)
+    compiles: bool = False  # the first run of an install compiles the simulation kernels (once, announced)
     reference: ReferenceSpec | None = None  # its stored reference slices
     derived_docs: tuple = ()  # (name or names, units, meaning) of what ``derive`` adds, for the docs
 

@@ -168,7 +168,8 @@ def test_the_estimate_of_study_info_comes_from_the_study_record(monkeypatch, cap
     toy = _toy(cost=0.5, cost_scale="t_max", compiles=True)
     monkeypatch.setitem(registry._REGISTRY, toy.name, toy)
     assert describe.estimate(toy, 4, 1, quick=True) == \
-        "about 2 s (a first run in a fresh environment also compiles the simulation kernels, 1-2 min, cached)"
+        "about 2 s (the first run of an install also compiles its simulation kernels, once: announced, with the time " \
+        "their last compile took on this machine)"
     assert describe.estimate(toy, 4, 1).startswith("about 10 s")  # t_max 10 s at the default, 2 s measured
     assert describe.estimate(_toy(cost=0.5), 4, 2) == "about 1 s"
     assert describe.estimate(_toy(), 4, 2) == "no estimate for this study"
