@@ -149,7 +149,8 @@ def _run_cpu(scene, method, flat, p, sw, limits, workers, res_f, res_i):
     into the rows of res_f, res_i. Chunk c takes the states c, c + n_chunks, ...: costly states sit
     together (a boundary, an island that stays on the rim), and contiguous blocks would hand them
     all to one thread."""
-    compiling.ensure_compiled(scene, method, (flat, p, sw, method, limits, kernels.new_work(method), res_f, res_i))
+    if flat.shape[0]:  # no state, no kernel call: nothing to compile
+        compiling.ensure_compiled(scene, method, (flat, p, sw, method, limits, kernels.new_work(method), res_f, res_i))
     scene_kernel = scene_code.kernel_of(scene)
     m = flat.shape[0]
     n_chunks = min(m, workers * _CHUNKS_PER_WORKER) if workers > 1 else min(m, 1)
