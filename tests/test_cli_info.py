@@ -40,7 +40,7 @@ def test_info_of_a_cube_names_its_sweepable_settings(capsys):
     assert main(["info", "outcome-cube"]) == 0
     out = capsys.readouterr().out
     assert re.search(r"k_r\s+0,0\.01,0\.02\s+\(--quick 0,0\.02\).*\(sweepable\)", out)
-    assert "compiles the simulation kernels" in out
+    assert "compiles its simulation kernels" in out
 
 
 def test_info_of_neither_file_nor_study_is_a_user_error(capsys):
