@@ -14,6 +14,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import importlib.util
+import math
 import os
 import re
 import sys
@@ -181,6 +182,20 @@ def output_var(name: str, **changes) -> Var:
                   flag_values=item.flag_values, flag_meanings=item.flag_meanings, standard_name=item.standard_name,
                   comment=item.comment or None, tolerance=item.tolerance, compared=item.compared)
     return Var(**{**fields, **changes})
+
+
+def with_tolerances(variables: list, tolerances: dict) -> list:
+    """``variables`` with the (atol, rtol) of ``study verify`` of each one ``tolerances`` names (name ->
+    (atol, rtol)); ValueError for a name that is not among them or a tolerance that is not two numbers >= 0."""
+    known = {v.name for v in variables}
+    unknown = sorted(set(tolerances) - known)
+    if unknown:
+        raise ValueError(f"tolerances of unknown variables {unknown}; the variables are {sorted(known)}")
+    for name, tol in tolerances.items():
+        if len(tol) != 2 or not all(isinstance(t, (int, float)) and 0 <= t < math.inf for t in tol):
+            raise ValueError(f"tolerance of {name!r} must be (atol, rtol), two finite numbers >= 0; got {tol!r}")
+    return [dataclasses.replace(v, tolerance=tuple(map(float, tolerances[v.name]))) if v.name in tolerances else v
+            for v in variables]
 
 
 @dataclasses.dataclass(frozen=True)
