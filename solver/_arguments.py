@@ -113,6 +113,24 @@ def _bytes(n: int) -> str:
     return f"{n} bytes"
 
 
+def one_of(name, value, allowed: tuple):
+    """``value`` if it is one of the set ``allowed`` (compared by value and kind: True is not 1, 1.0 is 1);
+    an array: each of its elements. Else ValueError naming ``name``, the value and the allowed ones. The
+    one rule of a set-like argument."""
+    if isinstance(value, np.ndarray) and value.ndim:
+        for v in value.reshape(-1):
+            one_of(name, v.item(), allowed)
+        return value
+    for item in allowed:
+        if (_is_real(value) and _is_real(item)) or (isinstance(value, str) and isinstance(item, str)):
+            if value == item:
+                return item
+        elif isinstance(value, (bool, np.bool_)) and isinstance(item, bool) and bool(value) == item:
+            return item
+    shown = " or ".join(repr(a) for a in allowed)
+    raise ValueError(f"`{name}` must be {shown}; got {value!r}")
+
+
 def integer(name, value, minimum=1, maximum=None) -> int:
     """``value`` as an int; ValueError naming ``name`` unless it is an integer (int or numpy integer, not
     bool) in [minimum, maximum] (no upper bound for ``maximum=None``)."""

@@ -44,7 +44,8 @@ def open(path: str | os.PathLike, lazy: bool = True) -> xr.Dataset:  # noqa: A00
     its labels, ``ds.sel(scene="slipping")``. :class:`UserError` if ``path`` is not a rimroll result.
     """
     _check_path("path", path)
-    return io.open_result(pathlib.Path(path), lazy=lazy)
+    _check_flag("lazy", lazy)
+    return io.open_result(pathlib.Path(path), lazy=bool(lazy))
 
 
 def _check_client(client: Any) -> None:

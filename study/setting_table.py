@@ -215,9 +215,23 @@ def _table(entries) -> dict[str, Setting]:
 TABLE: dict[str, Setting] = _table(_ENTRIES)
 """Every setting of rimroll's studies, by name."""
 
-ORDERED = (("beta0_min", "beta0_max", False), ("rtol_min", "rtol_max", True))
-"""Pairs of settings ``(low, high, strict)`` whose values must be ordered, ``low <= high`` (``low <
-high`` when ``strict``), checked with the ranges before any work (a sample uniform in [low, high])."""
+MAY_BE_EQUAL = ("beta0",)
+"""Stems of ``*_min``/``*_max`` pairs that may be equal: a sample uniform in [low, high] (``beta0``: the
+invariants' initial heights) may be one value; every other pair spans an axis or a range, low < high."""
+
+
+def ordered_pairs(names) -> tuple:
+    """``(low, high, strict)`` for every pair ``X_min``, ``X_max`` among ``names``: the settings whose values
+    must be ordered, ``low < high`` (``low <= high`` for the stems of :data:`MAY_BE_EQUAL`)."""
+    names = set(names)
+    return tuple((f"{stem}_min", f"{stem}_max", stem not in MAY_BE_EQUAL)
+                 for stem in sorted(n[:-4] for n in names if n.endswith("_min")) if f"{stem}_max" in names)
+
+
+ORDERED = ordered_pairs(TABLE)
+"""Every ``*_min``/``*_max`` pair of :data:`TABLE` (``beta_min < beta_max``, ``beta0_min <= beta0_max``,
+``rtol_min < rtol_max``, ...), checked with the ranges before any work; a study's own settings of that form
+that the table does not declare are ordered by the same rule (``checks.check_order``)."""
 
 WILDCARDS = (("t_max", Setting("t_max*", "s", "", POSITIVE)), ("n_", Setting("n_*", "", "", COUNT)))
 """Rules by name prefix for setting names that :data:`TABLE` does not declare (another package's studies)."""
