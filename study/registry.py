@@ -258,6 +258,8 @@ class Study:
     compiles: bool = False  # a first run compiles the simulation kernels (1-2 min, cached)
     reference: ReferenceSpec | None = None  # its stored reference slices
     derived_docs: tuple = ()  # (name or names, units, meaning) of what ``derive`` adds, for the docs
+    check: Callable[[dict, Any], None] | None = None  # check(settings, params): ValueError for a derived
+    # quantity the settings make impossible (swept settings as tuples), before any work
 
     def __post_init__(self):
         if not _STUDY_NAME.match(self.name):
