@@ -58,6 +58,7 @@ def test_the_limit_is_what_the_machine_has():
         check_size("n", (limit // 8 + 1,))
 
 
+@pytest.mark.slow  # a fresh process: 5-9 s of imports; the same check in process: "trace n" above
 def test_the_trace_command_refuses_samples_beyond_memory(tmp_path):
     n = _beyond(trace.SAMPLED_COLUMNS)
     run = subprocess.run([sys.executable, "-m", "rimroll.study", "trace", "--state", "1.2,0,65,10", "--samples",
