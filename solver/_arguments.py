@@ -77,6 +77,65 @@ def nonnegative_number(name, value, allowed: str) -> float:
     return v
 
 
+MEMORY_FRACTION = 0.5
+"""Largest share of the machine's memory one array of a computation may take (the rest: the process,
+the other arrays of the same computation, the other programs)."""
+
+
+def memory_limit() -> int:
+    """Bytes one array may take: :data:`MEMORY_FRACTION` of the physical memory (or of the address-space
+    limit ``ulimit -v``, where that is smaller); 8 GiB where neither can be read."""
+    import os
+    import resource
+
+    try:
+        total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (AttributeError, ValueError, OSError):
+        total = 16 << 30
+    soft, _ = resource.getrlimit(resource.RLIMIT_AS)
+    if soft != resource.RLIM_INFINITY and 0 < soft < total:
+        total = soft
+    return int(total * MEMORY_FRACTION)
+
+
+def check_size(name, shape, itemsize: int = 8, what: str = "") -> None:
+    """The one estimate of memory before the work: ValueError naming ``name`` where an array of ``shape``
+    (a tuple of counts) of ``itemsize``-byte values would not fit in :func:`memory_limit`, with the size,
+    the limit and ``what`` the array is."""
+    n = math.prod(int(k) for k in shape)
+    need = n * int(itemsize)
+    limit = memory_limit()
+    if need > limit:
+        dims = " x ".join(f"{int(k):,}" for k in shape)
+        raise ValueError(f"`{name}`: {what or 'an array'}, {dims} values, would take {_bytes(need)} of memory; "
+                         f"the limit is {_bytes(limit)} ({MEMORY_FRACTION:.0%} of this machine's memory)")
+
+
+def _bytes(n: int) -> str:
+    for unit, size in (("TiB", 1 << 40), ("GiB", 1 << 30), ("MiB", 1 << 20)):
+        if n >= size:
+            return f"{n / size:.3g} {unit}"
+    return f"{n} bytes"
+
+
+def one_of(name, value, allowed: tuple):
+    """``value`` if it is one of the set ``allowed`` (compared by value and kind: True is not 1, 1.0 is 1);
+    an array: each of its elements. Else ValueError naming ``name``, the value and the allowed ones. The
+    one rule of a set-like argument."""
+    if isinstance(value, np.ndarray) and value.ndim:
+        for v in value.reshape(-1):
+            one_of(name, v.item(), allowed)
+        return value
+    for item in allowed:
+        if (_is_real(value) and _is_real(item)) or (isinstance(value, str) and isinstance(item, str)):
+            if value == item:
+                return item
+        elif isinstance(value, (bool, np.bool_)) and isinstance(item, bool) and bool(value) == item:
+            return item
+    shown = " or ".join(repr(a) for a in allowed)
+    raise ValueError(f"`{name}` must be {shown}; got {value!r}")
+
+
 def integer(name, value, minimum=1, maximum=None) -> int:
     """``value`` as an int; ValueError naming ``name`` unless it is an integer (int or numpy integer, not
     bool) in [minimum, maximum] (no upper bound for ``maximum=None``)."""

@@ -12,8 +12,10 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import logging
 import os
 import pathlib
+import pickle
 import threading
 
 import numba
@@ -64,6 +66,33 @@ def cache_dir() -> pathlib.Path:
 
 
 _CACHE_DIR_LOCK = threading.RLock()
+_DAMAGE = (pickle.UnpicklingError, EOFError, ValueError, TypeError, AttributeError, ImportError, IndexError,
+           KeyError, OverflowError, MemoryError)
+"""What unpickling a damaged cache file raises (garbage bytes: UnicodeDecodeError, a ValueError; a file cut
+short: EOFError; a length read from garbage: MemoryError)."""
+
+
+class _RebuildDamaged:
+    """numba's disk cache of one kernel, through which a damaged entry (its index or machine-code file
+    unreadable) is rebuilt with one warning instead of failing the call: the entry's index is removed, so
+    numba compiles the kernel again and saves a fresh entry."""
+
+    def __init__(self, cache, name: str):
+        self._cache, self._name = cache, name
+
+    def __getattr__(self, attr):
+        return getattr(self._cache, attr)
+
+    def load_overload(self, sig, target_context):
+        try:
+            return self._cache.load_overload(sig, target_context)
+        except _DAMAGE as exc:
+            index = pathlib.Path(self._cache._cache_file._index_path)
+            index.unlink(missing_ok=True)
+            logging.getLogger(__name__).warning(
+                "the kernel cache entry of %s in %s is damaged (%s); rebuilding it (compiles again)", self._name,
+                index.parent, type(exc).__name__)
+            return None
 
 
 def njit_cached(func, **options):
@@ -80,9 +109,11 @@ def njit_cached(func, **options):
         previous = numba.config.CACHE_DIR
         numba.config.CACHE_DIR = str(cache_dir())
         try:
-            return numba.njit(cache=True, **options)(func)
+            dispatcher = numba.njit(cache=True, **options)(func)
         finally:
             numba.config.CACHE_DIR = previous
+    dispatcher._cache = _RebuildDamaged(dispatcher._cache, func.__name__)
+    return dispatcher
 
 
 def kernel(func):

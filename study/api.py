@@ -44,7 +44,8 @@ def open(path: str | os.PathLike, lazy: bool = True) -> xr.Dataset:  # noqa: A00
     its labels, ``ds.sel(scene="slipping")``. :class:`UserError` if ``path`` is not a rimroll result.
     """
     _check_path("path", path)
-    return io.open_result(pathlib.Path(path), lazy=lazy)
+    _check_flag("lazy", lazy)
+    return io.open_result(pathlib.Path(path), lazy=bool(lazy))
 
 
 def _check_client(client: Any) -> None:
@@ -174,6 +175,7 @@ def _word(key: str, value: Any) -> str:
         return "true" if value else "false"
     if isinstance(value, (np.ndarray, list, tuple, range)) or (
             isinstance(value, Iterable) and not isinstance(value, (bytes, dict))):
+        value = _bounded_list(key, value)  # read once (a generator), its size checked before any work
         if any(not isinstance(v, str) and isinstance(v, Iterable) for v in value):
             raise UserError(f"setting {key}={value!r}: a list of values must be flat (one axis), not nested")
         items = [_word(key, v) for v in value]
@@ -187,6 +189,23 @@ def _word(key: str, value: Any) -> str:
     if isinstance(value, (float, np.floating)):
         return repr(float(value))
     raise UserError(f"setting {key}={value!r}: expected a number, a label, a list or a 'start:stop:num' range")
+
+
+def _bounded_list(key: str, value) -> list:
+    """The items of a list-like setting, read once (a generator or iterator is consumed here only) and at
+    most :data:`checks.MAX_AXIS` of them: UserError naming the size and the limit before anything else
+    is done with them."""
+    if isinstance(value, np.ndarray):
+        if value.size > checks.MAX_AXIS:
+            raise UserError(f"setting {key}: {value.size} values; at most {checks.MAX_AXIS} per swept setting")
+        return value.tolist() if value.ndim else [value.item()]
+    items = []
+    for item in value:
+        if len(items) == checks.MAX_AXIS:
+            raise UserError(f"setting {key}: more than {checks.MAX_AXIS} values; at most {checks.MAX_AXIS} per "
+                            "swept setting")
+        items.append(item)
+    return items
 
 
 def _warn_lanes(path: pathlib.Path, what: str) -> None:

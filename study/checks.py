@@ -19,7 +19,7 @@ import numpy as np
 
 from rimroll.solver._arguments import MAX_WORKERS  # the CPU backend's cap (solver.simulate) is the --workers cap
 from rimroll.study.registry import UserError
-from rimroll.study.setting_table import MAX_AXIS, MAX_MAGNITUDE, ORDERED, lookup
+from rimroll.study.setting_table import MAX_AXIS, MAX_MAGNITUDE, ORDERED, lookup, ordered_pairs
 
 __all__ = ["MAX_AXIS", "MAX_CHUNKS", "MAX_MAGNITUDE", "MAX_POINTS", "MAX_WORKERS", "check_setting",
            "check_order", "check_settings", "check_size", "check_values", "check_workers"]
@@ -60,8 +60,10 @@ def check_settings(study: str, settings: dict) -> None:
 
 
 def check_order(study: str, settings: dict) -> None:
-    """The ordered pairs of the setting table (:data:`ORDERED`): ``beta0_min <= beta0_max``, ..."""
-    for low, high, strict in ORDERED:
+    """Every ``*_min``/``*_max`` pair of the setting table (:data:`ORDERED`: ``beta_min < beta_max``,
+    ``beta0_min <= beta0_max``, ...) and of the study's own settings, one rule
+    (``setting_table.ordered_pairs``): a UserError naming both values."""
+    for low, high, strict in sorted({*ORDERED, *ordered_pairs(settings)}):
         a, b = settings.get(low), settings.get(high)
         if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in (a, b)):
             continue

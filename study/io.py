@@ -13,6 +13,7 @@ import hashlib
 import itertools
 import os
 import pathlib
+import re
 import tempfile
 
 import numpy as np
@@ -197,27 +198,62 @@ def seal(path) -> None:
         nc.setncattr(CHECKSUM_ATTR, " ".join(f"{k}:{v}" for k, v in sorted(_digests(nc).items())))
 
 
-def read_all(path) -> None:
+_DIGEST = re.compile(r"[0-9a-f]{32}")
+
+
+def seal_problem(recorded: str, found: dict) -> str | None:
+    """What keeps the text ``recorded`` of :data:`CHECKSUM_ATTR` from being the complete seal of a file
+    whose digests are ``found`` (:func:`_digests`), or None where it is one: every word is
+    ``NAME:DIGEST`` (32 hex digits) with each name once, it names exactly the file's variables and
+    ``.attrs``, and every digest matches. The one rule of what counts as a seal (read, reuse)."""
+    words = recorded.split()
+    pairs = [w.split(":", 1) if ":" in w else (w, "") for w in words]
+    garbled = [w for w, (_, digest) in zip(words, pairs) if not _DIGEST.fullmatch(digest)]
+    if garbled:
+        return f"garbled entries {_some(garbled)}"
+    names = [name for name, _ in pairs]
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        return f"entries named twice: {_some(twice)}"
+    expected = dict(pairs)
+    missing, extra = sorted(set(found) - set(expected)), sorted(set(expected) - set(found))
+    if missing:
+        return f"no checksum of {_some(_labels(missing))} (a value not covered by the seal)"
+    if extra:
+        return f"checksums of {_some(extra)}, which the file does not hold"
+    bad = sorted(k for k in found if expected[k] != found[k])
+    if bad:
+        return f"the values of {_some(_labels(bad))} do not match the checksums"
+    return None
+
+
+def _labels(names: list) -> list:
+    return ["the global attributes" if k == ".attrs" else k for k in names]
+
+
+def _some(items: list, n: int = 5) -> str:
+    return ", ".join(map(str, items[:n])) + (" ..." if len(items) > n else "")
+
+
+def read_all(path) -> bool:
     """Read every value of every variable of the netCDF file ``path``, a slab at a time (memory: a
     few million values), so that damage anywhere raises here: a block failing its Fletcher-32
     checksum (:data:`COMPRESSION`) or its decompression (``RuntimeError: NetCDF: HDF error``), or a
-    variable whose values no longer match the checksum the file records (:class:`DamagedFile`;
-    files written before checksums were recorded have none to compare)."""
+    :data:`CHECKSUM_ATTR` that is not the complete seal of what the file holds (:func:`seal_problem`:
+    :class:`DamagedFile`). Returns True for a sealed file, False for one that records no checksums
+    (written before they were recorded, or changed on purpose: the attribute removed or emptied)."""
     import netCDF4
 
     with netCDF4.Dataset(path, "r") as nc:
         found = _digests(nc)
-        recorded = str(nc.getncattr(CHECKSUM_ATTR)) if CHECKSUM_ATTR in nc.ncattrs() else None
-    if recorded is None:
-        return
-    expected = dict(word.split(":", 1) for word in recorded.split() if ":" in word)
-    # a variable missing or added (a file edited with xarray) is for the checks of its content (problems)
-    bad = sorted(k for k in set(expected) & set(found) if expected[k] != found[k])
-    if bad:
-        bad = ["the global attributes" if k == ".attrs" else k for k in bad]
-        raise DamagedFile(f"the values of {', '.join(bad[:5])}{' ...' if len(bad) > 5 else ''} do not match "
-                          f"the checksums the file records ({CHECKSUM_ATTR}): the file is damaged (a file "
-                          f"changed on purpose must drop the attribute {CHECKSUM_ATTR})")
+        recorded = str(nc.getncattr(CHECKSUM_ATTR)) if CHECKSUM_ATTR in nc.ncattrs() else ""
+    if not recorded.strip():
+        return False
+    problem = seal_problem(recorded, found)
+    if problem:
+        raise DamagedFile(f"{CHECKSUM_ATTR} is not this file's seal: {problem}; the file is damaged or was "
+                          f"edited (a file changed on purpose must drop the attribute {CHECKSUM_ATTR})")
+    return True
 
 
 def open_result(path, lazy: bool = False) -> xr.Dataset:

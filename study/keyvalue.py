@@ -19,19 +19,21 @@ def split(word: str, option: str, form: str = "KEY=VALUE", example: str = "") ->
 
     ``form`` and ``example`` say in an error message what was expected, e.g. ``"DIM=VALUE"`` and
     ``"--select j=0.5"``."""
-    pairs: list[list[str]] = []
+    pairs: list[tuple[str, list[str]]] = []  # each value's items, joined once at the end (linear in the word)
     for piece in word.split(","):
         key, sep, value = piece.partition("=")
         if sep:
-            pairs.append([key.strip(), value.strip()])
+            pairs.append((key.strip(), [value.strip()]))
         elif pairs:
-            pairs[-1][1] += "," + piece.strip()  # a further item of the previous value's list
+            pairs[-1][1].append(piece.strip())  # a further item of the previous value's list
         else:
-            pairs.append(["", ""])  # no '=' before the first comma: malformed
-    if not pairs or any(not key or not value for key, value in pairs):
+            pairs.append(("", [""]))  # no '=' before the first comma: malformed
+    joined = [(key, ",".join(items)) for key, items in pairs]
+    if not joined or any(not key or not value for key, value in joined):
         hint = f", e.g. {example}" if example else ""
-        raise UserError(f"malformed {option} {word!r}: expected {form}{hint}")
-    return [(key, value) for key, value in pairs]
+        shown = word if len(word) <= 200 else f"{word[:200]}... ({len(word)} characters)"
+        raise UserError(f"malformed {option} {shown!r}: expected {form}{hint}")
+    return joined
 
 
 def parse(words, option: str, form: str = "KEY=VALUE", example: str = "") -> list[tuple[str, str]]:

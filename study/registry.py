@@ -14,6 +14,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import importlib.util
+import math
 import os
 import re
 import sys
@@ -183,6 +184,20 @@ def output_var(name: str, **changes) -> Var:
     return Var(**{**fields, **changes})
 
 
+def with_tolerances(variables: list, tolerances: dict) -> list:
+    """``variables`` with the (atol, rtol) of ``study verify`` of each one ``tolerances`` names (name ->
+    (atol, rtol)); ValueError for a name that is not among them or a tolerance that is not two numbers >= 0."""
+    known = {v.name for v in variables}
+    unknown = sorted(set(tolerances) - known)
+    if unknown:
+        raise ValueError(f"tolerances of unknown variables {unknown}; the variables are {sorted(known)}")
+    for name, tol in tolerances.items():
+        if len(tol) != 2 or not all(isinstance(t, (int, float)) and 0 <= t < math.inf for t in tol):
+            raise ValueError(f"tolerance of {name!r} must be (atol, rtol), two finite numbers >= 0; got {tol!r}")
+    return [dataclasses.replace(v, tolerance=tuple(map(float, tolerances[v.name]))) if v.name in tolerances else v
+            for v in variables]
+
+
 @dataclasses.dataclass(frozen=True)
 class ReferenceSpec:
     """How the stored reference slices of a study are made (``study.reference``): the sub-grid of
@@ -243,6 +258,8 @@ class Study:
     compiles: bool = False  # the first run of an install compiles the simulation kernels (once, announced)
     reference: ReferenceSpec | None = None  # its stored reference slices
     derived_docs: tuple = ()  # (name or names, units, meaning) of what ``derive`` adds, for the docs
+    check: Callable[[dict, Any], None] | None = None  # check(settings, params): ValueError for a derived
+    # quantity the settings make impossible (swept settings as tuples), before any work
 
     def __post_init__(self):
         if not _STUDY_NAME.match(self.name):

@@ -4,8 +4,10 @@
 study, every setting and parameter, the grid, the chunking and the code version) in the global
 attribute ``run_fingerprint`` of the file it writes. A later run into the same ``--out`` reuses
 the file only if that attribute equals the new plan's fingerprint and the file still records the
-checksums of its values (a file changed on purpose drops them: it is not reused). A file that cannot be read
-(truncated, not netCDF) is not a result: it is recomputed and replaced atomically. A readable
+checksums of its values, all of them and only them (``study.io.seal_problem``; a file changed on purpose
+drops or empties them: it is not reused). A file that cannot be read (truncated, not netCDF, values or a
+seal that do not match: garbled, missing a variable's entry, an entry for a variable it does not hold) is
+not a result: it is recomputed and replaced atomically. A readable
 file of other inputs is neither reused nor overwritten without ``--force``; the error names
 what differs.
 """
@@ -26,19 +28,20 @@ class Existing:
     detail: str = ""  # unreadable: why; different: what differs
 
 
-def _read_header(path: pathlib.Path) -> tuple[dict, dict]:
-    """Global attributes and dimension sizes of a netCDF file, after reading every data block of
-    it (``study.io.read_all``: each block's checksum), so that a file cut short or damaged anywhere
-    raises here and is recomputed, never reused. Any failure raises."""
+def _read_header(path: pathlib.Path) -> tuple[dict, dict, bool]:
+    """Global attributes and dimension sizes of a netCDF file, and whether it is sealed, after reading
+    every data block of it (``study.io.read_all``: each block's checksum, and a seal that covers every
+    variable exactly), so that a file cut short, damaged or edited under a seal anywhere raises here and
+    is recomputed, never reused. Any failure raises."""
     import netCDF4
 
     from rimroll.study.io import read_all
 
-    read_all(path)
+    sealed = read_all(path)
     with netCDF4.Dataset(path, "r") as nc:
         attrs = {k: nc.getncattr(k) for k in nc.ncattrs()}
         sizes = {k: len(d) for k, d in nc.dimensions.items()}
-    return attrs, sizes
+    return attrs, sizes, sealed
 
 
 def _same(a, b) -> bool:
@@ -68,13 +71,13 @@ def inspect(path, fingerprint: str, request_attrs: dict, request_sizes: dict) ->
     if not path.exists():
         return Existing("absent")
     try:
-        attrs, sizes = _read_header(path)
+        attrs, sizes, sealed = _read_header(path)
     except Exception as exc:  # noqa: BLE001  whatever the damage, it is not a result
         return Existing("unreadable", " ".join(str(exc).split()) or type(exc).__name__)
     if attrs.get(FINGERPRINT_ATTR) == fingerprint:
         from rimroll.study.io import CHECKSUM_ATTR  # io is imported with the header's read (_read_header)
 
-        if CHECKSUM_ATTR not in attrs:  # dropped by whoever changed the file on purpose: not this run's numbers
+        if not sealed:  # removed or emptied by whoever changed the file on purpose: not this run's numbers
             return Existing("different", f"the file records this run's fingerprint but no {CHECKSUM_ATTR}: it was "
                                          "changed after it was written")
         return Existing("same")

@@ -138,13 +138,18 @@ _ENTRIES = (
     S("beta_max", "rad", "grid: largest initial beta", NUMBER),
     S("beta0_min", "rad", "smallest steady beta0", NUMBER),
     S("beta0_max", "rad", "largest steady beta0", NUMBER),
-    S("d_omega1", "s-1", "perturbation of omega1 off the steady motion", NUMBER),
+    # the scipy integration of a trajectory takes steps in proportion to |omega1|: 2 s at 10 1/s, 5 s at 100,
+    # ~1 min at 1000 over 20 s (one core), hours beyond; the paper's states have |omega1| <= 20 1/s
+    S("d_omega1", "s-1", "perturbation of omega1 off the steady motion (|d_omega1| <= 100 1/s: far beyond the "
+      "paper's |omega1| <= 20 1/s; the integration's steps grow with it)",
+      Range(-100.0, 100.0, text="a number in [-100, 100] [1/s]")),
     # ---- scenes
     S("mu_slip", "1", "friction coefficient of the slipping scenes", FRICTION),
     S("k_dissipation", "s-1", "rate k_d / k_r of the drilling / rolling-resistance scene", NONNEGATIVE),
     S("k_equivalent", "s-1", "strength of every dissipation model: the rate of (83) that removes energy at the same "
-      "mean rate on the paper's steady motions", physical.Range(0.0, 10.0, text="a rate >= 0 and <= 10 [1/s] (500 "
-                                                                       "times the paper's 0.02)"),
+      "mean rate on the paper's steady motions; the Coulomb models' arms c_r, c_d must stay below r, which bounds "
+      "it further for the ball (about 1.78 1/s for the default one; checked before the run)",
+      physical.Range(0.0, 10.0, text="a rate >= 0 and <= 10 [1/s] (500 times the paper's 0.02)"),
       sweep=True, long_name="strength k_eq"),
     # ---- the integration
     S("t_max", "s", "end of a run still on the rim (conservative scenes)", POSITIVE),
@@ -214,9 +219,23 @@ def _table(entries) -> dict[str, Setting]:
 TABLE: dict[str, Setting] = _table(_ENTRIES)
 """Every setting of rimroll's studies, by name."""
 
-ORDERED = (("beta0_min", "beta0_max", False), ("rtol_min", "rtol_max", True))
-"""Pairs of settings ``(low, high, strict)`` whose values must be ordered, ``low <= high`` (``low <
-high`` when ``strict``), checked with the ranges before any work (a sample uniform in [low, high])."""
+MAY_BE_EQUAL = ("beta0",)
+"""Stems of ``*_min``/``*_max`` pairs that may be equal: a sample uniform in [low, high] (``beta0``: the
+invariants' initial heights) may be one value; every other pair spans an axis or a range, low < high."""
+
+
+def ordered_pairs(names) -> tuple:
+    """``(low, high, strict)`` for every pair ``X_min``, ``X_max`` among ``names``: the settings whose values
+    must be ordered, ``low < high`` (``low <= high`` for the stems of :data:`MAY_BE_EQUAL`)."""
+    names = set(names)
+    return tuple((f"{stem}_min", f"{stem}_max", stem not in MAY_BE_EQUAL)
+                 for stem in sorted(n[:-4] for n in names if n.endswith("_min")) if f"{stem}_max" in names)
+
+
+ORDERED = ordered_pairs(TABLE)
+"""Every ``*_min``/``*_max`` pair of :data:`TABLE` (``beta_min < beta_max``, ``beta0_min <= beta0_max``,
+``rtol_min < rtol_max``, ...), checked with the ranges before any work; a study's own settings of that form
+that the table does not declare are ordered by the same rule (``checks.check_order``)."""
 
 WILDCARDS = (("t_max", Setting("t_max*", "s", "", POSITIVE)), ("n_", Setting("n_*", "", "", COUNT)))
 """Rules by name prefix for setting names that :data:`TABLE` does not declare (another package's studies)."""

@@ -47,6 +47,11 @@ def resolve(study: Study, quick: bool = False, sets=()) -> Resolved:
     checks.check_settings(study.name, settings)
     outer = _outer_axes(settings, order)
     params = params_from(base)
+    if study.check is not None:  # derived quantities (a model's parameters from a strength), every swept value
+        try:
+            study.check(settings, params)
+        except ValueError as exc:
+            raise UserError(f"settings of {study.name!r}: {' '.join(str(exc).split())}") from None
     grid = _regrid(study, grid_axes(study, base), grid_values)
     names = [a.name for a in outer] + [a.name for a in grid]
     if len(set(names)) != len(names):

@@ -465,6 +465,10 @@ def run(args, command: str) -> int:
             raise UserError(f"{option} {value!r}: {problem}")
     if args.samples < 2:
         raise UserError(f"--samples must be >= 2; got {args.samples}")
+    try:
+        tr.check_n(args.samples)  # its memory, before the integration
+    except ValueError as exc:
+        raise UserError(str(exc).replace("`n`", "--samples", 1)) from None
     if not 0 <= args.periods <= MAX_PERIODS:
         raise UserError(f"--periods must be an integer 0 <= N <= {MAX_PERIODS}; got {args.periods}")
     nc = io.check_target(pathlib.Path(args.out) / f"{name}.nc", "the trace")

@@ -103,6 +103,28 @@ def model_params(model: str, k: float, p: solver.Params, factors: dict) -> solve
     return p.replace(**values)
 
 
+def check_models(s: dict, p: solver.Params) -> None:
+    """ValueError unless every model's parameters at every ``k_equivalent`` of the run are valid (a Coulomb
+    arm c_r, c_d [m] must stay below the ball's radius r): names the models that fail and the largest
+    strength [1/s] every model allows for this ball."""
+    k_max = float(np.max(np.atleast_1d(s["k_equivalent"])))
+    if not k_max > 0:
+        return
+    factors = equivalence(p.replace(mu=float(np.max(np.atleast_1d(s["mu_slip"])))))
+    failing = []
+    for name in MODELS:
+        try:
+            model_params(name, k_max, p, factors)
+        except ValueError as exc:
+            failing.append((name, str(exc)))
+    if failing:
+        bound = p.r / max(factors["c_r"], factors["c_d"])
+        names = ", ".join(name for name, _ in failing)
+        raise ValueError(f"k_equivalent={k_max:g} 1/s is beyond what the models allow for this ball: {names} "
+                         f"({failing[0][1]}); every model needs k_equivalent < {bound:.4g} 1/s here "
+                         f"(r = {p.r:g} m)")
+
+
 def _axes(s: dict) -> list[Axis]:
     if s["n_beta"] < 2 or s["n_omega1"] < 2:
         raise ValueError(f"n_beta and n_omega1 must be >= 2; got {s['n_beta']}, {s['n_omega1']}")
@@ -316,6 +338,7 @@ register(Study(
     quick={"k_equivalent": (0.0, 0.02, 0.06), "n_beta": 24, "n_omega1": 36},
     sweepable=("omega2", "k_equivalent"),
     axes=_axes,
+    check=check_models,
     variables=[
         Var("fate", "1", "fate of the island's initial state under the model (outside_island elsewhere)", dtype="int8",
             flag_values=FATE_VALUES, flag_meanings=FATE_MEANINGS),

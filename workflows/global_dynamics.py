@@ -21,7 +21,7 @@ from rimroll.solver.analysis import solution_types as st
 from rimroll.solver.physics.params import DISSIPATION_KEYS, TERM_KEYS
 from rimroll.study import plotting as P
 from rimroll.study.dataset import setting_of
-from rimroll.study.registry import Axis, ReferenceSpec, Study, Var, register
+from rimroll.study.registry import Axis, ReferenceSpec, Study, Var, register, with_tolerances
 
 
 def _flag(name, long_name, meanings, values=None):
@@ -298,6 +298,28 @@ def _sample_words(ds) -> str:
     return f"{words} (random seed {seed})"
 
 
+# (atol, rtol) of `study verify` per variable of solution-types, from each one's conditioning: what
+# round-off (another CPU's numpy sin/cos, another BLAS) can move it by, not the integrator's rtol.
+# - omega1 of a state on a stable manifold is sqrt(2 (E* - U_P(beta)) / (m (1+j) r^2)): E* - U_P cancels
+#   near the saddle, so an error eps |U_P| in the energies moves omega1 by eps |U_P| / (m (1+j) r^2
+#   |omega1|): 5e-10 1/s at |omega1| = 5e-4 1/s (a halved offset, seen between two machines), up to
+#   ~1e-8 1/s at the smallest offset sampled; the other components are closed forms of (beta, level).
+_STATE_TOL = {"omega1_init": (1e-7, 1e-9)}
+# - a time or angle read off a DOP853 solution (rtol 1e-10) of a state within 1e-8 of a saddle's level:
+#   the time to pass the saddle grows as log(1 / distance) / lambda, so a relative change 1e-8 of the
+#   state moves it by ~1e-8 / (lambda d) with d >= 1e-2 the fit window's top: <= 1e-6 s for lambda >= 1 1/s
+_FLOW_TOL = {name: (1e-6, 1e-7) for name in ("half_period", "period", "t_first_zero", "alpha_advance")}
+# - the approach rate is a least-squares slope of log(distance) over the dense-output samples between
+#   two thresholds (solution_types.WINDOW_TOP and 10 x the closest approach): a sample entering or leaving
+#   the window at round-off moves it by up to ~2e-3 of itself (seen: 1.85e-3 between two machines). The
+#   classifier promises only |rate / lambda - 1| <= RATE_TOL, so two runs may differ by 2 RATE_TOL.
+_FIT_TOL = {"approach_rate": (0.0, 2 * st.RATE_TOL)}
+TYPES_TOLERANCES = {**_STATE_TOL, **_FLOW_TOL, **_FIT_TOL}
+"""(atol, rtol) per continuous variable of solution-types whose conditioning is not that of a closed form
+(those keep compare.DEFAULT_TOLERANCE, 1e-9): the equilibria, saddle_rate, E and the rational rotation tests
+are closed forms of the state."""
+
+
 register(Study(
     name="solution-types",
     title="Types of the solutions of the conservative rolling equations (Theorem 1, Table 2) over sampled states",
@@ -306,7 +328,7 @@ register(Study(
     quick={"n_samples": 40, "t_max": 10.0, "subset": MIXED},  # a box's states are almost all periodic
     cost=4e-2, cost_scale="t_max", compiles=True,  # s per state at t_max 10 s (--quick), on one core
     axes=_types_axes,
-    variables=[
+    variables=with_tolerances([
         Var("type", "1", "type of the solution through the state: the item of Theorem 1, 0 if undetermined "
             "(docs/solution-types.md)", dtype="int8",
             flag_values=st.TYPE_FLAG_VALUES, flag_meanings=st.TYPE_FLAG_MEANINGS),
@@ -333,7 +355,7 @@ register(Study(
         Var("omega2_init", "s-1", "initial angular velocity omega2"),
         Var("omega3_init", "s-1", "initial angular velocity omega3"),
         Var("E", "J", "total energy (60) of the state (potential m g rho sin beta)"),
-    ],
+    ], TYPES_TOLERANCES),
     compute=_types_compute,
     plot=_types_plot,
     chunks={"sample": 20},

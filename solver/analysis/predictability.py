@@ -28,6 +28,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.special import ndtri
 
+from rimroll.solver._arguments import check_size
 from rimroll.solver.engine.outcomes import OUTCOME_MEANINGS
 from rimroll.solver.physics.params import Params
 
@@ -532,6 +533,8 @@ def make_probability(states, params: Params, sigma, n_samples: int = 64, seed=0,
         raise ValueError(f"`confidence` must lie in (0, 1); got {confidence!r}")
     shape = x.shape[:-1]
     flat = x.reshape(-1, 4)
+    check_size("n_samples", (n_samples, 4), what="the draws (n_samples x 4)")
+    check_size("n_samples", (flat.shape[0], n_samples), what="the outcomes (states x n_samples)")
     offsets = noise_draws(int(n_samples), seed) * sig
     outcome = np.empty((flat.shape[0], n_samples), dtype=np.int64)
     failed = np.zeros(flat.shape[0], dtype=np.int64)

@@ -412,15 +412,16 @@ def classify(states, p: Params, t_max: float = DEFAULT_T_MAX, rtol: float = traj
     rotating = pendulum & (E > e_top * (1.0 + eq_tol))
     separatrix = pendulum & (np.abs(E - e_top) <= eq_tol * e_top)
 
+    finite = np.all(np.isfinite(flat), axis=-1)
     for i in range(n):
+        if not finite[i]:  # a NaN or inf state: UNDETERMINED (no test below applies), the other states go on
+            continue
         if eq[i] >= 0:
             res["type"][i] = eq[i]
             res["t_first_zero"][i] = 0.0  # omega1 = 0 throughout
             continue
         if rotating[i]:
             res["type"][i] = NON_PERIODIC_PENDULUM
-            continue
-        if not np.all(np.isfinite(flat[i])):  # a NaN or inf state: UNDETERMINED, the other states go on
             continue
         evidence = _classify_one(flat[i], p, t_max, rtol, atol, connection_tol, return_tol)
         if separatrix[i] and evidence.get("type") != TRIVIAL_CONNECTION:

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from rimroll.solver._arguments import check_size
 from rimroll.solver.analysis import reference
 from rimroll.solver.analysis.reference import EVENT_KINDS, PHASE_MEANINGS, ROLLING, SLIPPING, Phase
 from rimroll.solver.physics import rolling, slipping
@@ -62,6 +63,7 @@ def sample(result: dict, params: Params, n: int = 2000) -> dict:
     while slipping, 0 with mu = inf), slip_speed [m/s], energy [J], and the ball centre's
     position x, y, z [m] (rim's axis vertical through the origin, rim's middle plane at z = 0).
     """
+    check_n(n)
     p = params.as_array()
     t_end = result["t_end"]
     grid = [np.linspace(0.0, t_end, max(int(n), 2))]
@@ -98,6 +100,15 @@ def sample(result: dict, params: Params, n: int = 2000) -> dict:
             "z": p[P_RHO] * np.sin(b), "r_ball": p[P_R_BALL]}
 
 
+SAMPLED_COLUMNS = 24
+"""Float arrays of n values that :func:`sample` holds at once (its columns and their intermediates)."""
+
+
+def check_n(n) -> None:
+    """ValueError naming ``n`` where its sampled columns would not fit in memory."""
+    check_size("n", (max(int(n), 2), SAMPLED_COLUMNS), what="the sampled time series (n x columns)")
+
+
 def _vec(f, *args):
     """A compiled scalar kernel applied elementwise over numpy arrays (last argument: p)."""
     *arrays, p = args
@@ -118,6 +129,7 @@ def trace(state, params: Params, t_max: float = 20.0, rtol: float = 1e-10, atol:
     ``reason``, ``slip_phases``, ``event_t`` [s] and ``event_kind`` (strings of
     :data:`EVENT_KINDS`).
     """
+    check_n(n)  # before the integration
     res = trace_phases(state, params, t_max=t_max, rtol=rtol, atol=atol, method=method)
     out = sample(res, params, n)
     out.update({k: res[k] for k in ("outcome", "t_end", "half_period", "reason", "slip_phases")})

@@ -17,6 +17,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from rimroll.solver._arguments import finite_array, real_array
 from rimroll.solver.physics import rolling
 from rimroll.solver.physics.params import Params
 
@@ -50,9 +51,10 @@ def rolling_trajectory(x0, p: Params, t_eval, rtol: float = DEFAULT_RTOL, atol: 
     (dense output) at rtol/atol. A failed integration raises RuntimeError with scipy's message.
     """
     x0 = _check_state(x0)
-    t_eval = np.asarray(t_eval, dtype=float)
+    t_eval = real_array("t_eval", t_eval)
     if t_eval.ndim != 1:
-        raise ValueError("t_eval must be 1-D")
+        raise ValueError(f"`t_eval` must be 1-D; got shape {t_eval.shape}")
+    finite_array("t_eval", t_eval)  # a NaN time has no state
     out = np.empty((t_eval.size, 4))
     if t_eval.size == 0:
         return out

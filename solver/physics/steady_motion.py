@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from rimroll.solver._arguments import one_of
 from rimroll.solver.physics.params import Params
 
 
@@ -54,12 +55,14 @@ def steady_state(beta0, omega30, p: Params):
 
 
 def trivial_state(sign: int, omega20_value, p: Params):
-    """Trivial steady motion x0+ (sign=+1, ball on top) or x0- (sign=-1, hanging) of (46).
+    """Trivial steady motion x0+ (sign=+1, ball on top) or x0- (sign=-1, hanging) of (46); another
+    sign (0, 2, NaN, True) raises ValueError naming ``sign``.
 
     The state (+-pi/2 [rad], 0, omega20_value [1/s], 0) for each omega20_value (any number: the
     spin of the ball about the normal), shape omega20_value.shape + (4,).
     """
     check_params(p)
+    sign = one_of("sign", np.asarray(sign) if np.ndim(sign) else sign, (1, -1))
     w2 = np.asarray(omega20_value, float)
     beta = np.full_like(w2, np.pi / 2 * np.sign(sign))
     zero = np.zeros_like(w2)
