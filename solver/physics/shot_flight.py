@@ -59,7 +59,7 @@ class Flight:
 
     # ---- vacuum / drag switch
     def _extend(self, t: float) -> None:
-        while self.steps[-1][0] < t:
+        while len(self.steps) < 2 or self.steps[-1][0] < t:
             t0, p, v = self.steps[-1]
             p1, v1 = _rk4(p, v, DRAG_STEP, self.k, self.g)
             self.steps.append((t0 + DRAG_STEP, p1, v1))
