@@ -155,7 +155,6 @@ def _ring_of(shots, geometry: str) -> dict:
     return dict(R=p.R, a=p.a, r=p.r)
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("degrees", ANGLES)
 def test_solver_swish_window_against_geometry(degrees):
     """The speeds at which ``simulate_shots`` (vacuum, paper ring) says swish form the window of the
