@@ -87,8 +87,10 @@ OUTCOME_MEANINGS = ("swish", "make_rim", "make_board", "make_roll", "airball", "
 ring), misses (no contact; short/long/left/right of the hoop where the centre passes z = -rho; miss_board:
 only the board was touched), unfinished (a budget ended the shot, see ``status``)."""
 
-STATUS_MEANINGS = ("ok", "impact_budget", "time_budget")
-"""How a shot's simulation ended: normally; ``max_impacts`` impacts; ``t_max`` seconds."""
+STATUS_MEANINGS = ("ok", "impact_budget", "time_budget", "on_rim")
+"""How a shot's simulation ended: normally; ``max_impacts`` impacts; ``t_max`` seconds in flight; still
+on the rim (captured, and the rim engine's outcome is periodic rolling, a steady motion or on the rim
+at ``t_max``: see ``rim_outcome``)."""
 
 FIRST_CONTACT_MEANINGS = ("none", "rim", "board")
 """Codes of ``first_contact`` and of the impacts' kinds (rim = 1, board = 2)."""
@@ -166,7 +168,9 @@ def simulate_shots(releases: dict, params: Params, contact: Contact = None, geom
     ``n_double_contacts`` (int32), ``t_end`` [s], ``time_on_rim`` [s], ``revolutions_on_rim``,
     ``beta_cap``, ``omega1_cap``, ``omega2_cap``, ``omega3_cap`` [rad, 1/s], ``slip_cap`` [m/s] (NaN:
     never captured), ``first_contact`` (int8, :data:`FIRST_CONTACT_MEANINGS`), ``impact_kinds`` (int64:
-    the kinds of the first 20 impacts as base-3 digits, the first impact the lowest digit).
+    the kinds of the first 20 impacts as base-3 digits, the first impact the lowest digit),
+    ``rim_outcome`` (int8: the rim engine's outcome code of the last capture, ``solver.OUTCOME_MEANINGS``;
+    -1: never captured).
     """
     from rimroll.solver.engine.shot_loop import run_shots
 

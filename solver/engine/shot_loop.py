@@ -17,6 +17,7 @@ import math
 
 import numpy as np
 
+from rimroll.solver.engine.shot_capture import capture_impact, roll
 from rimroll.solver.physics.contact_times import first_plane_contact, first_ring_contact
 from rimroll.solver.physics.impact import impact
 from rimroll.solver.physics.release import release_state
@@ -28,14 +29,15 @@ DOUBLE_WINDOW = 1e-3
 RIM, BOARD = 1, 2
 OUTCOMES = ("swish", "make_rim", "make_board", "make_roll", "airball", "miss_short", "miss_long",
             "miss_left", "miss_right", "miss_board", "unfinished")
-STATUSES = ("ok", "impact_budget", "time_budget")
+STATUSES = ("ok", "impact_budget", "time_budget", "on_rim")
 KIND_DIGITS = 20
 """Impacts recorded in ``impact_kinds`` (base-3 digits of an int64)."""
 FLOAT_OUTPUTS = ("t_end", "time_on_rim", "revolutions_on_rim", "beta_cap", "omega1_cap", "omega2_cap",
                  "omega3_cap", "slip_cap")
+CAPTURE_KEYS = ("beta_cap", "omega1_cap", "omega2_cap", "omega3_cap", "slip_cap")
 INT_OUTPUTS = {"outcome": np.int8, "status": np.int8, "n_impacts": np.int32, "n_rim_impacts": np.int32,
                "n_board_impacts": np.int32, "n_double_contacts": np.int32, "first_contact": np.int8,
-               "impact_kinds": np.int64}
+               "impact_kinds": np.int64, "rim_outcome": np.int8}
 
 
 def run_shots(releases: dict, params, contact, budget: tuple[float, int], trace=False) -> dict:
@@ -46,6 +48,7 @@ def run_shots(releases: dict, params, contact, budget: tuple[float, int], trace=
     n = flat["speed"].size
     out = {k: np.full(n, np.nan) for k in FLOAT_OUTPUTS}
     out.update({k: np.zeros(n, dtype) for k, dtype in INT_OUTPUTS.items()})
+    out["rim_outcome"][:] = -1
     path = None
     for i in range(n):
         path = _Path() if trace else None
@@ -63,6 +66,18 @@ class _Path:
     def __init__(self):
         self.time, self.x, self.y, self.z, self.phase = [], [], [], [], []
         self.impacts = []
+
+    def on_rim(self, t: float, pos, on_rim: dict) -> None:
+        """The rim phase from ``t`` [s] (phase 1): its start and, if the ball left, its end."""
+        ends = [(t, pos)]
+        if on_rim["left"] is not None:
+            ends.append((t + on_rim["t_end"], on_rim["left"][0]))
+        for time, (x, y, z) in ends:
+            self.time.append(time)
+            self.x.append(x)
+            self.y.append(y)
+            self.z.append(z)
+            self.phase.append(1)
 
     def arrays(self) -> dict:
         imp = np.array(self.impacts, float).reshape(-1, 5)
@@ -98,15 +113,24 @@ def one_shot(release: dict, p, contact, budget: tuple[float, int], path=None, sa
             return _finish(res, t + hit_t, "unfinished", "impact_budget")
         t += hit_t
         pos, vel = flight.position(hit_t), flight.velocity(hit_t)
+        captured = None
         if hit_kind == RIM:
-            n, e, mu = ring_normal(*pos, p.R), contact.e_rim, contact.mu_rim
+            vel, spin, captured = capture_impact(pos, vel, spin, ring_normal(*pos, p.R), p, contact)
         else:
-            n, e, mu = (-1.0, 0.0, 0.0), contact.e_board, contact.mu_board
-        vel, spin, _ = impact(vel, spin, n, p.r, p.j, e, mu)
+            vel, spin, _ = impact(vel, spin, (-1.0, 0.0, 0.0), p.r, p.j, contact.e_board, contact.mu_board)
         _count(res, hit_kind, last_kind, t - last_time)
         if path is not None:
             path.impacts.append((t, *pos, hit_kind))
         last_kind, last_time = hit_kind, t
+        if captured is not None:
+            on_rim = _on_rim(res, captured, p, t_max - t)
+            if path is not None:
+                path.on_rim(t, pos, on_rim)
+            t += on_rim["t_end"]
+            if on_rim["left"] is None:
+                return _finish(res, t, "unfinished", "on_rim")
+            pos, vel, spin = on_rim["left"]
+            last_time = t
         flight = Flight(p, list(pos), list(vel))
 
 
@@ -130,6 +154,17 @@ def _next_contact(flight, span: float, p, rho: float, board, last_kind: int) -> 
         if best_kind:
             return best_t, best_kind
     return math.nan, 0
+
+
+def _on_rim(res: dict, captured, p, t_left: float) -> dict:
+    """Record a capture in ``res`` and run the rim engine on it (``shot_capture.roll``)."""
+    if math.isnan(res.get("beta_cap", math.nan)):  # the first capture's state
+        res.update(zip(CAPTURE_KEYS, captured[1:]))
+    on_rim = roll(captured, p, t_left)
+    res["time_on_rim"] += on_rim["t_end"]
+    res["revolutions_on_rim"] += on_rim["revolutions"]
+    res["rim_outcome"] = on_rim["outcome"]
+    return on_rim
 
 
 def _count(res: dict, kind: int, last_kind: int, since_last: float) -> None:
