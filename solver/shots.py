@@ -87,10 +87,11 @@ OUTCOME_MEANINGS = ("swish", "make_rim", "make_board", "make_roll", "airball", "
 ring), misses (no contact; short/long/left/right of the hoop where the centre passes z = -rho; miss_board:
 only the board was touched), unfinished (a budget ended the shot, see ``status``)."""
 
-STATUS_MEANINGS = ("ok", "impact_budget", "time_budget", "on_rim")
+STATUS_MEANINGS = ("ok", "impact_budget", "time_budget", "on_rim", "engine_landing")
 """How a shot's simulation ended: normally; ``max_impacts`` impacts; ``t_max`` seconds in flight; still
 on the rim (captured, and the rim engine's outcome is periodic rolling, a steady motion or on the rim
-at ``t_max``: see ``rim_outcome``)."""
+at ``t_max``: see ``rim_outcome``); engine_landing: the ball left the rim while slipping and the rim
+engine's landing rule (fall_in: make_roll; fall_out: a miss) decided the shot (docs/shots.md)."""
 
 FIRST_CONTACT_MEANINGS = ("none", "rim", "board")
 """Codes of ``first_contact`` and of the impacts' kinds (rim = 1, board = 2)."""

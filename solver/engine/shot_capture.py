@@ -8,7 +8,10 @@ stick then needs more than mu_rim P_n; the engine starts from rolling states onl
 the rim if the rolling normal force F2 of (31) is >= 0 there; its paper state (beta, omega1, omega2,
 omega3), rolling, goes to ``simulate`` for the time left. When the engine says the ball left the rim
 (fall_in, fall_out), the 3-D state at the separation is rebuilt from its end state and the alpha
-travelled (``revolutions``), and the flight goes on with impacts. Otherwise (periodic rolling, a
+travelled (``revolutions``), and the flight goes on with impacts. The engine returns the end state's
+angular velocity but not its slip velocity, so the rebuilt state is the rolling one; where that state
+would not separate (its free path enters the ring within :data:`PROBE` s: the ball left while
+slipping), the engine's own landing rule decides the shot (status ``engine_landing``). Otherwise (periodic rolling, a
 steady motion, still on the rim at the end of the time) the shot ends on the rim.
 """
 
@@ -22,6 +25,11 @@ from rimroll.solver.engine.outcomes import FALL_IN, FALL_OUT
 from rimroll.solver.physics.impact import impact
 from rimroll.solver.physics.rim_frame import from_rim, to_rim
 from rimroll.solver.physics.rolling import normal_force
+from rimroll.solver.physics.shot_flight import Flight
+from rimroll.solver.physics.shot_geometry import ring_distance
+
+PROBE = 1e-3
+"""[s] after a separation: the rebuilt free path must not be inside the ring then (see the module doc)."""
 
 
 def capture_impact(pos, vel, spin, n, p, contact):
@@ -45,7 +53,7 @@ def capture_impact(pos, vel, spin, n, p, contact):
 def roll(state, p, t_left: float) -> dict:
     """The rim engine's run of the captured ``state`` for ``t_left`` [s]: its ``outcome``, ``t_end``,
     ``revolutions``, and, if the ball left the rim, the flight's start ``position``, ``velocity``,
-    ``spin`` (else None)."""
+    ``spin`` (else None), and ``separates`` (False: it left while slipping, see the module doc)."""
     from rimroll.solver.engine.simulate import simulate
 
     alpha, beta, w1, w2, w3 = state[:5]
@@ -57,4 +65,6 @@ def roll(state, p, t_left: float) -> dict:
         alpha_end = alpha + 2.0 * math.pi * out["revolutions"]
         out["left"] = from_rim(alpha_end, float(res["beta_end"][0]), float(res["omega1_end"][0]),
                                float(res["omega2_end"][0]), float(res["omega3_end"][0]), p.R, p.r, p.r + p.a)
+        probe = Flight(p, out["left"][0], out["left"][1]).position(PROBE)
+        out["separates"] = ring_distance(*probe, p.R) >= p.r + p.a
     return out

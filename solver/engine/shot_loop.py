@@ -17,6 +17,7 @@ import math
 
 import numpy as np
 
+from rimroll.solver.engine.outcomes import FALL_IN
 from rimroll.solver.engine.shot_capture import capture_impact, roll
 from rimroll.solver.physics.contact_times import first_plane_contact, first_ring_contact
 from rimroll.solver.physics.impact import impact
@@ -29,7 +30,7 @@ DOUBLE_WINDOW = 1e-3
 RIM, BOARD = 1, 2
 OUTCOMES = ("swish", "make_rim", "make_board", "make_roll", "airball", "miss_short", "miss_long",
             "miss_left", "miss_right", "miss_board", "unfinished")
-STATUSES = ("ok", "impact_budget", "time_budget", "on_rim")
+STATUSES = ("ok", "impact_budget", "time_budget", "on_rim", "engine_landing")
 KIND_DIGITS = 20
 """Impacts recorded in ``impact_kinds`` (base-3 digits of an int64)."""
 FLOAT_OUTPUTS = ("t_end", "time_on_rim", "revolutions_on_rim", "beta_cap", "omega1_cap", "omega2_cap",
@@ -130,6 +131,9 @@ def one_shot(release: dict, p, contact, budget: tuple[float, int], path=None, sa
             if on_rim["left"] is None:
                 return _finish(res, t, "unfinished", "on_rim")
             pos, vel, spin = on_rim["left"]
+            if not on_rim["separates"]:
+                inside = on_rim["outcome"] == FALL_IN
+                return _finish(res, t, _classify(res, inside, pos[0], pos[1]), "engine_landing")
             last_time = t
         flight = Flight(p, list(pos), list(vel))
 

@@ -24,6 +24,12 @@ import numpy as np
 from numpy.polynomial import polynomial as poly
 from scipy.optimize import brentq
 
+LEAVE_GRACE = 1e-3
+"""[s] after leaving the ring, touches shallower than :data:`LEAVE_TOLERANCE` this early are the
+separation itself (the gap then grows from 0 at third order or slower), not a new contact."""
+LEAVE_TOLERANCE = 1e-12
+"""[m] depth below which an early touch after leaving the ring counts (see :data:`LEAVE_GRACE`)."""
+
 NEAR_REAL = 1e-5
 """Largest |imaginary part| (in units of the interval) of a root of F' kept as a candidate point."""
 
@@ -64,11 +70,15 @@ def ring_function(xp, yp, zp, R: float, rho: float) -> np.ndarray:
 def first_ring_contact(xp, yp, zp, span: float, R: float, rho: float, leaving: bool) -> float:
     """First time t in [0, ``span``] [s] at which the centre on the path (polynomials in t, lowest
     first) is at the distance ``rho`` [m] from the ring's centre circle (radius ``R``), or NaN. With
-    ``leaving`` (just after an impact on the ring, the ball moving away) the touch at t = 0 is not counted."""
+    ``leaving`` (just after an impact on the ring or a separation from it, the ball moving away) the
+    touch at t = 0 is not counted, nor one shallower than LEAVE_TOLERANCE within LEAVE_GRACE."""
     xs, ys, zs = scaled(xp, span), scaled(yp, span), scaled(zp, span)
 
+    grace = LEAVE_GRACE / span if leaving else 0.0
+
     def gap(tau):
-        return math.hypot(math.hypot(horner(xs, tau), horner(ys, tau)) - R, horner(zs, tau)) - rho
+        g = math.hypot(math.hypot(horner(xs, tau), horner(ys, tau)) - R, horner(zs, tau)) - rho
+        return g + LEAVE_TOLERANCE if tau < grace else g
 
     points = [0.0, *_real_points(poly.polyder(ring_function(xs, ys, zs, R, rho))), 1.0]
     previous, g_previous = 0.0, gap(0.0)
