@@ -60,11 +60,22 @@ def _real_points(p: np.ndarray) -> list[float]:
     return sorted(float(z.real) for z in roots if abs(z.imag) <= NEAR_REAL and 0.0 < z.real < 1.0)
 
 
+def _plus(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Sum of two coefficient arrays (lowest first) of any lengths."""
+    if a.size < b.size:
+        a, b = b, a
+    out = a.copy()
+    out[:b.size] += b
+    return out
+
+
 def ring_function(xp, yp, zp, R: float, rho: float) -> np.ndarray:
     """Coefficients of F = (x^2 + y^2 + z^2 + R^2 - rho^2)^2 - 4 R^2 (x^2 + y^2) for the path polynomials."""
-    q = poly.polyadd(poly.polymul(xp, xp), poly.polymul(yp, yp))
-    w = poly.polyadd(poly.polyadd(q, poly.polymul(zp, zp)), [R * R - rho * rho])
-    return poly.polysub(poly.polymul(w, w), 4.0 * R * R * q)
+    xp, yp, zp = (np.asarray(c, dtype=float) for c in (xp, yp, zp))
+    q = _plus(np.convolve(xp, xp), np.convolve(yp, yp))
+    w = _plus(q, np.convolve(zp, zp))
+    w[0] += R * R - rho * rho
+    return _plus(np.convolve(w, w), -4.0 * R * R * q)
 
 
 def first_ring_contact(xp, yp, zp, span: float, R: float, rho: float, leaving: bool) -> float:
@@ -80,7 +91,8 @@ def first_ring_contact(xp, yp, zp, span: float, R: float, rho: float, leaving: b
         g = math.hypot(math.hypot(horner(xs, tau), horner(ys, tau)) - R, horner(zs, tau)) - rho
         return g + LEAVE_TOLERANCE if tau < grace else g
 
-    points = [0.0, *_real_points(poly.polyder(ring_function(xs, ys, zs, R, rho))), 1.0]
+    f = ring_function(xs, ys, zs, R, rho)
+    points = [0.0, *_real_points(f[1:] * np.arange(1, f.size)), 1.0]
     previous, g_previous = 0.0, gap(0.0)
     if g_previous <= 0.0 and not leaving:
         return 0.0
