@@ -177,3 +177,38 @@ def test_params_for_sets_the_ring_of_the_geometry():
     reg = shots.params_for("regulation", mu=0.5)
     assert 2.0 * (reg.R - reg.a) == pytest.approx(0.450) and 2.0 * reg.a == pytest.approx(0.018) and reg.mu == 0.5
     assert shots.board_x(reg, "regulation") - (reg.R - reg.a) == pytest.approx(0.151)
+
+
+def test_board_impact_against_the_closed_form():
+    """A flat fast shot hits the board's face first: at x = board_x - r at the time (L + board_x - r) /
+    (v cos theta), and it leaves with x-velocity -e_board times its approach (the next samples' slope)."""
+    release = dict(speed=8.0, angle=math.radians(45.0), **FREE_THROW)
+    res = shots.trace_shot(release, P, shots.Contact())
+    assert int(res["impact_kind"][0]) == 2
+    level = shots.board_x(P, "paper") - P.r
+    t_hit = (4.19 + level) / (8.0 * math.cos(math.radians(45.0)))
+    assert float(res["impact_time"][0]) == pytest.approx(t_hit, rel=1e-13)
+    assert float(res["impact_x"][0]) == pytest.approx(level, abs=1e-12)
+    after = (res["time"] > t_hit) & (res["time"] < (res["impact_time"][1] if res["impact_time"].size > 1 else 9))
+    t, x = res["time"][after], res["x"][after]
+    slope = (x[-1] - x[0]) / (t[-1] - t[0])
+    assert slope == pytest.approx(-shots.Contact().e_board * 8.0 * math.cos(math.radians(45.0)), rel=1e-12)
+
+
+@pytest.mark.slow
+def test_gentle_drop_on_the_top_of_the_tube_is_captured():
+    """A ball let go 1 mm above the top of the tube (beta = pi/2) at 0.05 m/s meets it at
+    sqrt(0.05^2 + 2 g 1e-3) m/s, below v_cap / e_rim: it is captured at beta = pi/2 with no spin and
+    no slip, and its rim phase ends as the engine's run of (pi/2, 0, 0, 0) does."""
+    from rimroll.solver import simulate
+
+    rho = P.r + P.a
+    release = dict(speed=0.05, angle=-math.pi / 2, distance=P.R, height=-(rho + 1e-3))
+    res = shots.simulate_shots(release, P, shots.Contact(), t_max=2.0)
+    assert float(res["beta_cap"]) == pytest.approx(math.pi / 2, abs=1e-9)
+    np.testing.assert_allclose([res[k] for k in ("omega1_cap", "omega2_cap", "omega3_cap", "slip_cap")], 0.0,
+                               atol=1e-9)
+    direct = simulate(np.array([[math.pi / 2, 0.0, 0.0, 0.0]]), P, t_max=2.0 - float(res["t_end"]) +
+                      float(res["time_on_rim"]), workers=1)
+    assert int(res["rim_outcome"]) == int(direct["outcome"][0])
+    assert int(res["n_impacts"]) == 1
