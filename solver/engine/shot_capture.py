@@ -21,7 +21,7 @@ import math
 
 import numpy as np
 
-from rimroll.solver.engine.outcomes import FALL_IN, FALL_OUT
+from rimroll.solver.engine.outcomes import FALL_IN, FALL_OUT, ON_RIM_AT_T_MAX
 from rimroll.solver.physics.impact import impact
 from rimroll.solver.physics.rim_frame import from_rim, to_rim
 from rimroll.solver.physics.rolling import normal_force
@@ -51,20 +51,33 @@ def capture_impact(pos, vel, spin, n, p, contact):
 
 
 def roll(state, p, t_left: float) -> dict:
-    """The rim engine's run of the captured ``state`` for ``t_left`` [s]: its ``outcome``, ``t_end``,
-    ``revolutions``, and, if the ball left the rim, the flight's start ``position``, ``velocity``,
-    ``spin`` (else None), and ``separates`` (False: it left while slipping, see the module doc)."""
+    """The rim engine's run of the captured ``state`` for ``t_left`` [s] (:func:`roll_batch` of one)."""
+    return roll_batch([(state, t_left)], p)[0]
+
+
+def roll_batch(requests, p) -> list[dict]:
+    """The rim engine's runs of captured states, ``requests`` = [(state, t_left [s]), ...], in ONE call of
+    ``simulate`` to the largest t_left; a run still on the rim at its own t_left (or falling after it) is
+    cut there (outcome on_rim_at_t_max). Each: ``outcome``, ``t_end`` [s], ``revolutions``, and, if the ball
+    left the rim, the flight's start ``left`` = (position, velocity, spin) (else None) and ``separates``
+    (False: it left while slipping, see the module doc)."""
     from rimroll.solver.engine.simulate import simulate
 
-    alpha, beta, w1, w2, w3 = state[:5]
-    res = simulate(np.array([[beta, w1, w2, w3]]), p, t_max=t_left, workers=1)
-    out = {k: float(res[k][0]) for k in ("t_end", "revolutions")}
-    out["outcome"] = int(res["outcome"][0])
-    out["left"] = None
+    states = np.array([[s[1], s[2], s[3], s[4]] for s, _ in requests])
+    res = simulate(states, p, t_max=max(t for _, t in requests), workers=1)
+    return [_run_of(res, i, state, t_left, p) for i, (state, t_left) in enumerate(requests)]
+
+
+def _run_of(res: dict, i: int, state, t_left: float, p) -> dict:
+    """Lane ``i`` of the engine's result ``res`` as :func:`roll_batch` returns it."""
+    out = {"t_end": float(res["t_end"][i]), "revolutions": float(res["revolutions"][i]),
+           "outcome": int(res["outcome"][i]), "left": None, "separates": False}
+    if out["t_end"] > t_left:  # past this shot's own time budget: on the rim at its t_max
+        return {**out, "t_end": t_left, "outcome": ON_RIM_AT_T_MAX}
     if out["outcome"] in (FALL_IN, FALL_OUT):
-        alpha_end = alpha + 2.0 * math.pi * out["revolutions"]
-        out["left"] = from_rim(alpha_end, float(res["beta_end"][0]), float(res["omega1_end"][0]),
-                               float(res["omega2_end"][0]), float(res["omega3_end"][0]), p.R, p.r, p.r + p.a)
+        alpha_end = state[0] + 2.0 * math.pi * out["revolutions"]
+        out["left"] = from_rim(alpha_end, float(res["beta_end"][i]), float(res["omega1_end"][i]),
+                               float(res["omega2_end"][i]), float(res["omega3_end"][i]), p.R, p.r, p.r + p.a)
         probe = Flight(p, out["left"][0], out["left"][1]).position(PROBE)
         out["separates"] = ring_distance(*probe, p.R) >= p.r + p.a
     return out

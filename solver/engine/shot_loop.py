@@ -7,8 +7,11 @@ practice, the board's face, whose lower edge is 0.15 m below the ring's top); at
 law (``physics.impact``) changes the velocity and spin, and the search goes on. Rim and board at
 once: the impacts are applied one after the other in time order (each only if the ball still
 approaches that surface); two impacts of different kinds within :data:`DOUBLE_WINDOW` count as one
-double contact. The shot ends at z = -rho (make if the centre is then less than R from the hoop's
-axis), or at ``max_impacts`` impacts or ``t_max`` seconds (status, outcome ``unfinished``).
+double contact. A capture onto the rim (``shot_capture``) suspends the shot: all shots are run in
+rounds, each round's captured shots going to the rim engine in ONE ``simulate`` call
+(``shot_capture.roll_batch``) before their flights go on. The shot ends at z = -rho (make if the
+centre is then less than R from the hoop's axis), or at ``max_impacts`` impacts or ``t_max`` seconds
+(status, outcome ``unfinished``).
 """
 
 from __future__ import annotations
@@ -18,7 +21,7 @@ import math
 import numpy as np
 
 from rimroll.solver.engine.outcomes import FALL_IN
-from rimroll.solver.engine.shot_capture import capture_impact, roll
+from rimroll.solver.engine.shot_capture import capture_impact, roll_batch
 from rimroll.solver.physics.contact_times import first_plane_contact, first_ring_contact
 from rimroll.solver.physics.impact import impact
 from rimroll.solver.physics.release import release_state
@@ -50,15 +53,29 @@ def run_shots(releases: dict, params, contact, budget: tuple[float, int], trace=
     out = {k: np.full(n, np.nan) for k in FLOAT_OUTPUTS}
     out.update({k: np.zeros(n, dtype) for k, dtype in INT_OUTPUTS.items()})
     out["rim_outcome"][:] = -1
-    path = None
+    path = _Path() if trace else None
+    pending = {}  # shots waiting for the rim engine: index -> (generator, its request)
     for i in range(n):
-        path = _Path() if trace else None
-        result = one_shot({k: float(v[i]) for k, v in flat.items()}, params, contact, budget, path, trace)
-        for k, v in result.items():
-            out[k][i] = v
+        shot = one_shot({k: float(v[i]) for k, v in flat.items()}, params, contact, budget, path, trace)
+        _advance(out, pending, i, shot, None)
+    while pending:  # a round: every captured shot's rim phase in one engine call, then their flights on
+        runs = roll_batch([request for _, request in pending.values()], params)
+        waiting, pending = pending, {}
+        for (i, (shot, _)), run in zip(waiting.items(), runs):
+            _advance(out, pending, i, shot, run)
     if trace:
         return {**{k: v.reshape(shape)[()] for k, v in out.items()}, **path.arrays()}
     return {k: v.reshape(shape) for k, v in out.items()}
+
+
+def _advance(out: dict, pending: dict, i: int, shot, reply) -> None:
+    """Run shot ``i`` (a generator from :func:`one_shot`) with the engine's ``reply`` until it asks the
+    engine again (kept in ``pending``) or ends (its outputs written into ``out``)."""
+    try:
+        pending[i] = (shot, shot.send(reply))
+    except StopIteration as done:
+        for k, v in done.value.items():
+            out[k][i] = v
 
 
 class _Path:
@@ -87,8 +104,10 @@ class _Path:
                 "impact_y": imp[:, 2], "impact_z": imp[:, 3], "impact_kind": imp[:, 4].astype(np.int8)}
 
 
-def one_shot(release: dict, p, contact, budget: tuple[float, int], path=None, samples: int = 0) -> dict:
-    """The outputs (scalars) of one shot released as ``release`` (scalars of ``shots.RELEASE``)."""
+def one_shot(release: dict, p, contact, budget: tuple[float, int], path=None, samples: int = 0):
+    """A generator: one shot released as ``release`` (scalars of ``shots.RELEASE``); it yields a capture
+    request (state, t_left) to the rim engine and takes the run (``shot_capture.roll_batch``'s item), and
+    returns the shot's outputs (scalars)."""
     t_max, max_impacts = budget
     rho = p.r + p.a
     board = board_of(p.R, p.a)
@@ -124,7 +143,11 @@ def one_shot(release: dict, p, contact, budget: tuple[float, int], path=None, sa
             path.impacts.append((t, *pos, hit_kind))
         last_kind, last_time = hit_kind, t
         if captured is not None:
-            on_rim = _on_rim(res, captured, p, t_max - t)
+            _record_capture(res, captured)
+            on_rim = yield captured, t_max - t
+            res["time_on_rim"] += on_rim["t_end"]
+            res["revolutions_on_rim"] += on_rim["revolutions"]
+            res["rim_outcome"] = on_rim["outcome"]
             if path is not None:
                 path.on_rim(t, pos, on_rim)
             t += on_rim["t_end"]
@@ -160,15 +183,10 @@ def _next_contact(flight, span: float, p, rho: float, board, last_kind: int) -> 
     return math.nan, 0
 
 
-def _on_rim(res: dict, captured, p, t_left: float) -> dict:
-    """Record a capture in ``res`` and run the rim engine on it (``shot_capture.roll``)."""
-    if math.isnan(res.get("beta_cap", math.nan)):  # the first capture's state
+def _record_capture(res: dict, captured) -> None:
+    """Keep the first capture's state (beta, omega1..3, slip) in the outputs ``res``."""
+    if math.isnan(res.get("beta_cap", math.nan)):
         res.update(zip(CAPTURE_KEYS, captured[1:]))
-    on_rim = roll(captured, p, t_left)
-    res["time_on_rim"] += on_rim["t_end"]
-    res["revolutions_on_rim"] += on_rim["revolutions"]
-    res["rim_outcome"] = on_rim["outcome"]
-    return on_rim
 
 
 def _count(res: dict, kind: int, last_kind: int, since_last: float) -> None:
