@@ -157,10 +157,12 @@ def check_releases(releases: dict) -> dict:
     return {k: np.broadcast_to(a, shape) for k, a in arrays.items()}
 
 
-def simulate_shots(releases: dict, params: Params, contact: Contact = None, geometry: str = "paper",
+def simulate_shots(releases: dict, params: Params, contact: Contact = None, geometry: str | None = None,
                    t_max: float = 5.0, max_impacts: int = 100) -> dict:
     """The outcomes of shots: each released as ``releases`` says (:data:`RELEASE`; arrays broadcast
-    together) with the ball and ring of ``params`` and the board of ``geometry``, followed through its
+    together) with the ball and ring of ``params`` (``contact=None``: :data:`DEFAULT_CONTACT`; ``geometry``
+    names the ring that ``params`` must have, see :func:`params_for`; None: the ring of ``params`` as it
+    is) and the board placed at it (FIBA, ``physics.shot_geometry``), followed through its
     flight and impacts until its centre is rho = r + a below the rim plane (no contact possible any more),
     or until ``max_impacts`` impacts or ``t_max`` [s].
 
@@ -180,7 +182,7 @@ def simulate_shots(releases: dict, params: Params, contact: Contact = None, geom
                      _budget(t_max, max_impacts), trace=False)
 
 
-def trace_shot(release: dict, params: Params, contact: Contact = None, geometry: str = "paper",
+def trace_shot(release: dict, params: Params, contact: Contact = None, geometry: str | None = None,
                t_max: float = 5.0, max_impacts: int = 100, samples_per_flight: int = 200) -> dict:
     """One shot's path (``release``: a dict of scalars of :data:`RELEASE`): ``time`` [s], ``x``, ``y``,
     ``z`` [m] of the centre, ``phase`` (0: flight, 1: on the rim) per sample, the impacts' ``impact_time``
@@ -210,10 +212,16 @@ def _contact_or_default(contact):
     return DEFAULT_CONTACT if contact is None else contact
 
 
-def _checked_params(params: Params, geometry: str) -> Params:
+def _checked_params(params: Params, geometry: str | None) -> Params:
+    """``params``; ValueError unless it is a Params whose ring (R, a) is the one of ``geometry`` (if given)."""
     if not isinstance(params, Params):
         raise ValueError(f"`params` must be a rimroll Params; got {type(params).__name__}")
-    ring_of(geometry)
+    if geometry is not None:
+        ring = ring_of(geometry)
+        if (params.R, params.a) != (ring["R"], ring["a"]):
+            raise ValueError(f"`geometry` {geometry!r} has the ring R = {ring['R']:g} m, a = {ring['a']:g} m but "
+                             f"`params` has R = {params.R:g} m, a = {params.a:g} m; use shots.params_for"
+                             f"({geometry!r}, ...) or geometry=None")
     return params
 
 

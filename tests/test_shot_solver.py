@@ -212,3 +212,13 @@ def test_gentle_drop_on_the_top_of_the_tube_is_captured():
                       float(res["time_on_rim"]), workers=1)
     assert int(res["rim_outcome"]) == int(direct["outcome"][0])
     assert int(res["n_impacts"]) == 1
+
+
+def test_geometry_must_match_the_ring_of_params():
+    """geometry names the ring that params must have: the paper's Params with geometry="regulation" is
+    refused (naming both rings), params_for("regulation") accepted."""
+    release = dict(speed=7.0, angle=0.9)
+    with pytest.raises(ValueError, match="`geometry` 'regulation'.*params_for"):
+        shots.simulate_shots(release, P, geometry="regulation")
+    res = shots.simulate_shots(release, shots.params_for("regulation"), geometry="regulation")
+    assert res["outcome"].shape == ()
