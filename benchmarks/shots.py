@@ -12,10 +12,14 @@ reports:
   cache write of the shot kernels) [s];
 * the warm wall time of each map, best of ``--rounds`` [s], and shots per second;
 * where the shots spend their simulated time: flight and on the rim (the solver's per-shot
-  ``t_end`` and ``time_on_rim``), the impacts per shot (``n_impacts``), and the outcome shares.
+  ``t_end`` and ``time_on_rim``), the impacts per shot (``n_impacts``), and the outcome shares;
+* where the computer spends its time: a ``--profile-n`` map (default 60 x 60) on one thread under
+  cProfile, the shares of the shot loop's flight and contact search, impacts and rolling on the rim
+  (the engine), and the rest.
 
-It writes ``shots.json`` into ``--out`` (default ``bench_results/``, ignored by git) and prints one
-table. Times are never asserted: the machine is shared; compare numbers of one run.
+It writes ``shots.json`` and each map (``vacuum/shot.nc``, ``drag/shot.nc`` with their figures) into
+``--out`` (default ``bench_results/``, ignored by git) and prints one table. Times are never asserted:
+the machine is shared; compare numbers of one run.
 """
 
 from __future__ import annotations
@@ -51,12 +55,14 @@ def cold_compile() -> tuple[float, float]:
     return imported, first
 
 
-def one_map(n: int, workers: int, rho_air: float) -> tuple[float, dict]:
-    """Wall time [s] of an n x n ``shot`` map and what its shots did."""
+def one_map(n: int, workers: int, rho_air: float, keep=None) -> tuple[float, dict]:
+    """Wall time [s] of an n x n ``shot`` map and what its shots did; ``keep``: a folder to write the
+    map into (``shot.nc`` and its figure ``shot.png``, drawn after the timing)."""
     import rimroll
 
     start = time.perf_counter()
-    ds = rimroll.run("shot", workers=workers, progress=False, n_speed=n, n_angle=n, rho_air=rho_air)
+    ds = rimroll.run("shot", workers=workers, progress=False, n_speed=n, n_angle=n, rho_air=rho_air,
+                     out=keep, force=keep is not None)
     wall = time.perf_counter() - start
     from rimroll.solver import shots
 
@@ -73,7 +79,44 @@ def one_map(n: int, workers: int, rho_air: float) -> tuple[float, dict]:
         "max_impacts": int(ds["n_impacts"].values.max()),
         "outcomes": {names[c]: float(np.mean(outcome == c)) for c in np.unique(outcome)},
     }
+    if keep is not None:
+        from rimroll.study import io, registry
+
+        io.write_figure(registry.get("shot").plot(ds), pathlib.Path(keep) / "shot.png")
     return wall, stats
+
+
+PHASES = {  # functions of the shot loop (solver/engine/shot_loop.py) whose cumulative time is each phase's
+    "flight and contact search": ("_next_contact",),
+    "impacts (impulse, capture test)": ("capture_impact", "impact"),
+    "on the rim (the engine)": ("_on_rim",),
+}
+
+
+def phase_shares(n: int, rho_air: float) -> dict:
+    """Shares of the compute time of an n x n map (one thread, under cProfile, which inflates the
+    Python-level parts about alike) spent in each of :data:`PHASES` (cumulative time of their functions
+    over the whole ``simulate_shots`` call)."""
+    import cProfile
+    import pstats
+
+    from rimroll.solver import shots
+
+    speed, angle = np.meshgrid(np.linspace(6.5, 7.9, n), np.radians(np.linspace(40.0, 65.0, n)), indexing="ij")
+    params = shots.params_for("paper", rho_air=rho_air)
+    profile = cProfile.Profile()
+    profile.runcall(shots.simulate_shots, {"speed": speed, "angle": angle}, params, shots.Contact())
+    stats = pstats.Stats(profile).stats
+    total = max(ct for (_, _, name), (_, _, _, ct, _) in stats.items() if name == "simulate_shots")
+    shares = {}
+    for phase, names in PHASES.items():
+        outermost = {}  # a function's cumulative time counted once (impact is also called inside capture_impact)
+        for (path, _, name), (_, _, _, ct, callers) in stats.items():
+            if name in names and not any(c[2] in names for c in callers):
+                outermost[(path, name)] = ct
+        shares[phase] = sum(outermost.values()) / total
+    shares["other (bookkeeping)"] = 1.0 - sum(shares.values())
+    return shares
 
 
 def main(argv=None) -> int:
@@ -82,6 +125,7 @@ def main(argv=None) -> int:
     ap.add_argument("--rounds", type=int, default=2)
     ap.add_argument("--n", type=int, default=200, help="grid points per axis (default 200)")
     ap.add_argument("--out", default="bench_results")
+    ap.add_argument("--profile-n", type=int, default=60, help="grid points per axis of the profiled map (default 60)")
     ap.add_argument("--no-cold", action="store_true", help="skip the cold compile")
     args = ap.parse_args(argv)
     report = {"n": args.n, "workers": args.workers, "cpus": os.cpu_count(), "load": os.getloadavg()}
@@ -89,14 +133,14 @@ def main(argv=None) -> int:
         report["cold_import_s"], report["cold_first_shot_s"] = cold_compile()
     one_map(8, args.workers, 0.0)  # warm this process's kernels and the study layer
     one_map(8, args.workers, 1.2)
+    out = pathlib.Path(args.out)
     for label, rho_air in (("vacuum", 0.0), ("drag", 1.2)):
         best, stats = np.inf, None
         for _ in range(args.rounds):
-            wall, stats = one_map(args.n, args.workers, rho_air)
+            wall, stats = one_map(args.n, args.workers, rho_air, keep=out / label)
             best = min(best, wall)
-        report[label] = {"wall_s": best, **stats, "shots_per_s": stats["shots"] / best}
-    out = pathlib.Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+        report[label] = {"wall_s": best, **stats, "shots_per_s": stats["shots"] / best,
+                         "compute_shares": phase_shares(args.profile_n, rho_air)}
     (out / "shots.json").write_text(json.dumps(report, indent=1))
     print(f"{args.n} x {args.n} shot map, {args.workers} workers ({report['cpus']} cpus, load {report['load'][0]:.2f})")
     if "cold_first_shot_s" in report:
@@ -107,6 +151,7 @@ def main(argv=None) -> int:
         shares = ", ".join(f"{k} {v:.1%}" for k, v in sorted(r["outcomes"].items(), key=lambda kv: -kv[1]))
         print(f"{label:8s} {r['wall_s']:8.2f} {r['shots_per_s']:8.0f} {r['share_flight']:7.1%} {r['share_on_rim']:7.1%}"
               f" {r['impacts_per_shot']:12.2f}  {shares}")
+        print(f"{'':8s} compute time: " + ", ".join(f"{k} {v:.0%}" for k, v in r["compute_shares"].items()))
     return 0
 
 

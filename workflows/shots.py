@@ -22,7 +22,7 @@ from matplotlib.patches import Patch
 
 from rimroll.solver import shots
 from rimroll.study.dataset import params_of, setting_of
-from rimroll.study.registry import Axis, Study, Var, register
+from rimroll.study.registry import Axis, ReferenceSpec, Study, Var, register
 
 RELEASE_SETTINGS = {  # the release but its speed and angle (the grid), defaults of shots.RELEASE
     key: (math.degrees(item.default) if key == "azimuth" else item.default)
@@ -186,4 +186,6 @@ register(Study(
     chunks={"speed": 25}, sweepable=SWEEPABLE, derive=_derive, ignores=RING_IGNORES, compiles=True,
     derived_docs=(("ring_R", "m", "major radius of the ring the shots ran with (the geometry's)"),
                   ("ring_a", "m", "minor radius of the ring the shots ran with (the geometry's)")),
+    reference=ReferenceSpec(points={"speed": 15, "angle": 11}, method="solver.shots.simulate_shots (event-driven; "
+                            "a regression reference at the study's own settings)"),
 ))
