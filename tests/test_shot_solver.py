@@ -121,10 +121,11 @@ def test_budgets_end_a_shot_with_a_status():
 
 def test_impact_counts_add_up():
     """Over a small map: impacts = rim + board impacts; a swish or an airball has none; the first
-    contact is none exactly when there was no impact."""
+    contact is none exactly when there was no impact. (v_cap = 0: no capture, so no rim engine.)"""
     res = shots.simulate_shots(dict(speed=np.linspace(6.8, 7.8, 9)[:, None],
                                     angle=np.radians(np.linspace(45.0, 60.0, 6))[None, :], **FREE_THROW),
-                               P, shots.Contact())
+                               P, shots.Contact(v_cap=0.0))
+    assert np.all(np.isnan(res["beta_cap"])) and np.all(res["rim_outcome"] == -1)
     assert np.array_equal(res["n_impacts"], res["n_rim_impacts"] + res["n_board_impacts"])
     clean = np.isin(res["outcome"], [CODE["swish"], CODE["airball"]])
     assert np.all(res["n_impacts"][clean] == 0)
