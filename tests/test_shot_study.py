@@ -60,13 +60,17 @@ def test_quick_outcomes_equal_direct_simulate_shots(quick):
 
 def test_quick_map_holds_a_swish_and_a_make_after_contact(quick):
     """Around a free throw the --quick grid crosses the swish region, the makes after touching the rim
-    and the board, and the short misses; every shot that did not finish says why (status)."""
+    and the board, and the short misses; a shot that did not finish says why (status), and one whose
+    budget ran out is never a make or a miss."""
     names = list(shots.OUTCOME_MEANINGS)
     drawn = {names[c] for c in np.unique(quick["outcome"].values)}
     assert {"swish", "miss_short", "make_board"} <= drawn
     assert drawn & {"make_rim", "make_roll"}
     unfinished = quick["outcome"].values == names.index("unfinished")
-    np.testing.assert_array_equal(quick["status"].values != 0, unfinished)
+    status = quick["status"].values
+    budget = np.isin(status, [shots.STATUS_MEANINGS.index(k) for k in ("impact_budget", "time_budget")])
+    assert not (budget & ~unfinished).any()  # a spent budget is never a make or a miss
+    assert not (unfinished & (status == shots.STATUS_MEANINGS.index("ok"))).any()  # and says why
 
 
 @pytest.mark.parametrize("item, words", [
