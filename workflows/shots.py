@@ -20,6 +20,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
+from rimroll import solver
 from rimroll.solver import shots
 from rimroll.study.dataset import params_of, setting_of
 from rimroll.study.registry import Axis, ReferenceSpec, Study, Var, register
@@ -48,6 +49,8 @@ def _flags(meanings) -> tuple[tuple, str]:
 OUTCOME_FLAGS = _flags(shots.OUTCOME_MEANINGS)
 STATUS_FLAGS = _flags(shots.STATUS_MEANINGS)
 FIRST_FLAGS = _flags(shots.FIRST_CONTACT_MEANINGS)
+RIM_FLAGS = ((-1, *solver.OUTCOME_MEANINGS),
+             " ".join(["never_captured", *(m.split(":")[0] for m in solver.OUTCOME_MEANINGS.values())]))
 
 VARIABLES = [
     Var("outcome", "1", "outcome of the shot", dtype="int8", flag_values=OUTCOME_FLAGS[0],
@@ -71,6 +74,9 @@ VARIABLES = [
     Var("slip_cap", "m s-1", "slip speed when captured onto the rim", comment="NaN: never captured"),
     Var("first_contact", "1", "what the ball touched first", dtype="int8", flag_values=FIRST_FLAGS[0],
         flag_meanings=FIRST_FLAGS[1]),
+    Var("rim_outcome", "1", "rim engine's outcome of the last capture", dtype="int8", flag_values=RIM_FLAGS[0],
+        flag_meanings=RIM_FLAGS[1], comment="the outcome codes of solver.simulate (docs/outcome-studies.md) for the "
+        "ball's last stay on the rim; never_captured: no stay"),
     Var("impact_kinds", "1", "kinds of the first 20 impacts", comment="base-3 digits, the first impact the lowest: "
         "1 rim, 2 board (0: no more impacts); e.g. 7 = 1 + 2*3: the rim, then the board. Stored as float64 (exact: "
         "3^20 < 2^53; CF-1.8 has no 64-bit integers)"),
