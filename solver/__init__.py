@@ -26,6 +26,7 @@ _PUBLIC = {
     "kinematics": ("rimroll.solver.physics.kinematics", None),
     "predictability": ("rimroll.solver.analysis.predictability", None),
     "rolling": ("rimroll.solver.physics.rolling", None),
+    "shots": ("rimroll.solver.shots", None),
     "simulate": ("rimroll.solver.engine.simulate", "simulate"),
     "slipping": ("rimroll.solver.physics.slipping", None),
     "steady": ("rimroll.solver.analysis.steady", None),

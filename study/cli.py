@@ -112,6 +112,12 @@ def _parser() -> argparse.ArgumentParser:
 def _trace_parser(sub) -> None:
     t = sub.add_parser("trace", help="one trajectory: netCDF time series and figure (study.trace)")
     t.add_argument("file", nargs="?", default=None, help="an outcome map (fig11-13, outcome-cube) to pick --at from")
+    t.add_argument("--release", default=None, metavar="speed=V,angle=DEG,...",
+                   help="a shot (docs/shots.md): its release, speed [m/s] and angle [degree] above the horizontal, "
+                        "and any of distance, height, lateral [m], azimuth [degree], backspin, sidespin [1/s]; "
+                        "--set then takes the shot's settings (e_rim, mu_rim, e_board, mu_board, v_cap, geometry, "
+                        "t_max_shot, max_impacts) and the ball's parameters. A FILE of study shot: pick it with --at "
+                        "speed=V,angle=DEG")
     t.add_argument("--state", default=None, metavar="BETA,OMEGA1,OMEGA2,OMEGA3",
                    help="the rolling initial state [rad, 1/s, 1/s, 1/s]; a negative beta is written "
                         "--state=-1.57,0,0,0 (with '=': after a space, argparse takes it for an option)")
@@ -270,9 +276,11 @@ def _cmd_plot(args) -> int:
     from rimroll.study import io
 
     ds = io.open_result(nc)
-    if ds.attrs["study"] == "trace":
+    if ds.attrs["study"] in ("trace", "shot-trace"):
         from rimroll.study import trace
 
+        if ds.attrs["study"] == "shot-trace":
+            from rimroll.study import shot_trace as trace
         png = io.write_figure(trace.figure(ds), nc.with_suffix(".png"))
         print(f"wrote {png}")
         return 0
@@ -455,6 +463,22 @@ def _backend_error():
     return BackendUnavailable
 
 
+def _traces_a_shot(args) -> bool:
+    """Whether ``study trace`` traces a shot (study.shot_trace): ``--release`` given, or FILE is a map of
+    study ``shot``."""
+    if args.release is not None:
+        return True
+    if args.file is None or not pathlib.Path(args.file).is_file():
+        return False
+    try:
+        import xarray as xr
+
+        with xr.open_dataset(args.file) as ds:
+            return ds.attrs.get("study") == "shot"
+    except (OSError, ValueError):
+        return False  # study trace says what is wrong with the file
+
+
 def _dispatch(args, command: str) -> int:
     if args.command == "list":
         return _cmd_list(args)
@@ -469,6 +493,8 @@ def _dispatch(args, command: str) -> int:
     if args.command == "trace":
         from rimroll.study import trace
 
+        if _traces_a_shot(args):
+            from rimroll.study import shot_trace as trace
         return trace.run(args, command)
     return _cmd_info(args)
 

@@ -135,6 +135,8 @@ def write_figure(fig, path, dpi: int = 120) -> pathlib.Path:
 TRACE_VARIABLES = ("beta", "omega1", "omega2", "omega3", "F2", "friction_use", "energy", "x", "y", "z",
                    "phase", "event_time", "event_kind")
 """What a file of ``study trace`` holds (``study.trace.dataset``) and its figure draws."""
+SHOT_TRACE_VARIABLES = ("x", "y", "z", "phase", "impact_time", "impact_x", "impact_y", "impact_z", "impact_kind")
+"""What a file of ``study trace --release`` (one shot, ``study.shot_trace``) holds."""
 
 
 CHECKSUM_ATTR = "data_sha256"
@@ -314,6 +316,8 @@ def problems(ds: xr.Dataset) -> str | None:
         return f"its 'study' attribute is {name!r}, not a study name"
     if name == "trace":
         required, axes = TRACE_VARIABLES, ("time", "event")
+    elif name == "shot-trace":
+        required, axes = SHOT_TRACE_VARIABLES, ("time", "impact")
     else:
         try:
             study = registry.get(name)

@@ -23,6 +23,7 @@ import dataclasses
 import math
 from collections.abc import Callable
 
+from rimroll.solver import shots
 from rimroll.solver._arguments import ATOL_MAX, RTOL_RANGE, SLIP_METHODS
 from rimroll.solver.physics import params as physical
 
@@ -43,6 +44,19 @@ TOLERANCE = Range(*RTOL_RANGE)  # what solver.simulate accepts as rtol
 ABSOLUTE_TOLERANCE = Range(0.0, ATOL_MAX, low_open=True)  # and as atol
 FRACTION = Range(0.0, 1.0, low_open=True, high_open=True)
 FRICTION = Range(0.0, math.inf)  # a Coulomb coefficient; inf: never slips
+
+
+_RELEASE = shots.RELEASE
+
+
+def _release_range(key: str, scale: float = 1.0, low_open: bool = False) -> Range:
+    """The solver's range of a release key (``shots.RELEASE``), times ``scale`` (rad -> degree)."""
+    return Range(_RELEASE[key].low * scale, _RELEASE[key].high * scale, low_open=low_open)
+
+
+def _contact_range(key: str) -> Range:
+    """The solver's closed range of a contact coefficient (``shots.CONTACT_RANGES``)."""
+    return Range(*shots.CONTACT_RANGES[key])
 
 
 def _methods() -> tuple:
@@ -185,6 +199,41 @@ _ENTRIES = (
     S("n_omega1", "", "grid points of omega1", GRID),
     S("n_j", "", "grid points of j", GRID),
     S("n_rho_over_R", "", "grid points of rho/R", GRID),
+    # ---- a shot (workflows.shots; docs/shots.md): the release, the contacts, the ring, the grid
+    # (the ranges of the release keys and contact coefficients are the solver's: solver.shots.RELEASE,
+    # CONTACT_RANGES; the angles in degrees)
+    S("distance", "m", _RELEASE["distance"].doc, _release_range("distance", low_open=True), sweep=True,
+      long_name="distance to the hoop"),
+    S("height", "m", _RELEASE["height"].doc, _release_range("height"), sweep=True, long_name="rim above the release"),
+    S("lateral", "m", _RELEASE["lateral"].doc, _release_range("lateral")),
+    S("azimuth", "degree", _RELEASE["azimuth"].doc.replace("+x line", "line through the hoop's axis"),
+      _release_range("azimuth", math.degrees(1.0))),
+    S("backspin", "s-1", _RELEASE["backspin"].doc + " [rad/s]", _release_range("backspin"), sweep=True,
+      long_name="backspin"),
+    S("sidespin", "s-1", _RELEASE["sidespin"].doc + " [rad/s]", _release_range("sidespin")),
+    S("e_rim", "1", "coefficient of restitution of a ball-ring impact", _contact_range("e_rim"), sweep=True,
+      long_name="restitution e (rim)"),
+    S("mu_rim", "1", "Coulomb friction coefficient of a ball-ring impact", _contact_range("mu_rim"), sweep=True,
+      long_name="friction mu (rim)"),
+    S("e_board", "1", "coefficient of restitution of a ball-board impact", _contact_range("e_board"), sweep=True,
+      long_name="restitution e (board)"),
+    S("mu_board", "1", "Coulomb friction coefficient of a ball-board impact", _contact_range("mu_board"),
+      sweep=True, long_name="friction mu (board)"),
+    S("v_cap", "m s-1", "capture speed: a rim impact whose normal rebound speed is below it leaves the ball on the "
+      "ring", _contact_range("v_cap"), sweep=True, long_name="capture speed v_cap"),
+    S("geometry", "", "the ring: paper (Table 1: R = 0.225 m, a = 0.01 m) or regulation (FIBA: R = 0.234 m, "
+      "a = 0.009 m); the board is FIBA's for both", choices=tuple(shots.GEOMETRIES), what="geometries"),
+    S("t_max_shot", "s", "time budget of one shot from its release (status time budget beyond it)",
+      Range(0.0, 1000.0, low_open=True)),
+    S("max_impacts", "", "budget of impacts of one shot (status impact budget beyond it)", COUNT),
+    S("speed_min", "m s-1", "grid: smallest release speed", _release_range("speed", low_open=True)),
+    S("speed_max", "m s-1", "grid: largest release speed", _release_range("speed", low_open=True)),
+    S("n_speed", "", "grid points of the release speed", GRID),
+    S("angle_min", "degree", "grid: smallest release angle above the horizontal",
+      Range(0.0, 90.0, low_open=True, high_open=True)),
+    S("angle_max", "degree", "grid: largest release angle above the horizontal",
+      Range(0.0, 90.0, low_open=True, high_open=True)),
+    S("n_angle", "", "grid points of the release angle", GRID),
     # ---- predictability and make-probability
     S("box", "", "grid points per side of a basin-entropy box", GRID),
     S("n_fine", "", "eps below one grid step: 1/2 ... 1/2^n_fine (simulated)", COUNT0),

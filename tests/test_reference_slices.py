@@ -47,6 +47,8 @@ MAP_TOLERANCES = {"omega20": (1e-12, 1e-12), "h": (1e-12, 1e-12), "required_fric
                   "F2": (1e-12, 1e-12), "throw_speed": (1e-12, 1e-12), "trace_M": (1e-10, 1e-10),
                   "abs_mu1": (1e-10, 1e-10), "abs_mu2": (1e-10, 1e-10)}
 MIN_AWAY = 0.7  # at least 70 % of a slice lies away from boundaries, or the comparison says little
+EVERY_POINT = {"shot"}  # maps of many small regions (a shot's outcomes), rebuilt by the same event-driven code:
+# their categories must be identical at every point instead (a stronger check where few points lie away)
 
 
 # (atol, rtol) of the studies whose reference is more precise than their default run, beyond what
@@ -121,7 +123,10 @@ def test_default_settings_reproduce_the_reference(name, grid):
     cats = [v for v in report.variables if v.kind == "categorical"]
     assert cats or name in ("fig3", "invariants", "work-precision")
     for v in cats:
-        assert v.n_away >= MIN_AWAY * v.n_compared, text
+        if name in EVERY_POINT:
+            assert v.identical == 1.0, text
+        else:
+            assert v.n_away >= MIN_AWAY * v.n_compared, text
     compared = {v.name for v in report.variables if v.kind == "continuous"}
     assert compared >= (set(tolerances) & set(ref.data_vars)), text
     if name == "fig11":  # the physics the slices pin down: periodic rolling exists in the conservative scenes
