@@ -53,7 +53,7 @@ _announced = set()
 
 
 def kernels_cached(scene: Scene | None = None) -> bool:
-    """Whether the kernel of ``scene`` (default: the four scene kernels of ``kernels``) is compiled in
+    """Whether the kernel of ``scene`` (default: the two scene kernels of ``kernels``) is compiled in
     this process or cached on disk."""
     funcs = list(kernels.SCENE_KERNELS.values()) if scene is None else [scene_code.kernel_of(scene)]
     for func in funcs:
