@@ -43,13 +43,13 @@ PAGES = {
     "tutorials/python.md": Page(),
     "reference/files.md": Page(setup="study run fig8 --quick\n"
                                      "study run fig12 --quick --set omega2=60 --out a\n"
-                                     "study run fig12 --quick --set omega2=70 --out b\n"),
+                                     "study run fig12 --quick --set omega2=70 --out b\n", slow=True),
     "reference/command-line-intro.part": Page(setup="study run realisable-cube --quick\n", slow=True),
     "outcome-studies.md": Page(setup="study run fig12 --quick\n",
-                               prelude="import xarray as xr\nds = xr.open_dataset('results/fig12.nc')\n"),
+                               prelude="import xarray as xr\nds = xr.open_dataset('results/fig12.nc')\n", slow=True),
     "work-precision.md": Page(setup="study run work-precision --quick\n", slow=True),
     "solution-types.md": Page(slow=True),
-    "how-to/sweep-and-resume.md": Page(),
+    "how-to/sweep-and-resume.md": Page(slow=True),  # a cube of 3 x 19 x 5 settings: minutes
     "how-to/verify.md": Page(setup="study run fig11 --quick\n", slow=True),
     "how-to/trace.md": Page(setup="study run fig12 --quick\n", slow=True),
     "how-to/adaptive-maps.md": Page(slow=True),
