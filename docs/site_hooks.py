@@ -1,79 +1,105 @@
-"""mkdocs hooks (mkdocs.yml ``hooks``): pages made from README.md and docs/notebook.ipynb, so that each
-text is written once. A page is a list of README sections (by their ``## `` or ``### `` title); links
-into ``docs/`` are made relative to the site, links to other files of the repository become code."""
+"""mkdocs hooks (mkdocs.yml ``hooks``): the reference pages generated from the code's own tables, so
+that they cannot fall behind it, and the notebook as a page. The other pages are plain files in docs/.
+
+Generated, at build time: ``reference/settings.md`` (``rimroll.study.setting_table``, through
+``docs/gen_studies.py``), ``reference/command-line.md`` (the ``study`` command's parser),
+``reference/codes.md`` (the outcome, status, on-rim, boundary and solution-type codes) and
+``tutorials/notebook.md`` (``docs/notebook.ipynb``)."""
 
 from __future__ import annotations
 
+import argparse
 import json
+import os
 import pathlib
-import re
+import sys
 
 from mkdocs.structure.files import File
 
-ROOT = pathlib.Path(__file__).resolve().parent.parent
-PAGES = {
-    "index.md": ("rimroll", ["What it is", "Documentation", "Units"], True),
-    "getting-started.md": ("Getting started", ["Your first hour", "In a notebook: `rimroll.run`", "Studies",
-                                               "Sweeps, clusters and resuming", "Python API"], True),
-    "paper-readings.md": ("Where rimroll reads the paper", ["Where rimroll reads the paper"], False),
-    "files.md": ("Files: xarray, netCDF and CF", ["Results in xarray", "Reference slices and `study verify`"], False),
-    "clusters.md": ("On a cluster", ["On a cluster"], False),
-}
-HEADING = re.compile(r"^(#{2,3}) (.+)$", re.M)
-LINK = re.compile(r"(!?)\[([^\]]*)\]\(([^)\s]+)\)")
+DOCS = pathlib.Path(__file__).resolve().parent
+GENERATED = ("reference/settings.md", "reference/command-line.md", "reference/codes.md", "tutorials/notebook.md")
 
 
-def sections(text: str) -> dict[str, str]:
-    """Each ``##``/``###`` section of ``text`` by its title, up to the next heading of its level or above."""
-    heads = [(m.start(), len(m.group(1)), m.group(2).strip()) for m in HEADING.finditer(text)]
-    out = {}
-    for i, (start, level, title) in enumerate(heads):
-        end = next((s for s, lv, _ in heads[i + 1:] if lv <= level), len(text))
-        body = text[start:end].split("\n", 1)[1] if "\n" in text[start:end] else ""
-        out[title] = body
-    return out
+def settings_page() -> str:
+    """Every setting of rimroll's studies and every physical parameter: units, meaning, allowed values."""
+    sys.path.insert(0, str(DOCS))
+    try:
+        import gen_studies
+    finally:
+        sys.path.remove(str(DOCS))
+    from rimroll.study import registry
+    from rimroll.study.registry import natural_order
+
+    studies = [registry.get(name) for name in natural_order(registry.names())]
+    table = gen_studies.settings_table(studies)
+    return ("# Settings\n\nChange a setting with `study run NAME --set KEY=VALUE` (a list `a,b,c` or a range "
+            "`start:stop:num` sweeps it where the study allows) or `rimroll.run(NAME, KEY=VALUE)`. Each study's "
+            "defaults are in [the studies](../studies.md) and `study info NAME`.\n\n"
+            "(This page is generated from `study/setting_table.py` when the site is built.)\n\n"
+            + "\n".join(table[1:]) + "\n")
 
 
-def relink(text: str) -> str:
-    """README links as site links: ``docs/x.md`` -> ``x.md``; a file outside docs/ -> its name as code."""
-    def one(m: re.Match) -> str:
-        bang, label, target = m.groups()
-        if "://" in target or target.startswith("#"):
-            return m.group(0)
-        path, _, anchor = target.partition("#")
-        if path.startswith("docs/"):
-            return f"{bang}[{label}]({path[5:]}{'#' + anchor if anchor else ''})"
-        return f"`{path}`" if not label or label == path else f"{label} (`{path}`)"
-    return LINK.sub(one, text)
+def _help(parser: argparse.ArgumentParser) -> str:
+    return "```text\n" + parser.format_help().rstrip() + "\n```\n"
 
 
-def readme_page(title: str, titles: list[str], head: bool) -> str:
-    readme = (ROOT / "README.md").read_text()
-    found = sections(readme)
-    parts = [f"# {title}\n"]
-    if head:  # the install and test commands at the top of the README
-        parts.append(readme.split("\n## ", 1)[0].split("\n", 1)[1])
-    for name in titles:
-        level = "##" if name != title else None
-        if level:
-            parts.append(f"\n## {name}\n")
-        parts.append(found[name])
-    return relink("\n".join(parts))
+def command_line_page() -> str:
+    """``study --help`` and the help of each subcommand, as the parser prints them, after the overview."""
+    from rimroll.study import cli
+
+    os.environ["COLUMNS"] = "100"  # argparse wraps at the terminal's width: a fixed one for the page
+    parser = cli._parser()
+    parts = ["# The command line: `study`\n", (DOCS / "reference" / "command-line-intro.part").read_text(),
+             "\n## `study`\n", _help(parser)]
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    for name, command in sub.choices.items():
+        parts += [f"\n## `study {name}`\n", _help(command)]
+    parts.append("\n(The help texts on this page are generated from the parser, `study/cli.py`, when the site is "
+                 "built.)\n")
+    return "\n".join(parts)
+
+
+def _codes(title: str, where: str, meanings: dict) -> list[str]:
+    lines = [f"\n## {title}\n", f"From `{where}`.\n", "| code | flag | meaning |", "|---|---|---|"]
+    for code, text in meanings.items():
+        flag, _, meaning = text.partition(":")
+        lines.append(f"| {int(code)} | `{flag.strip()}` | {meaning.strip().replace('|', chr(92) + '|')} |")
+    return lines
+
+
+def codes_page() -> str:
+    """The integer codes of rimroll's categorical outputs, with their CF flag names and meanings."""
+    from rimroll.solver.analysis import boundaries, solution_types
+    from rimroll.solver.engine import outcomes
+
+    lines = ["# Codes: outcome, status, on the rim, boundary, solution type\n",
+             "Every categorical output is an int8 code. Files carry the same table as CF `flag_values` and "
+             "`flag_meanings` (cf_xarray reads them: `ds.outcome.cf == \"periodic_rolling\"`). How each outcome is "
+             "decided: [the outcome rules](../outcome-studies.md#rules-of-a-simulation) and "
+             "[the outcome engine](../outcome-engine.md). (This page is generated from the tables below when the "
+             "site is built.)"]
+    lines += _codes("`outcome`", "solver.OUTCOME_MEANINGS", outcomes.OUTCOME_MEANINGS)
+    lines += _codes("`status`", "solver.STATUS_MEANINGS", outcomes.STATUS_MEANINGS)
+    lines += _codes("`on_rim_reason`", "solver.engine.outcomes.ON_RIM_REASON_MEANINGS", outcomes.ON_RIM_REASON_MEANINGS)
+    lines += _codes("`boundary_type`", "solver.analysis.boundaries.BOUNDARY_MEANINGS", boundaries.BOUNDARY_MEANINGS)
+    lines += _codes("`solution_type`", "solver.analysis.solution_types.TYPE_MEANINGS", solution_types.TYPE_MEANINGS)
+    return "\n".join(lines) + "\n"
 
 
 def notebook_page() -> str:
     """docs/notebook.ipynb as a page: its markdown cells and its code, a link to the notebook."""
-    nb = json.loads((ROOT / "docs" / "notebook.ipynb").read_text())
+    nb = json.loads((DOCS / "notebook.ipynb").read_text())
     out = []
     for cell in nb["cells"]:
         source = "".join(cell["source"])
         out.append(source if cell["cell_type"] == "markdown" else f"```python\n{source}\n```")
-    out.insert(1, "Download the notebook: [notebook.ipynb](notebook.ipynb).")
+    out.insert(1, "Download the notebook: [notebook.ipynb](../notebook.ipynb). The test suite runs it in a Jupyter "
+                  "kernel (`tests/test_notebook.py`); run it yourself to see the outputs and the figures.")
     return "\n\n".join(out) + "\n"
 
 
 def on_files(files, config):
-    for name, (title, titles, head) in PAGES.items():
-        files.append(File.generated(config, name, content=readme_page(title, titles, head)))
-    files.append(File.generated(config, "notebook.md", content=notebook_page()))
+    pages = dict(zip(GENERATED, (settings_page(), command_line_page(), codes_page(), notebook_page())))
+    for name, content in pages.items():
+        files.append(File.generated(config, name, content=content))
     return files

@@ -1,6 +1,6 @@
 """rimroll's numerical core: physics of the ball on the rim and its integration.
 
-numpy arrays in, numpy arrays out; no xarray, no dask, no I/O. Three rooms
+numpy arrays in, numpy arrays out; no xarray, no dask, no I/O. Three subpackages
 (docs/architecture.md):
 
 * ``physics``: parameters, the equations of motion and contact forces of each phase,
@@ -10,12 +10,21 @@ numpy arrays in, numpy arrays out; no xarray, no dask, no I/O. Three rooms
 * ``analysis``: steady motions, Floquet analysis, conserved quantities, reduced dynamics,
   solution types, boundaries, predictability, traces and the scipy reference.
 
-The names of :data:`__all__` are the public API. Each is imported on first use (``import
+The names of ``__all__`` are the public API. Each is imported on first use (``import
 rimroll.solver.physics.params`` does not load the engine, scipy's special functions or numba's
 kernels).
 """
 
 import importlib
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # the public names for type checkers and the API reference; at run time each loads on first use
+    from rimroll.solver.analysis import floquet, predictability, steady
+    from rimroll.solver.analysis.invariants import invariants
+    from rimroll.solver.engine.outcomes import OUTCOME_MEANINGS, STATUS_MEANINGS
+    from rimroll.solver.engine.simulate import simulate
+    from rimroll.solver.physics import kinematics, rolling, slipping
+    from rimroll.solver.physics.params import Params
 
 _PUBLIC = {
     "OUTCOME_MEANINGS": ("rimroll.solver.engine.outcomes", "OUTCOME_MEANINGS"),
@@ -32,11 +41,14 @@ _PUBLIC = {
     "steady": ("rimroll.solver.analysis.steady", None),
 }
 
-__all__ = sorted(_PUBLIC)
+# literal, so that tools that read the source without importing it (mkdocstrings) see the public names;
+# tests/test_docs_blocks.py checks that it names exactly the keys of _PUBLIC
+__all__ = ["OUTCOME_MEANINGS", "Params", "STATUS_MEANINGS", "floquet", "invariants", "kinematics", "predictability",
+           "rolling", "simulate", "slipping", "steady"]
 
 
 def __getattr__(name: str):
-    """A name of the public API, imported on first use; the rooms and modules of the solver as usual."""
+    """A name of the public API, imported on first use; the subpackages and modules of the solver as usual."""
     if name in _PUBLIC:
         module, attr = _PUBLIC[name]
         value = importlib.import_module(module)

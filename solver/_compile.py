@@ -7,7 +7,7 @@ which the kernels turn into a ``status`` code for that lane, instead of raising
 energy checks rely on IEEE arithmetic.
 
 The disk cache lives in ``solver._jit.cache_dir()``: per user, and per digest of every ``.py``
-file of ``solver/`` and its rooms, so any change of any solver source recompiles every kernel.
+file of ``solver/`` and its subpackages, so any change of any solver source recompiles every kernel.
 """
 
 from __future__ import annotations

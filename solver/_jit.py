@@ -36,7 +36,7 @@ _SOURCES = pathlib.Path(__file__).resolve().parent
 
 
 def sources_digest() -> str:
-    """sha256 of every ``.py`` file of the solver package and its rooms (paths and contents), read once per process."""
+    """sha256 of every ``.py`` file of the solver package and its subpackages (paths, contents), once per process."""
     digest = hashlib.sha256()
     for path in sorted(_SOURCES.rglob("*.py")):
         digest.update(path.relative_to(_SOURCES).as_posix().encode() + b"\0" + path.read_bytes())

@@ -1,12 +1,12 @@
-"""rimroll's Python API for studies: :func:`run` one, :func:`open` a result, list the :func:`studies`.
+"""rimroll's Python API for studies: ``run`` one, ``open`` a result, list the ``studies``.
 
-``rimroll.run``, ``rimroll.open`` and ``rimroll.studies`` are these functions. :func:`run` takes the
+``rimroll.run``, ``rimroll.open`` and ``rimroll.studies`` are these functions. ``run`` takes the
 path of ``study run``: the settings are resolved and checked by ``study.settings`` (the same
 ``--set`` rules: a list or a ``"start:stop:num"`` range of a sweepable setting becomes an axis of
 the cube), the plan carries the run's fingerprint, and ``study.execute.run_to_file`` reuses a file
 of the same fingerprint, resumes the parts of an interrupted run and refuses to overwrite a file
-of other inputs. Notices go through :mod:`logging` (logger ``"rimroll"``), lanes that did not
-finish ok through :mod:`warnings` (:class:`rimroll.LaneStatusWarning`).
+of other inputs. Notices go through ``logging`` (logger ``"rimroll"``), lanes that did not
+finish ok through ``warnings`` (``rimroll.LaneStatusWarning``).
 """
 
 from __future__ import annotations
@@ -36,12 +36,12 @@ def studies() -> dict[str, str]:
 
 
 def open(path: str | os.PathLike, lazy: bool = True) -> xr.Dataset:  # noqa: A001  rimroll.open, like xr.open_*
-    """Open a rimroll result file (``study run``, :func:`run` with ``out``).
+    """Open a rimroll result file (``study run``, ``run`` with ``out``).
 
     ``lazy`` (default): dask-backed in the file's storage chunks, so a cube larger than memory opens
     at once; close it (or use ``with``) when done. ``lazy=False``: loaded into memory, file closed.
     Files of every rimroll version open alike; a label axis (``scene``, ``integrator``) is indexed by
-    its labels, ``ds.sel(scene="slipping")``. :class:`UserError` if ``path`` is not a rimroll result.
+    its labels, ``ds.sel(scene="slipping")``. ``UserError`` if ``path`` is not a rimroll result.
     """
     _check_path("path", path)
     _check_flag("lazy", lazy)
@@ -70,18 +70,18 @@ def run(name: str, quick: bool = False, out: str | os.PathLike | None = None, cl
         force: bool = False, workers: int | None = None, scheduler: str | None = None,
         scheduler_file: str | os.PathLike | None = None, timeout: float = fanout.DEFAULT_TIMEOUT,
         progress: bool | None = None, plot: bool = False, **settings: Any) -> xr.Dataset:
-    """Run the named study ``name`` and return its result as an :class:`xarray.Dataset`.
+    """Run the named study ``name`` and return its result as an ``xarray.Dataset``.
 
     Parameters
     ----------
     name:
-        a study of :func:`studies` (``study list``).
+        a study of ``studies`` (``study list``).
     quick:
         the study's coarse settings (``study run --quick``).
     out:
         a directory: the result is ``<out>/<name>.nc``, reused when it holds this very run (same
         fingerprint), resumed from its parts when a run of the same inputs was interrupted, and
-        refused (:class:`UserError`) when it holds another run, unless ``force``; the Dataset is
+        refused (``UserError``) when it holds another run, unless ``force``; the Dataset is
         opened lazily from it. None (default): computed in a temporary directory and returned
         loaded in memory.
     client:

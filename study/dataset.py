@@ -191,7 +191,7 @@ def _source(study: Study, settings: dict, version: str, device: str | None = Non
 
 
 def params_of(ds: xr.Dataset) -> solver.Params:
-    """The :class:`solver.Params` of a results file (``param_*`` attributes).
+    """The ``solver.Params`` of a results file (``param_*`` attributes).
 
     A swept parameter has no attribute (it varies along its axis): select one point first,
     e.g. ``params_of(ds.sel(mu=1.0))``, and its scalar coordinate is used.

@@ -198,7 +198,7 @@ def release(version: str) -> str:
 
 
 def code_digest(study: Study) -> str:
-    """Hash of the solver's sources (every ``.py`` of ``rimroll.solver`` and its rooms: the digest
+    """Hash of the solver's sources (every ``.py`` of ``rimroll.solver`` and its subpackages: the digest
     that also keys the kernel cache, ``solver._jit.SOURCES_DIGEST``) and of the module defining the
     study's ``compute``."""
     from rimroll.solver import _jit

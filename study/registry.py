@@ -1,7 +1,7 @@
 """The registry of named studies: what a study declares, and the table of studies by name.
 
 A study (see ``study/CONTRACT.md``) is pure computation on numpy arrays plus metadata: a
-:class:`Study` record holds everything the study layer says or does about it (settings, axes,
+``Study`` record holds everything the study layer says or does about it (settings, axes,
 variables, its run-time estimate, its reference slices). This module only holds the
 declarations; ``rimroll.study.settings`` resolves their settings (what each setting allows:
 ``rimroll.study.setting_table``), ``rimroll.study.plan`` and ``rimroll.study.execute`` run them.
@@ -49,7 +49,7 @@ class Terminated(KeyboardInterrupt):
 
 def stopped_by(exc: BaseException) -> tuple[str, int]:
     """How a command stopped by ``exc`` says so, and its exit status: ("terminated (SIGTERM)", 143) for
-    :class:`Terminated`, ("interrupted", 130) for Ctrl-C."""
+    ``Terminated``, ("interrupted", 130) for Ctrl-C."""
     return ("terminated (SIGTERM)", 143) if isinstance(exc, Terminated) else ("interrupted", 130)
 
 
@@ -223,14 +223,14 @@ class Study:
     coords the chunk's coordinates broadcast to the chunk's shape (axis order as declared);
     ``plot(dataset) -> matplotlib Figure``; ``chunks``: chunk length per axis name, or a function of
     the scalar settings returning that dict (an adaptive map needs its whole grid in one chunk).
-    ``sweepable``: settings (of :data:`SWEEP_KEYS`) that ``--set KEY=a,b,c`` or
+    ``sweepable``: settings (of ``SWEEP_KEYS``) that ``--set KEY=a,b,c`` or
     ``KEY=start:stop:num`` turns into outer axes; a tuple default in ``settings`` sweeps by default.
     A variable with ``outer=True`` has the swept axes only, so the study's grid is one chunk.
     ``derive(dataset) -> {name: (dims, values, attrs)}``: variables computed once from the whole
     assembled grid (neighbours across chunks), added to the file before it is moved into place
     (``study.derived``); ``derived_docs``: their rows in docs/studies.md, ``(name, units, meaning)``
     (``name`` may be a tuple of names sharing a row).
-    ``ignores``: physical parameters (of :data:`PHYSICAL_KEYS`) that do not change the result, each
+    ``ignores``: physical parameters (of ``PHYSICAL_KEYS``) that do not change the result, each
     with the reason; ``--set`` of one is refused rather than recorded as if it mattered.
 
     What ``study info`` estimates: ``cost``, seconds per grid point on one core, warm (measured with
@@ -322,8 +322,8 @@ def register(study: Study) -> Study:
 ENTRY_POINT_GROUP = "rimroll.studies"
 """Entry-point group naming the modules that register studies on import, one entry per study
 named as the study (rimroll's own: ``fig11 = "workflows.outcome_grids"``, ... in pyproject.toml),
-so that :func:`get` imports only the module it needs; another package can add studies the same
-way (an entry whose name is no study of its module is still loaded by :func:`names`)."""
+so that ``get`` imports only the module it needs; another package can add studies the same
+way (an entry whose name is no study of its module is still loaded by ``names``)."""
 
 
 def study_entry_points() -> list:
@@ -338,7 +338,7 @@ _loaded_entry_points = False
 
 def _load_studies() -> None:
     """Import the modules of the entry points (once per process: a scan costs milliseconds) and
-    of ``$RIMROLL_STUDY_MODULES``; :class:`UserError` if they register no study at all."""
+    of ``$RIMROLL_STUDY_MODULES``; ``UserError`` if they register no study at all."""
     global _loaded_entry_points
     if not _loaded_entry_points:
         for ep in study_entry_points():
@@ -418,7 +418,7 @@ def known_names() -> list[str]:
 
 
 def get(name: str) -> Study:
-    """The registered study called ``name``; :class:`UserError` listing known names otherwise.
+    """The registered study called ``name``; ``UserError`` listing known names otherwise.
 
     Imports only the module of the entry point named ``name`` when there is one (a warm
     ``study run fig11`` then skips the other families' imports). A name that is no entry point's is refused

@@ -1,4 +1,5 @@
-"""The README works as written: its install blocks match CI, and "Your first hour" runs."""
+"""The README works as written: its install blocks match CI; the tutorial "Your first hour" and the
+explanation "Where rimroll reads the paper" run and print what they say."""
 
 from __future__ import annotations
 
@@ -12,18 +13,14 @@ import numpy as np
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 README = (ROOT / "README.md").read_text()
+FIRST_HOUR = ROOT / "docs" / "tutorials" / "first-hour.md"
+PAPER_READINGS = ROOT / "docs" / "explanation" / "paper-readings.md"
 FENCE = re.compile(r"^```(\w*)\n(.*?)^```", re.M | re.S)
 
 
 def blocks(text: str) -> list[tuple[str, str]]:
     """(language, code) of every fenced block of ``text``, in order."""
     return [(m.group(1), m.group(2)) for m in FENCE.finditer(text)]
-
-
-def section(title: str) -> str:
-    start = README.index(f"\n## {title}\n")
-    end = README.find("\n## ", start + 1)
-    return README[start:end if end > 0 else None]
 
 
 def _commands(code: str) -> list[str]:
@@ -43,6 +40,15 @@ def test_readme_starts_with_the_install_block_and_the_test_block():
                                     ' && python -m pytest -q -rs']
 
 
+def test_the_readme_is_short_and_points_to_the_site():
+    """The README is the front page (at most 10 KB and 150 lines); the manual is the site, each of
+    whose four parts it links."""
+    assert len(README.encode()) <= 10_000 and README.count("\n") <= 150
+    for page in ("docs/tutorials/first-hour.md", "docs/how-to/cluster.md", "docs/studies.md",
+                 "docs/outcome-studies.md", "docs/contributing.md"):
+        assert f"]({page})" in README, page
+
+
 def test_ci_runs_exactly_the_readme_test_command():
     ci = [line.strip() for line in (ROOT / ".ci" / "run").read_text().splitlines()
           if line.strip() and not line.startswith("#")]
@@ -53,9 +59,9 @@ def test_ci_runs_exactly_the_readme_test_command():
 
 
 def test_your_first_hour_runs_as_written(tmp_path, monkeypatch):
-    """Every block of "Your first hour", in order, in an empty directory: bash with ``study`` on
-    PATH (this checkout), Python in one namespace, as a user pasting them would."""
-    code = blocks(section("Your first hour"))
+    """Every block of the tutorial "Your first hour", in order, in an empty directory: bash with
+    ``study`` on PATH (this checkout), Python in one namespace, as a user pasting them would."""
+    code = blocks(FIRST_HOUR.read_text())
     assert [lang for lang, _ in code].count("python") >= 4 and [lang for lang, _ in code].count("bash") >= 3
     bin_dir = tmp_path / "bin"
     bin_dir.mkdir()
@@ -75,7 +81,7 @@ def test_your_first_hour_runs_as_written(tmp_path, monkeypatch):
                                  capture_output=True, text=True, timeout=900)
             assert run.returncode == 0, f"{text}\n{run.stdout}\n{run.stderr}"
         else:
-            exec(compile(text, "README.md", "exec"), namespace)
+            exec(compile(text, str(FIRST_HOUR), "exec"), namespace)
     # what the snippets say they show
     assert (work / "results" / "fig11.nc").is_file() and (work / "results" / "t_end_by_scene.png").is_file()
     ds = namespace["ds"]
@@ -90,13 +96,13 @@ def test_your_first_hour_runs_as_written(tmp_path, monkeypatch):
 
 def test_where_rimroll_reads_the_paper_runs_and_prints_what_it_says(capsys):
     """The Python blocks of "Where rimroll reads the paper", in order, in one namespace; what they
-    print is what the section's comments say."""
-    text = section("Where rimroll reads the paper")
+    print is what the page's comments say."""
+    text = PAPER_READINGS.read_text()
     code = [c for lang, c in blocks(text) if lang == "python"]
     assert len(code) == 2
     namespace: dict = {}
     for c in code:
-        exec(compile(c, "README.md", "exec"), namespace)
+        exec(compile(c, str(PAPER_READINGS), "exec"), namespace)
     printed = capsys.readouterr().out.splitlines()
     comments = [line.split("#", 1)[1].strip() for c in code for line in c.splitlines() if line.startswith("print(")]
     energy, split, printed_split, *steady_lines = printed

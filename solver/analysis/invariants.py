@@ -16,7 +16,7 @@ With Psi(beta) the fundamental matrix of (66), Psi(0) = I, (68) gives
 P = [omega2, omega3] Psi(beta) c; we take c_I = (1, 0), c_II = (0, 1), so P_I, P_II are the
 values of c . z at beta = 0: P_I = omega2 and P_II = omega3 where beta = 0 exactly (not
 beta = 2 pi n: Psi is not periodic, Psi(beta + 2 pi) = Psi(beta) M^{-T}). Psi(beta) is computed by
-:func:`solver.floquet.fundamental` at any real beta (~1e-13 relative).
+``solver.floquet.fundamental`` at any real beta (~1e-13 relative).
 
 Closed forms in the limits (R -> inf: Prop. 11, (69); R -> 0: Prop. 12, (72)) are given for
 comparison; they span the same two-dimensional space as (P_I, P_II) up to a constant 2x2
@@ -51,7 +51,7 @@ def momenta(beta, omega2, omega3, rho_over_R, j):
 def invariants(states, p: Params):
     """The three conserved quantities at each rolling state.
 
-    states: array (..., 4) of (beta [rad], omega1, omega2, omega3 [1/s]); p: :class:`solver.Params`.
+    states: array (..., 4) of (beta [rad], omega1, omega2, omega3 [1/s]); p: ``solver.Params``.
     Returns {"E": energy (60) [J], "P_I": (68) with c_I = (1, 0) [1/s], "P_II": with c_II = (0, 1)
     [1/s]}, each of shape states.shape[:-1]. Conserved by the conservative rolling equations
     (k_r = k_d = 0); P_I, P_II depend on rho, R only through rho/R.

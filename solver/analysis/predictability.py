@@ -1,23 +1,23 @@
 """Predictability of a shot: basin entropy, uncertainty exponent and make probabilities.
 
-Pure numpy on top of :func:`solver.simulate`; no xarray, no I/O. Outcome codes are any
+Pure numpy on top of ``solver.simulate``; no xarray, no I/O. Outcome codes are any
 integers (``solver.OUTCOME_MEANINGS`` may grow): nothing here assumes four of them.
 
-- :func:`basin_entropy` (Daza, Wagemakers, Georgeot, Guery-Odelin, Sanjuan, Sci. Rep. 6,
+- ``basin_entropy`` (Daza, Wagemakers, Georgeot, Guery-Odelin, Sanjuan, Sci. Rep. 6,
   31416, 2016): split an outcome grid into boxes of ``box`` points per side; the entropy of a
   box is the Shannon entropy (natural log, [nats]) of the fractions of the outcomes in it.
   S_b is its mean over all boxes, S_bb the mean over the boundary boxes (those holding more
   than one outcome). S_b = 0 for a single outcome; S_bb <= ln k with k outcomes. The
   **ln 2 criterion**: S_bb > ln 2 is sufficient (not necessary) for the boundary to be fractal;
   a smooth boundary between two outcomes gives S_bb < ln 2.
-- :func:`uncertainty_fraction` / :func:`perturbation_fraction` (McDonald, Grebogi, Ott, Yorke,
+- ``uncertainty_fraction`` / ``perturbation_fraction`` (McDonald, Grebogi, Ott, Yorke,
   Physica D 17, 125, 1985): the fraction f(eps) of states whose outcome changes when one
-  component k is moved by +-eps * scale[k] (any k with scale[k] > 0); :func:`grid_uncertainty_fraction`
+  component k is moved by +-eps * scale[k] (any k with scale[k] > 0); ``grid_uncertainty_fraction``
   reads the same from an outcome grid at eps = whole grid steps. f(eps) ~ eps^alpha:
-  :func:`uncertainty_exponent` fits alpha; the boundary's box dimension is D = d - alpha in a
+  ``uncertainty_exponent`` fits alpha; the boundary's box dimension is D = d - alpha in a
   d-dimensional section (alpha = 1 for a smooth boundary, alpha < 1 for a fractal one).
-- :func:`make_probability`: the Monte Carlo probability of each outcome when the arriving
-  state is normal around a nominal one, with Wilson confidence intervals (:func:`wilson_interval`).
+- ``make_probability``: the Monte Carlo probability of each outcome when the arriving
+  state is normal around a nominal one, with Wilson confidence intervals (``wilson_interval``).
 """
 
 from __future__ import annotations
@@ -99,7 +99,7 @@ def basin_entropy(codes, box: int = 5) -> BasinEntropy:
     -------
     BasinEntropy(S_b, S_bb, n_boxes, n_boundary_boxes): S_b the mean box entropy over all
     boxes, S_bb the mean over boxes that hold more than one outcome (NaN if none). S_bb > ln 2
-    (:data:`LN2`) is sufficient for a fractal boundary.
+    (``LN2``) is sufficient for a fractal boundary.
     """
     a = _as_codes(codes)
     box = _check_box(box, a.shape)
@@ -202,12 +202,12 @@ def uncertainty_fraction(states, params: Params, eps, scale, *, reference=None, 
 
     ``states`` (..., 4) are (beta [rad], omega1, omega2, omega3 [1/s]); component k is moved by
     +-eps * scale[k] (``scale`` in rad, 1/s, 1/s, 1/s; 0 leaves it alone), one component at a
-    time, and each copy is run with :func:`solver.simulate` (``t_max`` [s], ``rtol``, ``atol``,
+    time, and each copy is run with ``solver.simulate`` (``t_max`` [s], ``rtol``, ``atol``,
     ``method``, ``workers`` and any other keyword, ``engine``, as there). For an outcome section use
     the grid steps as ``scale``:
     then eps counts grid steps, and whole eps can be read from the grid itself
-    (:func:`grid_uncertainty_fraction`). ``reference``: the states' outcomes, when known.
-    See :func:`perturbation_fraction` for the returned :class:`Fraction`.
+    (``grid_uncertainty_fraction``). ``reference``: the states' outcomes, when known.
+    See ``perturbation_fraction`` for the returned ``Fraction``.
     """
     from rimroll.solver.engine.simulate import simulate
 
@@ -222,7 +222,7 @@ def grid_uncertain(codes, m: int, axes=None) -> np.ndarray:
     """Bool grid: the point's code differs from the code m grid steps away along some axis.
 
     Both neighbours (+m, -m) along every axis in ``axes`` (default: all) are compared; at the
-    edges only the neighbour inside the grid. This is :func:`perturbation_fraction`'s
+    edges only the neighbour inside the grid. This is ``perturbation_fraction``'s
     definition with eps = m and ``scale`` = the grid steps, read from the grid without simulation.
     """
     a = _as_codes(codes)
@@ -246,7 +246,7 @@ def grid_uncertain(codes, m: int, axes=None) -> np.ndarray:
 def grid_uncertainty_fraction(codes, steps, axes=None) -> Fraction:
     """f(eps) at eps = whole grid steps ``steps`` (ints >= 1), read from an outcome grid.
 
-    Every grid point is tested (:func:`grid_uncertain`); returns a :class:`Fraction`.
+    Every grid point is tested (``grid_uncertain``); returns a ``Fraction``.
     """
     a = _as_codes(codes)
     ms = [int(k) for k in np.atleast_1d(steps)]
@@ -262,18 +262,18 @@ def section_uncertainty(states, codes, params: Params, eps, scale, *, n_sample: 
     ``states`` (n_0, n_1, ..., 4) is the grid of rolling initial states whose outcomes are
     ``codes`` (n_0, n_1, ...); ``scale`` (4,) the grid steps (rad, 1/s, 1/s, 1/s; 0 for a
     component that is not an axis of the grid), so that eps counts grid steps. Each eps >= 1
-    must be a whole number: those are read from the grid (:func:`grid_uncertain`, every
-    point). Each eps < 1 is simulated (:func:`uncertainty_fraction`'s definition) on a
+    must be a whole number: those are read from the grid (``grid_uncertain``, every
+    point). Each eps < 1 is simulated (``uncertainty_fraction``'s definition) on a
     stratified sample: every point that is uncertain at one grid step, plus ``n_sample``
     points drawn at random (``seed``) from the others, each standing for N_rest / n_sample
     points. A boundary that is smooth on the grid's scale has no uncertain point in the
     second stratum; a fractal one does, and that is how it is seen. ``simulate_kw`` (t_max [s],
-    rtol, atol, method, workers, ...) go to :func:`uncertainty_fraction` and on to ``simulate``.
+    rtol, atol, method, workers, ...) go to ``uncertainty_fraction`` and on to ``simulate``.
 
     Returns
     -------
     (uncertain, weight): bool (len(eps), n_0, n_1, ...) and float (n_0, n_1, ...) [1]: the
-    sampling weight of each point for eps < 1 (0: not simulated). :func:`sampled_fraction`
+    sampling weight of each point for eps < 1 (0: not simulated). ``sampled_fraction``
     turns them into f(eps) and its standard error.
     """
     x = np.asarray(states, dtype=float)
@@ -336,11 +336,11 @@ def refined_uncertain(fine_codes, k: int, eps) -> np.ndarray:
     """Which points of a grid are eps-uncertain, read from its outcome grid refined k times.
 
     ``fine_codes`` ((n_0 - 1) k + 1, (n_1 - 1) k + 1, ...): the outcomes on the grid refined k times
-    along every axis (:func:`refined_axis`), the grid's own points at every k-th index; ``eps`` in
+    along every axis (``refined_axis``), the grid's own points at every k-th index; ``eps`` in
     grid steps, each a multiple of 1/k. Returns bool (len(eps), n_0, n_1, ...): the point's outcome
     differs from the one eps grid steps away along some axis (both sides; at the grid's edges the
-    side inside only). This is :func:`grid_uncertain` at eps * k fine steps, taken at the grid's
-    points: the perturbed states of :func:`perturbation_fraction` with ``scale`` = the grid steps
+    side inside only). This is ``grid_uncertain`` at eps * k fine steps, taken at the grid's
+    points: the perturbed states of ``perturbation_fraction`` with ``scale`` = the grid steps
     are points of the fine grid, so every pair comes from the fine map, none is simulated here.
     """
     k = _check_k(k)
@@ -476,7 +476,7 @@ def wilson_interval(k, n, confidence: float = 0.95):
 
 
 def noise_draws(n_samples: int, seed) -> np.ndarray:
-    """The (n_samples, 4) standard normal draws of :func:`make_probability` for this seed."""
+    """The (n_samples, 4) standard normal draws of ``make_probability`` for this seed."""
     return np.random.default_rng(seed).standard_normal((n_samples, 4))
 
 
@@ -486,8 +486,8 @@ def make_probability(states, params: Params, sigma, n_samples: int = 64, seed=0,
 
     Each nominal rolling state x (beta [rad], omega1, omega2, omega3 [1/s]) is replaced by
     ``n_samples`` states x + sigma * z_i, z_i standard normal in 4-D, each run with
-    :func:`solver.simulate`. The draws z_i are the **same for every nominal state** (common
-    random numbers, :func:`noise_draws` of ``seed``): neighbouring states see the same noise,
+    ``solver.simulate``. The draws z_i are the **same for every nominal state** (common
+    random numbers, ``noise_draws`` of ``seed``): neighbouring states see the same noise,
     so a map of the probability is smooth and the result is reproducible.
 
     Parameters
@@ -503,7 +503,7 @@ def make_probability(states, params: Params, sigma, n_samples: int = 64, seed=0,
     seed : int or numpy SeedSequence
         Seed of the draws.
     **simulate_kw :
-        t_max [s], rtol, atol, method, workers, ...: as :func:`solver.simulate` (its defaults).
+        t_max [s], rtol, atol, method, workers, ...: as ``solver.simulate`` (its defaults).
     confidence : float
         Confidence level of the Wilson intervals.
     block : int

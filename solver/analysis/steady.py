@@ -6,7 +6,7 @@ module adds what limits them: stability bands, the friction they need, falling, 
 and the realisable regions A/B/C of Fig. 8.
 
 Every function broadcasts over numpy arrays of beta0 [rad] and omega30 [1/s] and takes a
-:class:`Params` (TypeError naming ``p`` otherwise). Points on the singular lines cos(beta0) = 0 or
+``Params`` (TypeError naming ``p`` otherwise). Points on the singular lines cos(beta0) = 0 or
 omega30 = 0 give inf/NaN, never an exception, and so does a NaN or inf beta0 or omega30 (NaN in,
 NaN out; a condition [bool] is False there and the region REGION_NONE, as a comparison with NaN
 is). The scalar arguments are checked: ``mu`` (a number >= 0, inf allowed) and ``v_throw`` (a
@@ -147,7 +147,7 @@ def realisable(beta0, omega30, p: Params, v_throw: float, mu: float | None = Non
 
 def realisable_region(beta0, omega30, p: Params, v_throw: float, mu: float | None = None):
     """Region code (int8) of each steady motion at beta0 [rad], omega30 [1/s]: REGION_A/B/C where it is
-    realisable at the throw speed v_throw [m/s] and friction coefficient mu [-] (:func:`realisable`),
+    realisable at the throw speed v_throw [m/s] and friction coefficient mu [-] (``realisable``),
     REGION_NONE elsewhere (and where beta0 or omega30 is NaN). Shape broadcast(beta0, omega30)."""
     beta0, omega30 = np.broadcast_arrays(np.asarray(beta0, float), np.asarray(omega30, float))
     ok = realisable(beta0, omega30, p, v_throw, mu)
@@ -160,7 +160,7 @@ def minimal_throw_speed(region: int, p: Params, mu: float | None = None, n: int 
     The minimum of (59) over the stable, non-slipping steady motions of the region, found on a
     grid of n x n points and refined twice on grids zoomed around the best point. inf if the
     region holds no stable, non-slipping motion. region: REGION_A, REGION_B or REGION_C; mu [-]
-    as in :func:`rolls_without_slipping`; n: an integer >= 3.
+    as in ``rolls_without_slipping``; n: an integer >= 3.
     """
     check_params(p)
     if (isinstance(region, bool) or not isinstance(region, (int, np.integer))

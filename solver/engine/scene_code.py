@@ -1,6 +1,6 @@
 """The kernels of scenes whose terms add a load, generated as small modules in the kernel cache.
 
-A scene without load terms runs one of the four scene kernels of ``solver.engine.kernels``. A scene
+A scene without load terms runs one of the two scene kernels of ``solver.engine.kernels``. A scene
 with load terms (``solver.engine.scenes``: air drag, a toy damping, ...) gets a module of its own,
 written into the kernel cache (``solver._jit.cache_dir()/scenes``) and imported: it imports the
 terms' load functions, sums them into the scene's ``load`` and defines the scene's kernel, which

@@ -1,7 +1,7 @@
 """Kinematics of the ball on the rim: angle rates (19)-(20), centre position (12), velocity (13).
 
 All functions take scalars (compiled) or broadcasting numpy arrays (``vectorised``), and a
-flat parameter vector ``p`` from :meth:`solver.Params.as_array`. Angles in rad, angular
+flat parameter vector ``p`` from ``solver.Params.as_array``. Angles in rad, angular
 velocities in 1/s, lengths in m, speeds in m/s.
 """
 

@@ -1,7 +1,7 @@
 """Physical parameters of the ball-rim system (paper Table 1) and their validation.
 
-A :class:`Params` is an immutable value. Compiled kernels do not take the object; they
-take the flat ``float64`` vector returned by :meth:`Params.as_array`, indexed by the
+A ``Params`` is an immutable value. Compiled kernels do not take the object; they
+take the flat ``float64`` vector returned by ``Params.as_array``, indexed by the
 ``P_*`` constants of this module.
 """
 
@@ -73,7 +73,7 @@ def _number(x: float) -> str:
 @dataclasses.dataclass(frozen=True)
 class Quantity:
     """One physical parameter, declared once: CF units, long_name (of a coordinate, when a study
-    sweeps it), a one-line doc (``study info``) and its allowed :class:`Range`."""
+    sweeps it), a one-line doc (``study info``) and its allowed ``Range``."""
 
     name: str
     units: str
@@ -117,7 +117,7 @@ QUANTITIES = {q.name: q for q in (
                                 "the rim's major radius (R and a fixed, r = rho - a)",
              Range(0.0, 1.0, low_open=True, high_open=True), "rho/R with R and a fixed (r = rho - a)"),
 )}
-"""The physical parameters: the fields of :class:`Params`, then ``rho_over_R``. ``Params``
+"""The physical parameters: the fields of ``Params``, then ``rho_over_R``. ``Params``
 validates with these ranges; the study layer's setting table takes their units, names and ranges
 from here."""
 
@@ -127,7 +127,7 @@ LONG_NAMES = {name: q.long_name for name, q in QUANTITIES.items()}
 
 def check(name: str, value) -> None:
     """ValueError naming the parameter, the value and the allowed range when ``value`` is outside
-    the range of :data:`QUANTITIES`."""
+    the range of ``QUANTITIES``."""
     rule = QUANTITIES[name].range
     if not rule.contains(value):
         raise ValueError(f"parameter {name}={value!r} is out of range: allowed {rule.describe(name)}")
@@ -136,7 +136,7 @@ def check(name: str, value) -> None:
 @dataclasses.dataclass(frozen=True)
 class Params:
     """Parameters of the ball and the rim, SI units (defaults: paper Table 1); the units, names and
-    allowed ranges of the fields are declared in :data:`QUANTITIES`.
+    allowed ranges of the fields are declared in ``QUANTITIES``.
 
     Attributes
     ----------
@@ -148,7 +148,7 @@ class Params:
     mu : Coulomb friction coefficient [-]; ``inf`` means the ball never slips
     g : gravitational acceleration [m/s^2]
     k_r : rolling-resistance rate C_r/(j m R^2) of (83) [1/s]: the rate of omega1 and omega3 in the
-        rolling equations (83) as printed (rimroll's reading; :func:`moment_normalised` gives the
+        rolling equations (83) as printed (rimroll's reading; ``moment_normalised`` gives the
         alternative one)
     k_d : drilling-resistance rate C_d/(j m R^2) of (83) [1/s]: the rate of omega2 in (83)
     c_r : Coulomb rolling-resistance arm [m]: the moment -c_r F2 omega_t/|omega_t| against the
@@ -221,7 +221,7 @@ class Params:
         return dataclasses.replace(self, **changes)
 
     def as_dict(self) -> dict[str, float]:
-        """The defining values (:data:`FIELDS`), keyed by name."""
+        """The defining values (``FIELDS``), keyed by name."""
         return dataclasses.asdict(self)
 
     def as_array(self) -> np.ndarray:
@@ -263,7 +263,7 @@ class Params:
 
 
 FIELDS = tuple(f.name for f in dataclasses.fields(Params))
-"""The defining values of :class:`Params`, in order."""
+"""The defining values of ``Params``, in order."""
 DISSIPATION_KEYS = ("k_r", "k_d", "c_r", "c_d", "rho_air")
 """The parameters that switch on a dissipative term (0: off): a conservative run has them all 0."""
 TERM_KEYS = (*DISSIPATION_KEYS, "C_D")

@@ -125,7 +125,7 @@ def friction_margin(beta, omega1, omega2, omega3, p, load=None):
 
 @kernel
 def contact_forces_rate(beta, omega1, omega2, omega3, beta_dot, omega1_dot, omega2_dot, omega3_dot, p):
-    """Time derivative of the contact force (F1, F2, F3) of a rolling ball (:func:`contact_forces`,
+    """Time derivative of the contact force (F1, F2, F3) of a rolling ball (``contact_forces``,
     without an external load) along the rates given [N/s]."""
     r = p[P_R_BALL]
     rho = p[P_RHO]

@@ -92,11 +92,11 @@ def slipping_rhs(beta, omega1, omega2, omega3, u1, u3, p, load=None):
 def slipping_jacobian(beta, omega1, omega2, omega3, u1, u3, p, J):
     """Jacobian of the slipping equations (42) (no external load) into J[:7, :7].
 
-    Rows: the rates of (beta, omega1, omega2, omega3, u1, u3) of :func:`slipping_rhs` and alpha_dot
+    Rows: the rates of (beta, omega1, omega2, omega3, u1, u3) of ``slipping_rhs`` and alpha_dot
     of (19); columns: the derivatives by (beta [rad], omega1, omega2, omega3 [1/s], u1, u3 [m/s],
     alpha [rad]) (the last column is zero: nothing depends on alpha). Forward differentiation by
     hand: column k is the derivative along the unit vector e_k, each line the derivative of the
-    line of the same name in :func:`free_rates` and :func:`slipping_rhs`. Units: those of the rate
+    line of the same name in ``free_rates`` and ``slipping_rhs``. Units: those of the rate
     over those of the variable. Its entries in u grow as 1/|u| (the slip angle relaxes at
     |B|/|u|), which is what makes (42) stiff for small slips: an implicit or linearly implicit
     (Rosenbrock) step of a slip phase solves with this matrix.

@@ -4,7 +4,7 @@ A non-trivial steady motion (47) is fixed by the height angle beta0 [rad] and th
 angular velocity omega30 [1/s]; (48) gives the orthogonal angular velocity omega20 [1/s] it
 needs, and h (54) [1/s^2] the squared non-zero eigenvalues of the rolling equations linearised
 about it. Every function broadcasts over numpy arrays of beta0 and omega30 and takes a
-:class:`Params` (TypeError naming ``p`` otherwise). Points on the singular lines cos(beta0) = 0 or
+``Params`` (TypeError naming ``p`` otherwise). Points on the singular lines cos(beta0) = 0 or
 omega30 = 0 give inf/NaN, never an exception, and so do NaN or inf in beta0 or omega30 (NaN in,
 NaN out: a map keeps its shape). Their limits (slipping, falling, the energy of a throw) are
 ``solver.analysis.steady``.
@@ -47,7 +47,7 @@ def steady_state(beta0, omega30, p: Params):
     array_likes that broadcast; omega20 from (48). Returns an array of shape
     broadcast(beta0, omega30) + (4,). A NaN (inf) beta0 or omega30, a scalar included, gives NaN
     (inf or NaN) entries in its state, no exception; so do the singular lines cos(beta0) = 0 and
-    omega30 = 0 (omega20 infinite). TypeError unless ``p`` is a :class:`Params`.
+    omega30 = 0 (omega20 infinite). TypeError unless ``p`` is a ``Params``.
     """
     check_params(p)
     beta0, omega30 = np.broadcast_arrays(np.asarray(beta0, float), np.asarray(omega30, float))

@@ -3,8 +3,8 @@
 * Notices (a kernel's first compile, the plan of a long run, the time left, the dashboard of a
   cluster) are ``logging`` records at INFO under the logger ``"rimroll"`` (``rimroll.solver...``,
   ``rimroll.study...``). ``logging.getLogger("rimroll").setLevel(logging.WARNING)`` silences them.
-* A result with lanes whose integration did not finish ok is a :class:`LaneStatusWarning`
-  (a :class:`RimrollWarning`): ``warnings.filterwarnings("ignore", category=rimroll.LaneStatusWarning)``
+* A result with lanes whose integration did not finish ok is a ``LaneStatusWarning``
+  (a ``RimrollWarning``): ``warnings.filterwarnings("ignore", category=rimroll.LaneStatusWarning)``
   silences it, ``"error"`` turns it into an exception.
 
 Until the application configures logging (a handler on the root logger), rimroll's records go to
