@@ -7,6 +7,7 @@ numpy arrays in, numpy arrays out; no xarray, no dask, no I/O. Three subpackages
   kinematics, free flight, the rolling <-> slipping maps;
 * ``engine``: the integration of whole grids of initial states into outcomes (methods, stepper,
   events, rules, scene kernels, ``simulate``, backends); imports physics only;
+* ``shots``: a shot from the release through flight, rim and board impacts and capture onto the rim;
 * ``analysis``: steady motions, Floquet analysis, conserved quantities, reduced dynamics,
   solution types, boundaries, predictability, traces and the scipy reference.
 
@@ -19,6 +20,7 @@ import importlib
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # the public names for type checkers and the API reference; at run time each loads on first use
+    from rimroll.solver import shots
     from rimroll.solver.analysis import floquet, predictability, steady
     from rimroll.solver.analysis.invariants import invariants
     from rimroll.solver.engine.outcomes import OUTCOME_MEANINGS, STATUS_MEANINGS
@@ -44,7 +46,7 @@ _PUBLIC = {
 # literal, so that tools that read the source without importing it (mkdocstrings) see the public names;
 # tests/test_docs_blocks.py checks that it names exactly the keys of _PUBLIC
 __all__ = ["OUTCOME_MEANINGS", "Params", "STATUS_MEANINGS", "floquet", "invariants", "kinematics", "predictability",
-           "rolling", "simulate", "slipping", "steady"]
+           "rolling", "shots", "simulate", "slipping", "steady"]
 
 
 def __getattr__(name: str):

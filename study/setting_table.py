@@ -156,7 +156,7 @@ _ENTRIES = (
     # ~1 min at 1000 over 20 s (one core), hours beyond; the paper's states have |omega1| <= 20 1/s
     S("d_omega1", "s-1", "perturbation of omega1 off the steady motion (|d_omega1| <= 100 1/s: far beyond the "
       "paper's |omega1| <= 20 1/s; the integration's steps grow with it)",
-      Range(-100.0, 100.0, text="a number in [-100, 100] [1/s]")),
+      Range(-100.0, 100.0, text="a number from -100 to 100 (1/s)")),
     # ---- scenes
     S("mu_slip", "1", "friction coefficient of the slipping scenes", FRICTION),
     S("k_dissipation", "s-1", "rate k_d / k_r of the drilling / rolling-resistance scene", NONNEGATIVE),

@@ -57,6 +57,8 @@ PAGES = {
     "how-to/benchmark.md": Page(slow=True),
     "explanation/dissipation-models.md": Page(slow=True),
     "explanation/predictability.md": Page(slow=True),
+    "shot-api.md": Page(),
+    "shots.md": Page(slow=True),  # shot maps and traces; a capture compiles the rim engine's hybrid scene
 }
 
 
