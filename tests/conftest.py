@@ -9,6 +9,7 @@ import sys
 
 import pytest
 
+ROOT = pathlib.Path(__file__).resolve().parent.parent
 STEADY_STUDIES = ("fig3", "fig5", "fig6", "fig7", "fig8")
 
 
@@ -37,3 +38,21 @@ def probe_study(monkeypatch):
     yield registry.get("fanout-probe")
     registry._REGISTRY.pop("fanout-probe", None)
     sys.modules.pop("rimroll_plugin_" + re.sub(r"\W", "_", os.path.abspath(PROBE)), None)
+
+
+def user_shell(tmp_path: pathlib.Path, links=()) -> tuple[pathlib.Path, dict]:
+    """An empty working directory ``tmp_path/work`` and the environment of a user's shell in it: ``study`` on
+    PATH (this checkout's, through the running Python), the Agg plotting backend, and the checkout's folders
+    ``links`` (e.g. ``"tests"``, ``"docs"``) linked into it for the scripts a page runs."""
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    shim = bin_dir / "study"
+    shim.write_text(f'#!/bin/sh\nexec "{sys.executable}" -m rimroll.study "$@"\n')
+    shim.chmod(0o755)
+    work = tmp_path / "work"
+    work.mkdir()
+    for folder in links:
+        (work / folder).symlink_to(ROOT / folder)
+    env = dict(os.environ, PATH=f"{bin_dir}{os.pathsep}{os.path.dirname(sys.executable)}{os.pathsep}"
+               f"{os.environ['PATH']}", MPLBACKEND="Agg")
+    return work, env

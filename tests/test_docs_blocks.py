@@ -12,13 +12,13 @@ from __future__ import annotations
 
 import ast
 import dataclasses
-import os
+import logging
 import pathlib
 import re
 import subprocess
-import sys
 
 import pytest
+from conftest import user_shell
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 DOCS = ROOT / "docs"
@@ -103,17 +103,7 @@ def test_the_solver_names_its_public_api_literally():
 
 def _run_page(name: str, tmp_path: pathlib.Path, monkeypatch) -> dict:
     page = PAGES[name]
-    bin_dir = tmp_path / "bin"
-    bin_dir.mkdir()
-    shim = bin_dir / "study"
-    shim.write_text(f'#!/bin/sh\nexec "{sys.executable}" -m rimroll.study "$@"\n')
-    shim.chmod(0o755)
-    work = tmp_path / "work"
-    work.mkdir()
-    for folder in ("tests", "benchmarks", "docs"):  # the scripts a how-to runs from a checkout
-        (work / folder).symlink_to(ROOT / folder)
-    env = dict(os.environ, PATH=f"{bin_dir}{os.pathsep}{os.path.dirname(sys.executable)}{os.pathsep}"
-               f"{os.environ['PATH']}", MPLBACKEND="Agg")
+    work, env = user_shell(tmp_path, links=("tests", "benchmarks", "docs"))  # the scripts a how-to runs
     monkeypatch.chdir(work)
     monkeypatch.setenv("MPLBACKEND", "Agg")
 
@@ -125,15 +115,20 @@ def _run_page(name: str, tmp_path: pathlib.Path, monkeypatch) -> dict:
     if page.setup:
         bash(page.setup)
     namespace: dict = {}
-    if page.prelude:
-        exec(compile(page.prelude, "prelude", "exec"), namespace)
-    for lang, text, reason in page_blocks(name):
-        if reason is not None:
-            continue
-        if lang == "bash":
-            bash(text)
-        else:
-            exec(compile(text, name, "exec"), namespace)
+    rimroll_logger = logging.getLogger("rimroll")
+    level = rimroll_logger.level  # a page may silence rimroll's notices, as a user would: for this page only
+    try:
+        if page.prelude:
+            exec(compile(page.prelude, "prelude", "exec"), namespace)
+        for lang, text, reason in page_blocks(name):
+            if reason is not None:
+                continue
+            if lang == "bash":
+                bash(text)
+            else:
+                exec(compile(text, name, "exec"), namespace)
+    finally:
+        rimroll_logger.setLevel(level)
     return namespace
 
 

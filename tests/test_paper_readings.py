@@ -1,5 +1,5 @@
-"""The README's "Where rimroll reads the paper", checked: the split of Prop. 6 at m g rho, the
-alternative normalisation of the dissipation (83) and Sect. 5.3 under both readings, and the
+"""The page "Where rimroll reads the paper" (docs/explanation/paper-readings.md), checked: the split
+of Prop. 6 at m g rho, the alternative normalisation of the dissipation (83) and Sect. 5.3 under both readings, and the
 throw that the steady motion of Fig. 13 needs."""
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from rimroll.solver.analysis import steady, trajectory
 from rimroll.solver.physics import rolling
 from rimroll.solver.physics.params import moment_normalised
 
-README = (pathlib.Path(__file__).resolve().parent.parent / "README.md").read_text()
+PAGE = (pathlib.Path(__file__).resolve().parent.parent / "docs" / "explanation" / "paper-readings.md").read_text()
 P_ROLL = solver.Params(mu=float("inf"))
 
 
@@ -47,7 +47,7 @@ def test_moment_normalisation_rates_and_power():
     assert (p.k_r, p.k_d) == (0.02, 0.02)  # the default reading is unchanged
     assert q.k_r == pytest.approx(0.02 * (2 / 3) * 0.225**2 / ((5 / 3) * 0.12**2), rel=1e-14)
     assert q.k_d == pytest.approx(0.02 * 0.225**2 / 0.12**2, rel=1e-14)
-    assert f"{q.k_r:.4f} 1/s" in README and f"{q.k_d:.4f} 1/s" in README
+    assert f"{q.k_r:.4f} 1/s" in PAGE and f"{q.k_d:.4f} 1/s" in PAGE
     # the power of the contact moment is that of (82) with C_r = C_d = 0.02 j m R^2
     w = np.array([3.0, -40.0, 12.0])
     c = 0.02 * p.j * p.m * p.R**2
@@ -85,12 +85,12 @@ def test_section_53_conclusions_hold_under_both_readings_on_a_coarse_grid():
 def test_readme_table_is_what_the_check_computes_on_the_default_grids():
     counted = all_counts(240, 360)
     for row in table(counted):
-        assert row in README, row
+        assert row in PAGE, row
     _conclusions_hold(counted, {("Fig. 11", "rolling_only"): 0.99, ("Fig. 11", "slipping"): 0.99,
                                 ("Fig. 12", "rolling_only"): 0.8, ("Fig. 12", "slipping"): 1.0})
     in12 = [counted["Fig. 12"]["rolling_only", "rolling_resistance", r] for r in READINGS]
     shares = [f"{round(100 * n_in / (n_in + n_out))} %" for n_in, n_out, _ in in12]
-    text = " ".join(README.split())
+    text = " ".join(PAGE.split())
     assert f"rolling-only island of Fig. 12, {shares[0]} fall in with rimroll's rate and {shares[1]}" in text
 
 
@@ -104,7 +104,7 @@ def test_fig13_steady_motion_needs_a_throw_of_10_40_and_lies_outside_region_a_at
     beta0 = _steady_of_figure(105.0, p)
     v = float(steady.throw_speed(beta0, 10.0, p))
     assert f"{beta0:.4f}" == "1.3740" and f"{v:.2f}" == "10.40"
-    assert f"beta0 = {beta0:.4f} rad" in README and f"throw of {v:.2f} m/s" in README
+    assert f"beta0 = {beta0:.4f} rad" in PAGE and f"throw of {v:.2f} m/s" in PAGE
     assert steady.stability(beta0, 10.0, p) < 0 and steady.rolls_without_slipping(beta0, 10.0, p)
     assert steady.realisable_region(beta0, 10.0, p, v_throw=10.0) == steady.REGION_NONE
     assert steady.realisable_region(beta0, 10.0, p, v_throw=v + 1e-9) == steady.REGION_A
@@ -120,5 +120,5 @@ def test_readme_comment_lines_are_what_the_block_prints():
         region = int(steady.realisable_region(beta0, 10.0, p, v_throw=10.0))
         line = (f"# omega20 = {omega20:g}: beta0 = {beta0:.4f} rad, throw {v:.2f} m/s, stable True, rolls True, "
                 f"region {region}")
-        assert line in README, line
-    assert re.search(r"^\| Fig\. 13 \| slipping \|", README, re.M)
+        assert line in PAGE, line
+    assert re.search(r"^\| Fig\. 13 \| slipping \|", PAGE, re.M)

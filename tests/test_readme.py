@@ -3,13 +3,12 @@ explanation "Where rimroll reads the paper" run and print what they say."""
 
 from __future__ import annotations
 
-import os
 import pathlib
 import re
 import subprocess
-import sys
 
 import numpy as np
+from conftest import user_shell
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 README = (ROOT / "README.md").read_text()
@@ -63,15 +62,7 @@ def test_your_first_hour_runs_as_written(tmp_path, monkeypatch):
     ``study`` on PATH (this checkout), Python in one namespace, as a user pasting them would."""
     code = blocks(FIRST_HOUR.read_text())
     assert [lang for lang, _ in code].count("python") >= 4 and [lang for lang, _ in code].count("bash") >= 3
-    bin_dir = tmp_path / "bin"
-    bin_dir.mkdir()
-    shim = bin_dir / "study"
-    shim.write_text(f'#!/bin/sh\nexec "{sys.executable}" -m rimroll.study "$@"\n')
-    shim.chmod(0o755)
-    work = tmp_path / "work"
-    work.mkdir()
-    env = dict(os.environ, PATH=f"{bin_dir}{os.pathsep}{os.environ['PATH']}",
-               MPLBACKEND="Agg")
+    work, env = user_shell(tmp_path)
     monkeypatch.chdir(work)
     monkeypatch.setenv("MPLBACKEND", "Agg")
     namespace: dict = {}
