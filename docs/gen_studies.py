@@ -6,7 +6,9 @@ what its ``derive`` adds); the settings' units, meaning and allowed values from 
 (``rimroll.study.setting_table``), with each study's defaults.
 
 Run from the repository root after adding or changing a study: ``python docs/gen_studies.py``
-(``tests/test_docs.py`` fails while a study or variable is missing from docs/studies.md).
+(``tests/test_docs.py`` fails while a study or variable is missing from docs/studies.md). It also
+writes ``study/catalogue.json``, the cards ``study list`` and ``study info NAME`` read instead of
+importing the studies (``rimroll.study.catalogue``; tests/test_cli_info.py checks them).
 """
 
 import pathlib
@@ -98,3 +100,6 @@ if __name__ == "__main__":
     out = pathlib.Path(__file__).resolve().parent / "studies.md"
     out.write_text(main())
     print(f"wrote {out}")
+    from rimroll.study import catalogue
+
+    print(f"wrote {catalogue.write(pathlib.Path(__file__).resolve().parent.parent / 'study' / 'catalogue.json')}")

@@ -4,9 +4,10 @@ Only argument parsing and orchestration live here; settings are resolved by ``st
 into a ``study.plan`` and every run goes through ``study.execute``. Every user error is one line
 ``study: error: ...`` on stderr and exit status 2.
 
-``study --help``, ``study list``, ``study info NAME`` and the refusal of a bad argument import
-neither numba, dask nor xarray (tests/test_cli_info.py): what runs, opens or draws a file imports
-them in the function that needs them.
+``study --help``, ``study list``, ``study info NAME``, ``study run NAME --help`` and the refusal of a bad
+argument import neither numba, dask, xarray nor the studies' modules (tests/test_cli_info.py): the
+studies' titles, settings and grids come from the catalogue (``study.catalogue``); what runs, opens or
+draws a file imports them in the function that needs them.
 """
 
 from __future__ import annotations
@@ -153,11 +154,25 @@ class _Version(argparse.Action):
 
 
 def _cmd_list(args) -> int:
-    names = natural_order(registry.names())
+    from rimroll.study import catalogue
+
+    titles = catalogue.titles()  # without importing a studies module (None: one is not in the catalogue)
+    if titles is None:
+        titles = {name: registry.get(name).title for name in registry.names()}
+    names = natural_order(titles)
     width = max(map(len, names), default=0)
     for name in names:
-        print(f"{name:<{width}}  {registry.get(name).title}")
+        print(f"{name:<{width}}  {titles[name]}")
     return 0
+
+
+def _card(name: str) -> dict:
+    """What ``study info NAME`` and ``study run NAME --help`` say about study ``name``: its card in the
+    catalogue (no studies module imported), else made from the study itself."""
+    from rimroll.study import catalogue
+    from rimroll.study.describe import card
+
+    return catalogue.card(name) or card(registry.get(name))
 
 
 def _draw(study, nc: pathlib.Path, select: dict | None = None) -> pathlib.Path | None:
@@ -293,9 +308,9 @@ def _cmd_info(args) -> int:
     target = pathlib.Path(args.file)
     is_file = target.is_file() or target.suffix == ".nc"
     if not is_file and args.file in registry.known_names():
-        from rimroll.study.describe import describe
+        from rimroll.study.describe import render
 
-        print("\n".join(describe(args.file)))
+        print("\n".join(render(_card(args.file))))
         return 0
     if not is_file:
         raise UserError(f"{args.file!r} is neither a results file nor a study; "
@@ -382,14 +397,13 @@ def _study_help(words: list[str]) -> bool:
     names = [w for w in words[1:] if not w.startswith("-")]
     if not names or names[0] not in registry.known_names():
         return False
-    from rimroll.study.describe import settings_lines
-
-    study = registry.get(names[0])
+    study = _card(names[0])
+    name = study["name"]
     run = _parser().get_default("run_parser")
-    print(run.format_help().replace("study run [-h]", f"study run {study.name} [-h]", 1).rstrip())
-    print(f"\nsettings of {study.name} ({study.title}); default, --quick value, units (--set KEY=VALUE):")
-    print("\n".join(settings_lines(study)))
-    print(f"\nsweepable: {', '.join(study.sweepable) or 'none'}; `study info {study.name}` adds the grid and run time")
+    print(run.format_help().replace("study run [-h]", f"study run {name} [-h]", 1).rstrip())
+    print(f"\nsettings of {name} ({study['title']}); default, --quick value, units (--set KEY=VALUE):")
+    print("\n".join(study["settings"]))
+    print(f"\nsweepable: {', '.join(study['sweepable']) or 'none'}; `study info {name}` adds the grid and run time")
     return True
 
 

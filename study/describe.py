@@ -81,39 +81,68 @@ def estimate(study: Study, points: int, workers: int, quick: bool = False) -> st
     """Rough run time for ``points`` grid points on ``workers`` busy threads (at most one per
     chunk), from the study's ``cost`` per point, scaled by its ``cost_scale`` setting (plus a few
     seconds of start-up and writing, not counted)."""
-    if study.cost is None:
+    seconds = study.core_seconds(points, {**study.settings, **(study.quick if quick else {})})
+    return estimate_text(seconds, workers, study.compiles)
+
+
+def estimate_text(core_seconds: float | None, workers: int, compiles: bool) -> str:
+    """The run time ``study info`` states for ``core_seconds`` of work on one core (None: the study has
+    no cost model) shared by ``workers`` busy threads; ``compiles``: the first run of an install also
+    compiles the simulation kernels."""
+    if core_seconds is None:
         return "no estimate for this study"
-    seconds = study.core_seconds(points, {**study.settings, **(study.quick if quick else {})}) / max(workers, 1)
+    seconds = core_seconds / max(workers, 1)
     text = f"about {seconds:.0f} s" if seconds >= 1 else "under a second"
-    if study.compiles:
+    if compiles:
         text += (" (the first run of an install also compiles its simulation kernels, once: announced, with the time "
                  "their last compile took on this machine)")
     return text
 
 
-def describe(name: str) -> list[str]:
-    """The lines of ``study info NAME``."""
-    study = registry.get(name)
-    workers = os.cpu_count() or 1
-    lines = [f"{study.name}: {study.title}"]
-    about = summary(study)
-    if about:
-        lines.append(f"  {about}")
-    lines.append("variables: " + ", ".join(f"{v.name} [{v.units}]" for v in study.variables))
-    derived = [(name if isinstance(name, str) else ", ".join(name), units) for name, units, _ in study.derived_docs]
-    if derived:
-        lines.append("derived from the whole grid once it is computed: "
-                     + ", ".join(f"{name} [{units}]" for name, units in derived))
-    lines.append("settings (default, --quick, units; change with --set KEY=VALUE):")
-    lines += settings_lines(study)
-    sweepable = ", ".join(study.sweepable) or "none"
-    lines.append(f"sweepable (--set KEY=a,b,c or KEY=start:stop:num makes an axis): {sweepable}; "
-                 "a grid axis takes a list or range too (new grid values)")
+def card(study: Study) -> dict:
+    """Everything ``study list``, ``study info NAME`` and ``study run NAME --help`` say about ``study``,
+    as plain JSON values: its title and summary, variables, the lines of its settings, what it sweeps,
+    and per grid (default, ``--quick``) the dimensions, points, chunks and the run's seconds on one core
+    (``Study.core_seconds``; None without a cost model). ``study.catalogue`` stores the cards of
+    rimroll's own studies, so that these commands need not import the studies' modules."""
+    grids = []
     for quick in (False, True):
         dims, points, chunks = _grid(study, quick)
-        label = "grid with --quick" if quick else "grid"
-        lines.append(f"{label}: {dims} = {points} points in {chunks} chunks; "
-                     f"run time on {workers} cores: {estimate(study, points, min(workers, chunks), quick)}")
-    lines.append(f"run: study run {study.name} [--quick] [--set KEY=VALUE ...] [--out DIR]; "
-                 "output: <out>/" + study.name + ".nc and .png")
+        seconds = study.core_seconds(points, {**study.settings, **(study.quick if quick else {})})
+        grids.append({"dims": dims, "points": int(points), "chunks": int(chunks),
+                      "core_seconds": None if seconds is None else float(seconds)})
+    derived = [[name if isinstance(name, str) else ", ".join(name), units] for name, units, _ in study.derived_docs]
+    return {"name": study.name, "title": study.title, "summary": summary(study),
+            "variables": [[v.name, v.units] for v in study.variables], "derived": derived,
+            "settings": settings_lines(study), "sweepable": list(study.sweepable), "grids": grids,
+            "compiles": bool(study.compiles)}
+
+
+def describe(name: str) -> list[str]:
+    """The lines of ``study info NAME``."""
+    return render(card(registry.get(name)))
+
+
+def render(card: dict, workers: int | None = None) -> list[str]:
+    """The lines of ``study info NAME`` from the study's ``card``; the run times on ``workers`` cores
+    (default: this machine's)."""
+    workers = workers or os.cpu_count() or 1
+    lines = [f"{card['name']}: {card['title']}"]
+    if card["summary"]:
+        lines.append(f"  {card['summary']}")
+    lines.append("variables: " + ", ".join(f"{name} [{units}]" for name, units in card["variables"]))
+    if card["derived"]:
+        lines.append("derived from the whole grid once it is computed: "
+                     + ", ".join(f"{name} [{units}]" for name, units in card["derived"]))
+    lines.append("settings (default, --quick, units; change with --set KEY=VALUE):")
+    lines += card["settings"]
+    sweepable = ", ".join(card["sweepable"]) or "none"
+    lines.append(f"sweepable (--set KEY=a,b,c or KEY=start:stop:num makes an axis): {sweepable}; "
+                 "a grid axis takes a list or range too (new grid values)")
+    for label, grid in zip(("grid", "grid with --quick"), card["grids"]):
+        time = estimate_text(grid["core_seconds"], min(workers, grid["chunks"]), card["compiles"])
+        lines.append(f"{label}: {grid['dims']} = {grid['points']} points in {grid['chunks']} chunks; "
+                     f"run time on {workers} cores: {time}")
+    lines.append(f"run: study run {card['name']} [--quick] [--set KEY=VALUE ...] [--out DIR]; "
+                 "output: <out>/" + card["name"] + ".nc and .png")
     return lines

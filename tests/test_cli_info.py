@@ -21,6 +21,53 @@ def test_list_is_in_natural_order(capsys):
     assert rest == sorted(rest)
 
 
+def test_list_gives_each_studys_own_title(capsys):
+    assert main(["list"]) == 0
+    rows = [line.split(None, 1) for line in capsys.readouterr().out.splitlines()]
+    assert {name: title for name, title in rows} == {name: registry.get(name).title for name in registry.names()}
+
+
+def test_the_catalogue_holds_what_the_studies_declare():
+    """study/catalogue.json (what list, info NAME and run NAME --help say without importing the studies) is
+    the card each study makes of itself: title, summary, variables, settings, grids, run-time model."""
+    from rimroll.study import catalogue
+
+    stored, built = catalogue.stored(), catalogue.build()
+    stale = sorted(name for name in {*stored, *built} if stored.get(name) != built.get(name))
+    assert not stale, f"study/catalogue.json differs from the studies {stale}: run python docs/gen_studies.py"
+    assert set(built) == set(registry.names())  # every study of rimroll's own has its card
+
+
+def test_info_from_the_catalogue_is_the_studys_own_description(capsys):
+    """study info NAME from the catalogue's card prints what the study's module describes, line for line."""
+    from rimroll.study import catalogue
+    from rimroll.study.describe import describe, render
+
+    for name in ("fig8", "fig11", "outcome-cube", "work-precision"):
+        assert catalogue.card(name) is not None, name
+        assert main(["info", name]) == 0
+        assert capsys.readouterr().out.splitlines() == describe(name) == render(catalogue.card(name)), name
+
+
+def test_a_study_without_a_card_is_described_from_its_module(capsys, monkeypatch):
+    """A missing catalogue, or a card whose entry point now names another module (a study moved since the
+    file was made), is not used: list, info and run --help then read the study itself."""
+    from rimroll.study import catalogue
+
+    assert main(["info", "fig11"]) == 0
+    assert main(["list"]) == 0
+    assert main(["run", "fig11", "--help"]) == 0
+    expected = capsys.readouterr().out
+    moved = {name: {**entry, "module": "elsewhere"} for name, entry in catalogue.stored().items()}
+    for cards in ({}, moved):
+        monkeypatch.setattr(catalogue, "stored", lambda cards=cards: cards)
+        assert catalogue.card("fig11") is None and catalogue.titles() is None
+        assert main(["info", "fig11"]) == 0
+        assert main(["list"]) == 0
+        assert main(["run", "fig11", "--help"]) == 0
+        assert capsys.readouterr().out == expected
+
+
 def test_natural_order_compares_numbers_as_numbers():
     assert natural_order(["fig11", "b", "fig9", "a", "fig10"]) == ["fig9", "fig10", "fig11", "a", "b"]
 
@@ -112,6 +159,10 @@ _LOADED = ("import sys\n"
 @pytest.mark.parametrize("argv, status", [
     (["--help"], 0),
     (["run", "--help"], 0),
+    (["list"], 0),  # the studies' titles, settings and grids: from the catalogue (study/catalogue.json)
+    (["info", "fig8"], 0),
+    (["info", "fig11"], 0),
+    (["run", "fig11", "--help"], 0),
     (["run", "fig1l"], 2),  # a misspelt study name
     (["info", "fig1l"], 2),
     (["plot", "fig1l"], 2),
@@ -119,8 +170,9 @@ _LOADED = ("import sys\n"
     (["trace", "--state", "-1.57,0,0,0"], 2),
 ])
 def test_help_and_refusals_answer_without_the_numerical_libraries(argv, status):
-    """`study --help` and the refusal of a misspelt name import neither numba, dask, xarray nor the studies'
-    modules (a fresh process: what the command itself imports): they answer in a fraction of a second."""
+    """`study --help`, `study list`, `study info NAME`, `study run NAME --help` and the refusal of a misspelt
+    name import neither numba, dask, xarray nor the studies' modules (a fresh process: what the command itself
+    imports): they answer in a fraction of a second."""
     import subprocess
     import sys
 
