@@ -45,9 +45,9 @@ RELEASE_SETTINGS["backspin"] = (0.0, round(2 * math.pi * 3, 4), round(2 * math.p
 RELEASE_SETTINGS["sidespin"] = (0.0, round(2 * math.pi * 2, 4))  # [1/s] 0, 2 Hz
 del RELEASE_SETTINGS["azimuth"]  # an axis of the grid
 CONTACT_SETTINGS = dict(shots.Contact()._asdict())
-GRID = {"dv_min": -0.35, "dv_max": 0.35, "n_dv": 71,  # [m/s] about the speed through the hoop's centre
+GRID = {"dv_min": -0.35, "dv_max": 0.35, "n_dv": 36,  # [m/s] about the speed through the hoop's centre
         "angle_min": 40.0, "angle_max": 64.0, "n_angle": 25,  # [degree]
-        "azimuth_max": 2.5, "n_azimuth": 21}  # [degree], symmetric: the sideways aim
+        "azimuth_max": 2.5, "n_azimuth": 11}  # [degree], symmetric: the sideways aim
 SETTINGS = {**GRID, **RELEASE_SETTINGS, **CONTACT_SETTINGS, "v_throw": 10.0,
             "geometry": "paper", "t_max_shot": 5.0, "max_impacts": 100}
 QUICK = {"n_dv": 11, "n_angle": 7, "n_azimuth": 5}
