@@ -56,7 +56,8 @@ EVERY_POINT = {"shot"}  # maps of many small regions (a shot's outcomes), rebuil
 # omega1 over 5 s at --quick); the cubes' outcomes as OUTCOME_TOLERANCES (dp5 at rtol 1e-6 against
 # DOP853 at 1e-12: observed t_end <= 6.3e-7 s, revolutions <= 3.4e-7)
 STUDY_TOLERANCES = {"outcome-cube": OUTCOME_TOLERANCES}
-SLOW = {("work-precision", "default"), ("work-precision", "quick")}  # 30 s and 17 s of timed runs, on 2 cores
+SLOW = {("work-precision", "default"), ("work-precision", "quick"),  # 30 s and 17 s of timed runs, on 2 cores
+        ("shot-sensitivity", "default")}  # 12 cases x 4000 noisy shots, a drag case among them: minutes
 SLICES = [pytest.param(name, grid, marks=pytest.mark.slow) if (name, grid) in SLOW else (name, grid)
           for name in reference.specs() for grid in reference.GRIDS]
 
