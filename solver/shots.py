@@ -87,11 +87,14 @@ OUTCOME_MEANINGS = ("swish", "make_rim", "make_board", "make_roll", "airball", "
 ring), misses (no contact; short/long/left/right of the hoop where the centre passes z = -rho; miss_board:
 only the board was touched), unfinished (a budget ended the shot, see ``status``)."""
 
-STATUS_MEANINGS = ("ok", "impact_budget", "time_budget", "on_rim", "engine_landing")
+STATUS_MEANINGS = ("ok", "impact_budget", "time_budget", "on_rim", "engine_landing", "rim_board")
 """How a shot's simulation ended: normally; ``max_impacts`` impacts; ``t_max`` seconds in flight; still
 on the rim (captured, and the rim engine's outcome is periodic rolling, a steady motion or on the rim
-at ``t_max``: see ``rim_outcome``); engine_landing: the ball left the rim while slipping and the rim
-engine's landing rule (fall_in: make_roll; fall_out: a miss) decided the shot (docs/shots.md)."""
+at ``t_max``: see ``rim_outcome``); engine_landing: the state rebuilt at the separation from the rim
+would enter the ring at once, and the rim engine's landing rule (fall_in: make_roll; fall_out: a miss)
+decided the shot (a guard; the flight normally goes on from the exact separation state, slip included);
+rim_board: the ball left the rim overlapping the board's face (the rim phase does not model the board;
+outcome unfinished) (docs/shots.md)."""
 
 FIRST_CONTACT_MEANINGS = ("none", "rim", "board")
 """Codes of ``first_contact`` and of the impacts' kinds (rim = 1, board = 2)."""

@@ -11,7 +11,9 @@ double contact. A capture onto the rim (``shot_capture``) suspends the shot: all
 rounds, each round's captured shots going to the rim engine in ONE ``simulate`` call
 (``shot_capture.roll_batch``) before their flights go on. The shot ends at z = -rho (make if the
 centre is then less than R from the hoop's axis), or at ``max_impacts`` impacts or ``t_max`` seconds
-(status, outcome ``unfinished``).
+(status, outcome ``unfinished``). The rim engine does not see the board: a stay on the rim whose
+separation state overlaps the board's face ends the shot with status ``rim_board`` (outcome
+``unfinished``); one whose path passes behind the face and comes back is not detected.
 """
 
 from __future__ import annotations
@@ -33,7 +35,7 @@ DOUBLE_WINDOW = 1e-3
 RIM, BOARD = 1, 2
 OUTCOMES = ("swish", "make_rim", "make_board", "make_roll", "airball", "miss_short", "miss_long",
             "miss_left", "miss_right", "miss_board", "unfinished")
-STATUSES = ("ok", "impact_budget", "time_budget", "on_rim", "engine_landing")
+STATUSES = ("ok", "impact_budget", "time_budget", "on_rim", "engine_landing", "rim_board")
 KIND_DIGITS = 20
 """Impacts recorded in ``impact_kinds`` (base-3 digits of an int64)."""
 FLOAT_OUTPUTS = ("t_end", "time_on_rim", "revolutions_on_rim", "beta_cap", "omega1_cap", "omega2_cap",
@@ -154,6 +156,8 @@ def one_shot(release: dict, p, contact, budget: tuple[float, int], path=None, sa
             if on_rim["left"] is None:
                 return _finish(res, t, "unfinished", "on_rim")
             pos, vel, spin = on_rim["left"]
+            if _behind_board(pos, board, p.r):  # the rim phase does not see the board (docs/shots.md)
+                return _finish(res, t, "unfinished", "rim_board")
             if not on_rim["separates"]:
                 inside = on_rim["outcome"] == FALL_IN
                 return _finish(res, t, _classify(res, inside, pos[0], pos[1]), "engine_landing")
@@ -181,6 +185,12 @@ def _next_contact(flight, span: float, p, rho: float, board, last_kind: int) -> 
         if best_kind:
             return best_t, best_kind
     return math.nan, 0
+
+
+def _behind_board(pos, board, r: float) -> bool:
+    """Whether a ball of radius ``r`` [m] centred at ``pos`` [m] overlaps the board's face (more than 1e-9 m)."""
+    x, y, z = pos
+    return x > board.x - r + 1e-9 and abs(y) <= board.half_width and board.z_low <= z <= board.z_high
 
 
 def _record_capture(res: dict, captured) -> None:
