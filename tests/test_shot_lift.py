@@ -73,3 +73,35 @@ def test_lift_is_opt_in_and_needs_air():
         shots.simulate_shots(release, shots.params_for("paper"), lift=True)
     with pytest.raises(ValueError, match="`lift` must be True or False"):
         shots.simulate_shots(release, P, lift="yes")
+
+
+def test_lift_graze_is_found_and_a_near_miss_is_not():
+    """As the drag graze of test_shot_solver, with the lift on and backspin 20 1/s: the ring's tube
+    radius set so that the closest approach of scipy's path (rtol 1e-13) to the ring's centre circle is
+    rho - 1e-9 m: the first impact is on the ring there; rho + 1e-9 m: no impact there."""
+    from scipy.optimize import minimize_scalar
+
+    release = dict(speed=7.45, angle=math.radians(55.0), backspin=20.0)
+    position = [-4.19, 0.0, -0.92]
+    velocity = [7.45 * math.cos(release["angle"]), 0.0, 7.45 * math.sin(release["angle"])]
+    times = np.linspace(0.5, 1.05, 2201)
+    path = _lift_reference(P, position, velocity, (0.0, -20.0, 0.0), times)
+    dist = np.hypot(np.hypot(path[:, 0], path[:, 1]) - P.R, path[:, 2])
+    i = int(np.argmin(dist))
+    assert 0 < i < times.size - 1
+
+    def distance(t):
+        x, y, z = _lift_reference(P, position, velocity, (0.0, -20.0, 0.0), np.array([0.0, t]))[-1]
+        return math.hypot(math.hypot(x, y) - P.R, z)
+
+    best = minimize_scalar(distance, bounds=(times[i - 1], times[i + 1]), method="bounded", options={"xatol": 1e-12})
+    d_min, t_star = best.fun, best.x
+    assert P.r < d_min < 0.2
+
+    def touches(a):
+        res = shots.trace_shot(release, P.replace(a=a), lift=True)
+        return bool(res["impact_time"].size) and int(res["impact_kind"][0]) == 1 and \
+            abs(float(res["impact_time"][0]) - t_star) < 1e-4
+
+    assert touches(d_min - P.r + 1e-9)
+    assert not touches(d_min - P.r - 1e-9)
