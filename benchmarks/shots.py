@@ -8,8 +8,8 @@ solver's default contact), run by the study layer as ``study run shot`` runs it 
 local threads), once in vacuum and once with air drag (``rho_air = 1.2`` kg/m^3, C_D = 0.5). It
 reports:
 
-* the cold compile apart: a fresh process with an empty kernel cache simulating one shot (compile and
-  cache write of the shot kernels) [s];
+* the cold compile apart: a fresh process with an empty kernel cache simulating one shot in vacuum,
+  then one in air (the compile and cache write of the flight kernel, ``physics.shot_air``) [s];
 * the warm wall time of each map, best of ``--rounds`` [s], and shots per second;
 * where the shots spend their simulated time: flight and on the rim (the solver's per-shot
   ``t_end`` and ``time_on_rim``), the impacts per shot (``n_impacts``), and the outcome shares;
@@ -40,19 +40,22 @@ import time
 t0 = time.perf_counter()
 from rimroll.solver import Params, shots
 t1 = time.perf_counter()
-shots.simulate_shots({"speed": 7.2, "angle": 0.9}, Params(), shots.Contact())
+shots.simulate_shots({"speed": 7.2, "angle": 0.9}, Params(), shots.Contact(), max_impacts=0)
 t2 = time.perf_counter()
-print(t1 - t0, t2 - t1)
+shots.simulate_shots({"speed": 7.2, "angle": 0.9}, Params(rho_air=1.2), shots.Contact(), max_impacts=0)
+t3 = time.perf_counter()
+print(t1 - t0, t2 - t1, t3 - t2)
 """
 
 
-def cold_compile() -> tuple[float, float]:
-    """(import [s], first shot [s]) in a fresh process with an empty kernel cache."""
+def cold_compile() -> tuple[float, float, float]:
+    """(import [s], first vacuum shot [s], first shot in air [s]: the flight kernel's compile) in a fresh
+    process with an empty kernel cache (no impact: the rim engine's scene kernels are not compiled)."""
     with tempfile.TemporaryDirectory() as cache:
         env = {**os.environ, "RIMROLL_CACHE_DIR": cache}
         out = subprocess.run([sys.executable, "-c", COLD], env=env, capture_output=True, text=True, check=True)
-    imported, first = (float(v) for v in out.stdout.split()[-2:])
-    return imported, first
+    imported, first, air = (float(v) for v in out.stdout.split()[-3:])
+    return imported, first, air
 
 
 def one_map(n: int, workers: int, rho_air: float, keep=None) -> tuple[float, dict]:
@@ -86,10 +89,11 @@ def one_map(n: int, workers: int, rho_air: float, keep=None) -> tuple[float, dic
     return wall, stats
 
 
-PHASES = {  # functions of the shot loop (solver/engine/shot_loop.py) whose cumulative time is each phase's
-    "flight and contact search": ("_next_contact",),
-    "impacts (impulse, capture test)": ("capture_impact", "impact"),
-    "on the rim (the engine)": ("_on_rim",),
+PHASES = {  # (file, function) of the shot loop whose cumulative time is each phase's
+    "flight and contact search": (("shot_loop.py", "_next_contact"), ("shot_flight.py", "time_to_depth"),
+                                  ("shot_flight.py", "__init__")),
+    "impacts (impulse, capture test)": (("shot_capture.py", "capture_impact"), ("impact.py", "impact")),
+    "on the rim (the engine)": (("shot_capture.py", "roll_batch"),),
 }
 
 
@@ -111,8 +115,11 @@ def phase_shares(n: int, rho_air: float) -> dict:
     shares = {}
     for phase, names in PHASES.items():
         outermost = {}  # a function's cumulative time counted once (impact is also called inside capture_impact)
+        def named(path, name, names=names):
+            return any(path.endswith(f) and name == n for f, n in names)
+
         for (path, _, name), (_, _, _, ct, callers) in stats.items():
-            if name in names and not any(c[2] in names for c in callers):
+            if named(path, name) and not any(named(c[0], c[2]) for c in callers):
                 outermost[(path, name)] = ct
         shares[phase] = sum(outermost.values()) / total
     shares["other (bookkeeping)"] = 1.0 - sum(shares.values())
@@ -130,7 +137,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     report = {"n": args.n, "workers": args.workers, "cpus": os.cpu_count(), "load": os.getloadavg()}
     if not args.no_cold:
-        report["cold_import_s"], report["cold_first_shot_s"] = cold_compile()
+        report["cold_import_s"], report["cold_first_shot_s"], report["cold_first_air_shot_s"] = cold_compile()
     one_map(8, args.workers, 0.0)  # warm this process's kernels and the study layer
     one_map(8, args.workers, 1.2)
     out = pathlib.Path(args.out)
@@ -144,7 +151,8 @@ def main(argv=None) -> int:
     (out / "shots.json").write_text(json.dumps(report, indent=1))
     print(f"{args.n} x {args.n} shot map, {args.workers} workers ({report['cpus']} cpus, load {report['load'][0]:.2f})")
     if "cold_first_shot_s" in report:
-        print(f"cold: import {report['cold_import_s']:.1f} s, first shot (compile) {report['cold_first_shot_s']:.1f} s")
+        print(f"cold: import {report['cold_import_s']:.1f} s, first shot {report['cold_first_shot_s']:.1f} s, first "
+              f"shot in air (the flight kernel's compile) {report['cold_first_air_shot_s']:.1f} s")
     print("case     wall [s]  shots/s  flight  on rim  impacts/shot  outcomes")
     for label in ("vacuum", "drag"):
         r = report[label]

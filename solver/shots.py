@@ -87,11 +87,14 @@ OUTCOME_MEANINGS = ("swish", "make_rim", "make_board", "make_roll", "airball", "
 ring), misses (no contact; short/long/left/right of the hoop where the centre passes z = -rho; miss_board:
 only the board was touched), unfinished (a budget ended the shot, see ``status``)."""
 
-STATUS_MEANINGS = ("ok", "impact_budget", "time_budget", "on_rim", "engine_landing")
+STATUS_MEANINGS = ("ok", "impact_budget", "time_budget", "on_rim", "engine_landing", "rim_board")
 """How a shot's simulation ended: normally; ``max_impacts`` impacts; ``t_max`` seconds in flight; still
 on the rim (captured, and the rim engine's outcome is periodic rolling, a steady motion or on the rim
-at ``t_max``: see ``rim_outcome``); engine_landing: the ball left the rim while slipping and the rim
-engine's landing rule (fall_in: make_roll; fall_out: a miss) decided the shot (docs/shots.md)."""
+at ``t_max``: see ``rim_outcome``); engine_landing: the state rebuilt at the separation from the rim
+would enter the ring at once, and the rim engine's landing rule (fall_in: make_roll; fall_out: a miss)
+decided the shot (a guard; the flight normally goes on from the exact separation state, slip included);
+rim_board: the ball left the rim overlapping the board's face (the rim phase does not model the board;
+outcome unfinished) (docs/shots.md)."""
 
 FIRST_CONTACT_MEANINGS = ("none", "rim", "board")
 """Codes of ``first_contact`` and of the impacts' kinds (rim = 1, board = 2)."""
@@ -158,13 +161,15 @@ def check_releases(releases: dict) -> dict:
 
 
 def simulate_shots(releases: dict, params: Params, contact: Contact = None, geometry: str | None = None,
-                   t_max: float = 5.0, max_impacts: int = 100) -> dict:
+                   t_max: float = 5.0, max_impacts: int = 100, lift: bool = False) -> dict:
     """The outcomes of shots: each released as ``releases`` says (:data:`RELEASE`; arrays broadcast
     together) with the ball and ring of ``params`` (``contact=None``: :data:`DEFAULT_CONTACT`; ``geometry``
     names the ring that ``params`` must have, see :func:`params_for`; None: the ring of ``params`` as it
     is) and the board placed at it (FIBA, ``physics.shot_geometry``), followed through its
     flight and impacts until its centre is rho = r + a below the rim plane (no contact possible any more),
-    or until ``max_impacts`` impacts or ``t_max`` [s].
+    or until ``max_impacts`` impacts or ``t_max`` [s]. In air (``params.rho_air`` > 0) the flights have
+    the quadratic drag and, with ``lift=True``, the Magnus lift of ``physics.shot_air`` (off by default;
+    it needs rho_air > 0).
 
     Returns a dict of numpy arrays of the broadcast shape: ``outcome`` (int8, :data:`OUTCOME_MEANINGS`),
     ``status`` (int8, :data:`STATUS_MEANINGS`), ``n_impacts``, ``n_rim_impacts``, ``n_board_impacts``,
@@ -179,11 +184,11 @@ def simulate_shots(releases: dict, params: Params, contact: Contact = None, geom
 
     checked = check_contact(_contact_or_default(contact))
     return run_shots(check_releases(releases), _checked_params(params, geometry), checked,
-                     _budget(t_max, max_impacts), trace=False)
+                     _budget(t_max, max_impacts), trace=False, lift=_lift(lift, params))
 
 
 def trace_shot(release: dict, params: Params, contact: Contact = None, geometry: str | None = None,
-               t_max: float = 5.0, max_impacts: int = 100, samples_per_flight: int = 200) -> dict:
+               t_max: float = 5.0, max_impacts: int = 100, samples_per_flight: int = 200, lift: bool = False) -> dict:
     """One shot's path (``release``: a dict of scalars of :data:`RELEASE`): ``time`` [s], ``x``, ``y``,
     ``z`` [m] of the centre, ``phase`` (0: flight, 1: on the rim) per sample, the impacts' ``impact_time``
     [s], ``impact_x``, ``impact_y``, ``impact_z`` [m], ``impact_kind`` (1: rim, 2: board), and every
@@ -194,7 +199,7 @@ def trace_shot(release: dict, params: Params, contact: Contact = None, geometry:
     if checked["speed"].shape != ():
         raise ValueError("`release` of trace_shot must hold scalars (one shot)")
     return run_shots(checked, _checked_params(params, geometry), check_contact(_contact_or_default(contact)),
-                     _budget(t_max, max_impacts), trace=int(samples_per_flight))
+                     _budget(t_max, max_impacts), trace=int(samples_per_flight), lift=_lift(lift, params))
 
 
 def speed_to_reach(angle, distance, height, params: Params) -> float:
@@ -223,6 +228,15 @@ def _checked_params(params: Params, geometry: str | None) -> Params:
                              f"`params` has R = {params.R:g} m, a = {params.a:g} m; use shots.params_for"
                              f"({geometry!r}, ...) or geometry=None")
     return params
+
+
+def _lift(lift, params) -> bool:
+    """``lift`` after its check: a bool, True only with air (rho_air > 0)."""
+    if not isinstance(lift, (bool, np.bool_)):
+        raise ValueError(f"`lift` must be True or False (the Magnus lift in flight); got {lift!r}")
+    if lift and not params.rho_air > 0.0:
+        raise ValueError(f"`lift=True` needs air: params.rho_air must be > 0 kg m-3; got {params.rho_air!r}")
+    return bool(lift)
 
 
 def _budget(t_max, max_impacts) -> tuple[float, int]:

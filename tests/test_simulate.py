@@ -20,7 +20,7 @@ FIELDS = {
     "revolutions": np.float64, "slip_phases": np.int32, "slip_time": np.float64, "energy_drift": np.float64,
     "n_steps": np.int64, "n_searched": np.int64, "beta_end": np.float64, "omega1_end": np.float64,
     "omega2_end": np.float64, "omega3_end": np.float64, "steady_h": np.float64, "status": np.int8,
-    "n_slip_steps": np.int64,
+    "n_slip_steps": np.int64, "u1_end": np.float64, "u3_end": np.float64,
     "on_rim_reason": np.int8,
 }
 

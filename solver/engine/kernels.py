@@ -109,6 +109,7 @@ from rimroll.solver.physics.switching import SW_U_STOP, enter_slipping, try_retu
 RF_T_END, RF_F2_MIN, RF_HALF_PERIOD = column("t_end"), column("f2_min"), column("half_period")
 RF_REVOLUTIONS, RF_SLIP_TIME, RF_ENERGY_DRIFT = column("revolutions"), column("slip_time"), column("energy_drift")
 RF_BETA, RF_OMEGA1, RF_OMEGA2, RF_OMEGA3 = (column(f"{x}_end") for x in ("beta", "omega1", "omega2", "omega3"))
+RF_U1, RF_U3 = column("u1_end"), column("u3_end")
 N_RF = len(FLOAT_COLUMNS)
 RI_OUTCOME, RI_SLIP_PHASES, RI_N_STEPS = column("outcome"), column("slip_phases"), column("n_steps")
 RI_STATUS, RI_N_SEARCHED, RI_N_SLIP_STEPS = column("status"), column("n_searched"), column("n_slip_steps")
@@ -606,6 +607,8 @@ def record(rolling_phase, y, p, E0, slip_time, t_slip0, slip_phases, work, res_f
     res_f[RF_OMEGA1] = y[1]
     res_f[RF_OMEGA2] = y[2]
     res_f[RF_OMEGA3] = y[3]
+    res_f[RF_U1] = 0.0 if rolling_phase else y[I_U1]
+    res_f[RF_U3] = 0.0 if rolling_phase else y[I_U3]
     res_i[RI_SLIP_PHASES] = slip_phases
 
 

@@ -67,6 +67,10 @@ OUTPUTS = (
            tolerance=(1e-2, 1e-3)),
     Output("omega3_end", "float64", "s-1", "circular angular velocity at t_end", "before any free flight",
            tolerance=(1e-2, 1e-3)),
+    Output("u1_end", "float64", "m s-1", "slip velocity u1 of the contact point at t_end", "along n1 (Sect. 5.2); "
+           "0 when rolling at t_end; before any free flight", tolerance=(1e-3, 1e-3)),
+    Output("u3_end", "float64", "m s-1", "slip velocity u3 of the contact point at t_end", "along n3 (Sect. 5.2); "
+           "0 when rolling at t_end; before any free flight", tolerance=(1e-3, 1e-3)),
     # int64 result columns of the kernels, in column order (stored as dtype)
     Output("outcome", "int8", "1", "outcome of the ball on the rim", "rules: docs/outcome-engine.md",
            meanings=outcomes.OUTCOME_MEANINGS),

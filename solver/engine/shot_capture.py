@@ -7,12 +7,13 @@ would have left a slip, that slip speed is recorded as ``slip_cap`` (> 0: a slid
 stick then needs more than mu_rim P_n; the engine starts from rolling states only). The ball stays on
 the rim if the rolling normal force F2 of (31) is >= 0 there; its paper state (beta, omega1, omega2,
 omega3), rolling, goes to ``simulate`` for the time left. When the engine says the ball left the rim
-(fall_in, fall_out), the 3-D state at the separation is rebuilt from its end state and the alpha
-travelled (``revolutions``), and the flight goes on with impacts. The engine returns the end state's
-angular velocity but not its slip velocity, so the rebuilt state is the rolling one; where that state
-would not separate (its free path enters the ring within :data:`PROBE` s: the ball left while
-slipping), the engine's own landing rule decides the shot (status ``engine_landing``). Otherwise (periodic rolling, a
-steady motion, still on the rim at the end of the time) the shot ends on the rim.
+(fall_in, fall_out), the 3-D state at the separation is rebuilt from its end state (beta, omega1,
+omega2, omega3 and the slip velocity u1, u3: ``simulate``'s ``u1_end``, ``u3_end``, zero when it left
+rolling) and the alpha travelled (``revolutions``), and the flight goes on with impacts from that exact
+state (:func:`rim_frame.from_rim`). A guard stays: where the rebuilt free path would enter the ring
+within :data:`PROBE` s (it does not for a separation at F2 = 0; none was seen in the 40 x 40 free-throw
+map), the engine's own landing rule decides the shot (status ``engine_landing``). Otherwise (periodic
+rolling, a steady motion, still on the rim at the end of the time) the shot ends on the rim.
 """
 
 from __future__ import annotations
@@ -59,8 +60,8 @@ def roll_batch(requests, p) -> list[dict]:
     """The rim engine's runs of captured states, ``requests`` = [(state, t_left [s]), ...], in ONE call of
     ``simulate`` to the largest t_left; a run still on the rim at its own t_left (or falling after it) is
     cut there (outcome on_rim_at_t_max). Each: ``outcome``, ``t_end`` [s], ``revolutions``, and, if the ball
-    left the rim, the flight's start ``left`` = (position, velocity, spin) (else None) and ``separates``
-    (False: it left while slipping, see the module doc)."""
+    left the rim, the flight's start ``left`` = (position, velocity, spin) at the separation (else None) and
+    ``separates`` (False: the rebuilt free path would enter the ring at once, see the module doc)."""
     from rimroll.solver.engine.simulate import simulate
 
     states = np.array([[s[1], s[2], s[3], s[4]] for s, _ in requests])
@@ -77,7 +78,8 @@ def _run_of(res: dict, i: int, state, t_left: float, p) -> dict:
     if out["outcome"] in (FALL_IN, FALL_OUT):
         alpha_end = state[0] + 2.0 * math.pi * out["revolutions"]
         out["left"] = from_rim(alpha_end, float(res["beta_end"][i]), float(res["omega1_end"][i]),
-                               float(res["omega2_end"][i]), float(res["omega3_end"][i]), p.R, p.r, p.r + p.a)
+                               float(res["omega2_end"][i]), float(res["omega3_end"][i]), p.R, p.r, p.r + p.a,
+                               float(res["u1_end"][i]), float(res["u3_end"][i]))
         probe = Flight(p, out["left"][0], out["left"][1]).position(PROBE)
         out["separates"] = ring_distance(*probe, p.R) >= p.r + p.a
     return out

@@ -11,7 +11,9 @@ double contact. A capture onto the rim (``shot_capture``) suspends the shot: all
 rounds, each round's captured shots going to the rim engine in ONE ``simulate`` call
 (``shot_capture.roll_batch``) before their flights go on. The shot ends at z = -rho (make if the
 centre is then less than R from the hoop's axis), or at ``max_impacts`` impacts or ``t_max`` seconds
-(status, outcome ``unfinished``).
+(status, outcome ``unfinished``). The rim engine does not see the board: a stay on the rim whose
+separation state overlaps the board's face ends the shot with status ``rim_board`` (outcome
+``unfinished``); one whose path passes behind the face and comes back is not detected.
 """
 
 from __future__ import annotations
@@ -33,7 +35,7 @@ DOUBLE_WINDOW = 1e-3
 RIM, BOARD = 1, 2
 OUTCOMES = ("swish", "make_rim", "make_board", "make_roll", "airball", "miss_short", "miss_long",
             "miss_left", "miss_right", "miss_board", "unfinished")
-STATUSES = ("ok", "impact_budget", "time_budget", "on_rim", "engine_landing")
+STATUSES = ("ok", "impact_budget", "time_budget", "on_rim", "engine_landing", "rim_board")
 KIND_DIGITS = 20
 """Impacts recorded in ``impact_kinds`` (base-3 digits of an int64)."""
 FLOAT_OUTPUTS = ("t_end", "time_on_rim", "revolutions_on_rim", "beta_cap", "omega1_cap", "omega2_cap",
@@ -44,9 +46,10 @@ INT_OUTPUTS = {"outcome": np.int8, "status": np.int8, "n_impacts": np.int32, "n_
                "impact_kinds": np.int64, "rim_outcome": np.int8}
 
 
-def run_shots(releases: dict, params, contact, budget: tuple[float, int], trace=False) -> dict:
+def run_shots(releases: dict, params, contact, budget: tuple[float, int], trace=False, lift: bool = False) -> dict:
     """The outputs of ``shots.simulate_shots`` for the broadcast ``releases`` (or, with ``trace`` a
-    number of samples per flight, the path of the one shot as ``shots.trace_shot`` returns it)."""
+    number of samples per flight, the path of the one shot as ``shots.trace_shot`` returns it); ``lift``:
+    flights with the Magnus lift (``physics.shot_air``)."""
     shape = releases["speed"].shape
     flat = {k: np.ravel(v) for k, v in releases.items()}
     n = flat["speed"].size
@@ -56,7 +59,7 @@ def run_shots(releases: dict, params, contact, budget: tuple[float, int], trace=
     path = _Path() if trace else None
     pending = {}  # shots waiting for the rim engine: index -> (generator, its request)
     for i in range(n):
-        shot = one_shot({k: float(v[i]) for k, v in flat.items()}, params, contact, budget, path, trace)
+        shot = one_shot({k: float(v[i]) for k, v in flat.items()}, params, contact, budget, path, trace, lift)
         _advance(out, pending, i, shot, None)
     while pending:  # a round: every captured shot's rim phase in one engine call, then their flights on
         runs = roll_batch([request for _, request in pending.values()], params)
@@ -104,7 +107,7 @@ class _Path:
                 "impact_y": imp[:, 2], "impact_z": imp[:, 3], "impact_kind": imp[:, 4].astype(np.int8)}
 
 
-def one_shot(release: dict, p, contact, budget: tuple[float, int], path=None, samples: int = 0):
+def one_shot(release: dict, p, contact, budget: tuple[float, int], path=None, samples: int = 0, lift: bool = False):
     """A generator: one shot released as ``release`` (scalars of ``shots.RELEASE``); it yields a capture
     request (state, t_left) to the rim engine and takes the run (``shot_capture.roll_batch``'s item), and
     returns the shot's outputs (scalars)."""
@@ -112,8 +115,8 @@ def one_shot(release: dict, p, contact, budget: tuple[float, int], path=None, sa
     rho = p.r + p.a
     board = board_of(p.R, p.a)
     position, velocity, omega = release_state(**release)
-    flight = Flight(p, [float(c) for c in position], [float(c) for c in velocity])
     spin = tuple(float(c) for c in omega)
+    flight = Flight(p, [float(c) for c in position], [float(c) for c in velocity], spin, lift)
     res = {"n_impacts": 0, "n_rim_impacts": 0, "n_board_impacts": 0, "n_double_contacts": 0, "first_contact": 0,
            "impact_kinds": 0, "time_on_rim": 0.0, "revolutions_on_rim": 0.0}
     t, last_kind, last_time = 0.0, 0, -math.inf
@@ -154,22 +157,24 @@ def one_shot(release: dict, p, contact, budget: tuple[float, int], path=None, sa
             if on_rim["left"] is None:
                 return _finish(res, t, "unfinished", "on_rim")
             pos, vel, spin = on_rim["left"]
+            if _behind_board(pos, board, p.r):  # the rim phase does not see the board (docs/shots.md)
+                return _finish(res, t, "unfinished", "rim_board")
             if not on_rim["separates"]:
                 inside = on_rim["outcome"] == FALL_IN
                 return _finish(res, t, _classify(res, inside, pos[0], pos[1]), "engine_landing")
             last_time = t
-        flight = Flight(p, list(pos), list(vel))
+        flight = Flight(p, list(pos), list(vel), spin, lift)
 
 
 def _next_contact(flight, span: float, p, rho: float, board, last_kind: int) -> tuple[float, int]:
     """(time [s] from the flight's start, kind) of its first contact within ``span`` [s]; (nan, 0) if none."""
     best_t, best_kind = math.nan, 0
-    for t0, t1, i in flight.pieces(span):
+    for t0, t1, i, may_ring, may_plane in flight.pieces(span):
         t_rim = t_board = math.nan
-        if flight.may_touch_ring(i, rho):
+        if may_ring:
             xp, yp, zp = flight.polynomials(i)
             t_rim = first_ring_contact(xp, yp, zp, t1 - t0, p.R, rho, leaving=(last_kind == RIM and t0 == 0.0))
-        if flight.may_reach_plane(i, board.x - p.r):
+        if may_plane:
             t_board = first_plane_contact(flight.polynomials(i)[0], t1 - t0, board.x - p.r)
         if math.isfinite(t_board):
             _, yb, zb = flight.position(t0 + t_board)
@@ -181,6 +186,12 @@ def _next_contact(flight, span: float, p, rho: float, board, last_kind: int) -> 
         if best_kind:
             return best_t, best_kind
     return math.nan, 0
+
+
+def _behind_board(pos, board, r: float) -> bool:
+    """Whether a ball of radius ``r`` [m] centred at ``pos`` [m] overlaps the board's face (more than 1e-9 m)."""
+    x, y, z = pos
+    return x > board.x - r + 1e-9 and abs(y) <= board.half_width and board.z_low <= z <= board.z_high
 
 
 def _record_capture(res: dict, captured) -> None:

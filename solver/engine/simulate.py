@@ -99,8 +99,9 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
     whose dense output was searched
     for events: the cost of the grazing check, docs/outcome-engine.md), ``n_slip_steps`` (the attempted
     steps of slip phases), ``beta_end``, ``omega1_end``, ``omega2_end``, ``omega3_end`` (the state at t_end, before
-    any free flight), ``steady_h`` [1/s^2] (h of (54) for ``steady_motion`` lanes: < 0 stable,
-    > 0 unstable; NaN elsewhere), ``status`` (int8, see ``STATUS_MEANINGS``; ``stiff_slip`` when the step
+    any free flight), ``u1_end``, ``u3_end`` [m/s] (the slip velocity at t_end; 0 when rolling), ``steady_h``
+    [1/s^2] (h of (54) for ``steady_motion`` lanes: < 0 stable, > 0 unstable; NaN elsewhere), ``status``
+    (int8, see ``STATUS_MEANINGS``; ``stiff_slip`` when the step
     budget ran out mostly in slip phases) and ``on_rim_reason`` (int8,
     ``solver.engine.outcomes.ON_RIM_REASON_MEANINGS``:
     why a run ended on the rim, from outcome, status and slip_phases). A failing lane is recorded in

@@ -46,12 +46,14 @@ def to_rim(position, velocity, spin, R: float, r: float):
 
 
 def from_rim(alpha: float, beta: float, omega1: float, omega2: float, omega3: float, R: float, r: float,
-             rho: float):
-    """Position [m], velocity [m/s] and spin [1/s] (3-tuples, shot frame) of a ball rolling on the rim
-    (u1 = u3 = 0) in the paper's state (``alpha``, ``beta``, ``omega1``, ``omega2``, ``omega3``)."""
+             rho: float, u1: float = 0.0, u3: float = 0.0):
+    """Position [m], velocity [m/s] and spin [1/s] (3-tuples, shot frame) of a ball on the rim in the
+    paper's state (``alpha``, ``beta``, ``omega1``, ``omega2``, ``omega3``) with the contact point's slip
+    velocity (``u1``, ``u3``) [m/s] (0, 0: rolling). The centre's velocity is v_G = (u1 - r omega3) n1 +
+    (u3 + r omega1) n3 (the slipping model's V1, V3, Sect. 5.2; rolling: (19)-(20) with (13))."""
     n1, n2, n3 = basis(alpha, beta)
     h = (math.sin(alpha), -math.cos(alpha), 0.0)
     position = tuple(R * h[i] + rho * n2[i] for i in range(3))
-    velocity = tuple(-r * omega3 * n1[i] + r * omega1 * n3[i] for i in range(3))
+    velocity = tuple((u1 - r * omega3) * n1[i] + (u3 + r * omega1) * n3[i] for i in range(3))
     spin = tuple(omega1 * n1[i] + omega2 * n2[i] + omega3 * n3[i] for i in range(3))
     return position, velocity, spin
