@@ -54,6 +54,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from rimroll.solver import _jit
 from rimroll.solver._compile import kernel
 from rimroll.solver.engine import rules
 from rimroll.solver.engine.outcomes import (
@@ -80,6 +81,18 @@ MAX_LEGS = 64
 """Most turning points followed when they are not transversal (then: on the rim at t_max)."""
 GL_NODES = 10
 
+
+
+def _helper(func):
+    """Compile a helper of the kernel: as ``solver._compile.kernel`` (nopython, nogil, cached on disk, numpy
+    error model, numba's runtime kept) but without the CPython and cfunc wrappers, which only a call from
+    Python needs and which cost a good part of each helper's compile; ``RIMROLL_NO_JIT=1``: the Python source."""
+    if _jit._DISABLE:
+        func.py_func = func
+        return func
+    return _jit.njit_cached(func, nogil=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
+
+
 # constants vector c
 C_X, C_K, C_A, C_R2RHO, C_R2R, C_G, C_TIME, C_ALPHA, C_BLO, C_W, C_NPAN, C_RTOL, C_TMAX = range(13)
 N_C = 13
@@ -93,19 +106,19 @@ R_T, R_F2MIN, R_HALF, R_REV, R_BETA, R_W1, R_W2, R_W3, R_LO, R_HI, N_R = range(1
 RI_OUTCOME, RI_STATUS, RI_EVALS, RI_FELL, N_RI = range(5)
 
 
-@kernel(runtime=True)
-def _clenshaw(tab, i, f, u):
-    """Chebyshev series tab[i, f, :] at u in [-1, 1]."""
+@_helper
+def _clenshaw(row, u):
+    """The Chebyshev series with coefficients ``row`` (N_COEF) at u in [-1, 1]."""
     b1 = 0.0
     b2 = 0.0
     for n in range(N_COEF - 1, 0, -1):
-        b0 = 2.0 * u * b1 - b2 + tab[i, f, n]
+        b0 = 2.0 * u * b1 - b2 + row[n]
         b2 = b1
         b1 = b0
-    return u * b1 - b2 + tab[i, f, 0]
+    return u * b1 - b2 + row[0]
 
 
-@kernel(runtime=True)
+@_helper
 def _panel(beta, d, c):
     """(panel index, local u) of beta; on a panel edge the panel ahead in the direction d (+-1)."""
     w = c[C_W]
@@ -118,7 +131,7 @@ def _panel(beta, d, c):
     return i, 2.0 * (y - i) - 1.0
 
 
-@kernel(runtime=True)
+@_helper
 def _level_values(beta, d, st, tab, slo, c):
     """(W, dW/dbeta, F, dF/dbeta): omega1^2 [1/s^2] and F2/m [m/s^2] on the level st at beta."""
     i, u = _panel(beta, d, c)
@@ -127,10 +140,10 @@ def _level_values(beta, d, st, tab, slo, c):
     q0 = p1 * p1
     q1 = 2.0 * p1 * p2
     q2 = p2 * p2
-    Q = q0 * _clenshaw(tab, i, Q11, u) + q1 * _clenshaw(tab, i, Q11 + 1, u) + q2 * _clenshaw(tab, i, Q11 + 2, u)
-    S = q0 * _clenshaw(tab, i, S11, u) + q1 * _clenshaw(tab, i, S11 + 1, u) + q2 * _clenshaw(tab, i, S11 + 2, u)
-    dQ = q0 * _clenshaw(slo, i, 0, u) + q1 * _clenshaw(slo, i, 1, u) + q2 * _clenshaw(slo, i, 2, u)
-    dS = q0 * _clenshaw(slo, i, 3, u) + q1 * _clenshaw(slo, i, 4, u) + q2 * _clenshaw(slo, i, 5, u)
+    Q = q0 * _clenshaw(tab[i, Q11], u) + q1 * _clenshaw(tab[i, Q11 + 1], u) + q2 * _clenshaw(tab[i, Q11 + 2], u)
+    S = q0 * _clenshaw(tab[i, S11], u) + q1 * _clenshaw(tab[i, S11 + 1], u) + q2 * _clenshaw(tab[i, S11 + 2], u)
+    dQ = q0 * _clenshaw(slo[i, 0], u) + q1 * _clenshaw(slo[i, 1], u) + q2 * _clenshaw(slo[i, 2], u)
+    dS = q0 * _clenshaw(slo[i, 3], u) + q1 * _clenshaw(slo[i, 4], u) + q2 * _clenshaw(slo[i, 5], u)
     s = np.sin(beta)
     co = np.cos(beta)
     W = st[ST_C0] - c[C_A] * s - Q
@@ -140,7 +153,7 @@ def _level_values(beta, d, st, tab, slo, c):
     return W, dW, F, dF
 
 
-@kernel(runtime=True)
+@_helper
 def _curvatures(i, st, curv, c):
     """Bounds of |W''| [1/(s^2 rad^2)] and |(F2/m)''| on panel i for the level st."""
     p1 = st[ST_P1]
@@ -153,7 +166,7 @@ def _curvatures(i, st, curv, c):
     return mw * (1.0 + 1e-12), mf * (1.0 + 1e-12)
 
 
-@kernel(runtime=True)
+@_helper
 def _classify(fa, ga, fb, gb, m2, h):
     """0: f > 0 on the interval (h long, slopes ga, gb along it, |f''| <= m2); 1: exactly one zero;
     2: undecided."""
@@ -165,7 +178,7 @@ def _classify(fa, ga, fb, gb, m2, h):
     return 2
 
 
-@kernel(runtime=True)
+@_helper
 def _root(beta_a, d, h, which, st, tab, slo, c):
     """Zero of W (which = 0) or F (1) in s in [0, h] from beta_a in direction d, where the value is
     > 0 at s = 0 and <= 0 at s = h: safeguarded Newton-bisection. Returns (beta, evaluations)."""
@@ -176,8 +189,8 @@ def _root(beta_a, d, h, which, st, tab, slo, c):
     for _ in range(MAX_NEWTON):
         W, dW, F, dF = _level_values(beta_a + d * s, d, st, tab, slo, c)
         n += 1
-        f = W if which == 0 else F
-        g = d * (dW if which == 0 else dF)
+        f = W if which == 0.0 else F
+        g = d * (dW if which == 0.0 else dF)
         if f > 0.0:
             lo = s
         else:
@@ -194,7 +207,7 @@ def _root(beta_a, d, h, which, st, tab, slo, c):
     return beta_a + d * hi, n
 
 
-@kernel(runtime=True)
+@_helper
 def _march(beta0, d, st, tab, slo, curv, c, w_start_zero):
     """First event moving from beta0 in the direction d (+-1): (kind EV_*, beta_event, f2_min [m/s^2]
     along the way (F2/m), evaluations). ``w_start_zero``: beta0 is a turning point (W = 0 there)."""
@@ -202,7 +215,7 @@ def _march(beta0, d, st, tab, slo, curv, c, w_start_zero):
     lo_edge = c[C_BLO]
     hi_edge = c[C_BLO] + c[C_NPAN] * w
     Wa, dWa, Fa, dFa = _level_values(beta0, d, st, tab, slo, c)
-    if w_start_zero:
+    if w_start_zero > 0.0:
         Wa = 0.0
     ga_w = d * dWa
     ga_f = d * dFa
@@ -241,17 +254,17 @@ def _march(beta0, d, st, tab, slo, curv, c, w_start_zero):
             bw = np.inf
             bf = np.inf
             if kw == 1 or (kw == 2 and Wb <= 0.0 < Wa):
-                rw, m = _root(beta_a, d, hh, 0, st, tab, slo, c)
+                rw, m = _root(beta_a, d, hh, 0.0, st, tab, slo, c)
                 n += m
                 bw = d * (rw - beta0)
             if kf == 1 or (kf == 2 and Fb <= 0.0 < Fa):
-                rf, m = _root(beta_a, d, hh, 1, st, tab, slo, c)
+                rf, m = _root(beta_a, d, hh, 1.0, st, tab, slo, c)
                 n += m
                 bf = d * (rf - beta0)
             if bw == np.inf and bf == np.inf:
                 if Fa <= 0.0:  # F2 = 0 at the start, falling
                     return EV_FALL, beta_a, min(fmin, Fa), n
-                if Wa <= 0.0 and not w_start_zero:
+                if Wa <= 0.0 and w_start_zero == 0.0:
                     return EV_TURN, beta_a, fmin, n
                 # a touch below the resolution: passed
                 beta_a, Wa, ga_w, Fa, ga_f = beta_b, Wb, gb_w, Fb, gb_f
@@ -265,20 +278,20 @@ def _march(beta0, d, st, tab, slo, curv, c, w_start_zero):
     return EV_CAP, beta_a, fmin, n
 
 
-@kernel(runtime=True)
-def _dclenshaw(tab, i, f, u0, du):
-    """sum_n tab[i, f, n] (T_n(u0 + du) - T_n(u0)), accurate relative to itself for small du (the
+@_helper
+def _dclenshaw(row, u0, du):
+    """sum_n row[n] (T_n(u0 + du) - T_n(u0)), accurate relative to itself for small du (the
     forward recurrence of the differences D_n = T_n(u0 + du) - T_n(u0))."""
     u = u0 + du
     t_prev = 1.0
     t_cur = u0
     d_prev = 0.0
     d_cur = du
-    acc = tab[i, f, 1] * du
+    acc = row[1] * du
     for n in range(1, N_COEF - 1):
         d_next = 2.0 * u * d_cur + 2.0 * du * t_cur - d_prev
         t_next = 2.0 * u0 * t_cur - t_prev
-        acc += tab[i, f, n + 1] * d_next
+        acc += row[n + 1] * d_next
         d_prev = d_cur
         d_cur = d_next
         t_prev = t_cur
@@ -286,7 +299,7 @@ def _dclenshaw(tab, i, f, u0, du):
     return acc
 
 
-@kernel(runtime=True)
+@_helper
 def _w_change(beta_ref, delta, st, tab, c):
     """omega1^2(beta_ref + delta) - omega1^2(beta_ref) [1/s^2] on the level st, without the cancellation
     of the two values (the Chebyshev differences of the panel of beta_ref; directly if delta reaches
@@ -298,28 +311,28 @@ def _w_change(beta_ref, delta, st, tab, c):
     ds = 2.0 * np.cos(beta_ref + 0.5 * delta) * np.sin(0.5 * delta)
     if abs(u0 + du) > 1.25:
         j, u = _panel(beta_ref + delta, 1.0, c)
-        dq0 = _clenshaw(tab, j, Q11, u) - _clenshaw(tab, i, Q11, u0)
-        dq1 = _clenshaw(tab, j, Q11 + 1, u) - _clenshaw(tab, i, Q11 + 1, u0)
-        dq2 = _clenshaw(tab, j, Q11 + 2, u) - _clenshaw(tab, i, Q11 + 2, u0)
+        dq0 = _clenshaw(tab[j, Q11], u) - _clenshaw(tab[i, Q11], u0)
+        dq1 = _clenshaw(tab[j, Q11 + 1], u) - _clenshaw(tab[i, Q11 + 1], u0)
+        dq2 = _clenshaw(tab[j, Q11 + 2], u) - _clenshaw(tab[i, Q11 + 2], u0)
     else:
-        dq0 = _dclenshaw(tab, i, Q11, u0, du)
-        dq1 = _dclenshaw(tab, i, Q11 + 1, u0, du)
-        dq2 = _dclenshaw(tab, i, Q11 + 2, u0, du)
+        dq0 = _dclenshaw(tab[i, Q11], u0, du)
+        dq1 = _dclenshaw(tab[i, Q11 + 1], u0, du)
+        dq2 = _dclenshaw(tab[i, Q11 + 2], u0, du)
     return -c[C_A] * ds - (p1 * p1 * dq0 + 2.0 * p1 * p2 * dq1 + p2 * p2 * dq2)
 
 
-@kernel(runtime=True)
+@_helper
 def _densities(beta, w_shifted, st, tab, c):
     """(dt/|dbeta| [s/rad], dalpha/|dbeta|) at beta where omega1^2 = w_shifted [1/s^2]."""
     if not w_shifted > 0.0:
         return 0.0, 0.0
     i, u = _panel(beta, 1.0, c)
-    w3 = st[ST_P1] * _clenshaw(tab, i, PHI21, u) + st[ST_P2] * _clenshaw(tab, i, PHI22, u)
+    w3 = st[ST_P1] * _clenshaw(tab[i, PHI21], u) + st[ST_P2] * _clenshaw(tab[i, PHI22], u)
     inv = 1.0 / np.sqrt(w_shifted)
     return c[C_TIME] * inv, -c[C_ALPHA] * w3 / (1.0 - c[C_X] * np.cos(beta)) * inv
 
 
-@kernel(runtime=True)
+@_helper
 def _mapped(theta, beta_s, beta_e, mode):
     """The substitution of ``_leg``: (ref, delta, |dbeta/dtheta|) with beta = ref + delta, ref the
     singular end nearest (mode 0: none, ref = beta_s; 1: singular at the start; 2: at the end; 3: both)."""
@@ -337,7 +350,7 @@ def _mapped(theta, beta_s, beta_e, mode):
     return beta_e, -L * ch * ch, 0.5 * abs(L) * np.sin(theta)
 
 
-@kernel(runtime=True)
+@_helper
 def _gl(a, b, beta_s, beta_e, mode, ws, we, st, tab, c, xg, wg):
     """Gauss-Legendre over theta in [a, b] of the time and alpha densities: (t [s], alpha [rad]).
     ws, we: omega1^2 as computed at the ends (subtracted where the end is singular, linearly between)."""
@@ -363,18 +376,18 @@ def _gl(a, b, beta_s, beta_e, mode, ws, we, st, tab, c, xg, wg):
     return t * half, al * half
 
 
-@kernel(runtime=True)
+@_helper
 def _leg(beta_s, beta_e, sing_s, sing_e, st, tab, slo, c, xg, wg, stack):
     """Time [s] and alpha [rad] from beta_s to beta_e (monotone motion), W vanishing at the ends
     flagged singular. Returns (t, alpha, ok, evaluations)."""
     if beta_e == beta_s:
         return 0.0, 0.0, True, 0
-    mode = (1 if sing_s else 0) + (2 if sing_e else 0)
+    mode = (1 if sing_s > 0.0 else 0) + (2 if sing_e > 0.0 else 0)
     ws = 0.0
     we = 0.0
-    if sing_s or mode == 0:
+    if sing_s > 0.0 or mode == 0:
         ws = _level_values(beta_s, 1.0, st, tab, slo, c)[0]
-    if sing_e:
+    if sing_e > 0.0:
         we = _level_values(beta_e, 1.0, st, tab, slo, c)[0]
     top = np.pi if mode == 3 else (0.5 * np.pi if mode != 0 else 1.0)
     n_st = 0
@@ -417,7 +430,7 @@ def _leg(beta_s, beta_e, sing_s, sing_e, st, tab, slo, c, xg, wg, stack):
     return t_sum, a_sum, False, n_ev
 
 
-@kernel(runtime=True)
+@_helper
 def _at_time(beta_s, beta_e, sing_s, sing_e, target, st, tab, slo, c, xg, wg, stack):
     """beta where the time from beta_s (towards beta_e, monotone) reaches target [s] < the leg's time,
     and alpha [rad] up to it: Newton on t(beta) (dt/dbeta = (rho/r)/sqrt(W)) safeguarded by bisection.
@@ -430,7 +443,7 @@ def _at_time(beta_s, beta_e, sing_s, sing_e, target, st, tab, slo, c, xg, wg, st
     alpha = 0.0
     ok = True
     for _ in range(MAX_NEWTON):
-        t, alpha, good, m = _leg(beta_s, beta_s + d * s, sing_s, False, st, tab, slo, c, xg, wg, stack)
+        t, alpha, good, m = _leg(beta_s, beta_s + d * s, sing_s, 0.0, st, tab, slo, c, xg, wg, stack)
         n += m
         ok = ok and good
         err = t - target
@@ -449,24 +462,24 @@ def _at_time(beta_s, beta_e, sing_s, sing_e, target, st, tab, slo, c, xg, wg, st
     return beta_s + d * s, alpha, False, n
 
 
-@kernel(runtime=True)
+@_helper
 def _transversal(beta, st, tab, c, p):
     """Whether omega1 = 0 at beta on the level st is a transversal zero at the simulation's rtol
     (``rules.transversal_omega1_zero``)."""
     i, u = _panel(beta, 1.0, c)
-    w2 = st[ST_P1] * _clenshaw(tab, i, 0, u) + st[ST_P2] * _clenshaw(tab, i, 1, u)
-    w3 = st[ST_P1] * _clenshaw(tab, i, PHI21, u) + st[ST_P2] * _clenshaw(tab, i, PHI22, u)
+    w2 = st[ST_P1] * _clenshaw(tab[i, 0], u) + st[ST_P2] * _clenshaw(tab[i, 1], u)
+    w3 = st[ST_P1] * _clenshaw(tab[i, PHI21], u) + st[ST_P2] * _clenshaw(tab[i, PHI22], u)
     return rules.transversal_omega1_zero(beta, 0.0, w2, w3, p, c[C_RTOL])
 
 
-@kernel(runtime=True)
+@_helper
 def _extend(res, beta):
     """Widen the traversed range [res[R_LO], res[R_HI]] [rad] to hold beta."""
     res[R_LO] = min(res[R_LO], beta)
     res[R_HI] = max(res[R_HI], beta)
 
 
-@kernel(runtime=True)
+@_helper
 def _f_min(lo, hi, st, tab, slo, c):
     """Smallest F2/m [m/s^2] on [lo, hi] [rad]: samples every 1/8 panel, then the zero of dF/dbeta
     bracketed around the smallest interior sample (bisection to adjacent floating-point numbers)."""
@@ -496,7 +509,7 @@ def _f_min(lo, hi, st, tab, slo, c):
     return min(best, _level_values(0.5 * (a + b), 1.0, st, tab, slo, c)[2])
 
 
-@kernel(runtime=True)
+@_helper
 def _finish(res, resi, beta, w1, st, tab, c, t, alpha):
     """Write the end state (beta, omega1, z(beta)), t_end and the revolutions into the result rows."""
     i, u = _panel(beta, 1.0, c)
@@ -505,11 +518,11 @@ def _finish(res, resi, beta, w1, st, tab, c, t, alpha):
     res[R_REV] = alpha / (2.0 * np.pi)
     res[R_BETA] = beta
     res[R_W1] = w1
-    res[R_W2] = st[ST_P1] * _clenshaw(tab, i, 0, u) + st[ST_P2] * _clenshaw(tab, i, 1, u)
-    res[R_W3] = st[ST_P1] * _clenshaw(tab, i, PHI21, u) + st[ST_P2] * _clenshaw(tab, i, PHI22, u)
+    res[R_W2] = st[ST_P1] * _clenshaw(tab[i, 0], u) + st[ST_P2] * _clenshaw(tab[i, 1], u)
+    res[R_W3] = st[ST_P1] * _clenshaw(tab[i, PHI21], u) + st[ST_P2] * _clenshaw(tab[i, PHI22], u)
 
 
-@kernel(runtime=True)
+@_helper
 def solve_one(beta0, w10, st, tab, slo, curv, c, p, xg, wg, stack, res, resi):
     """One conservative rolling state that neither starts off the rim nor on a steady motion.
 
@@ -529,7 +542,9 @@ def solve_one(beta0, w10, st, tab, slo, curv, c, p, xg, wg, stack, res, resi):
         d = 1.0 if w10 > 0.0 else -1.0
     n_ev = 0
     # leg 1: from beta0 in direction d
-    k1, b1, fmin1, m = _march(beta0, d, st, tab, slo, curv, c, start_turn)
+    ts = 1.0 if start_turn else 0.0
+    k1, b1, fmin1, m = _march(beta0, d, st, tab, slo, curv, c, ts)
+    s1 = 1.0 if k1 == EV_TURN else 0.0
     n_ev += m
     fmin = fmin1
     if k1 == EV_FAIL or k1 == EV_CAP:
@@ -539,12 +554,12 @@ def solve_one(beta0, w10, st, tab, slo, curv, c, p, xg, wg, stack, res, resi):
         resi[RI_EVALS] = n_ev
         _finish(res, resi, beta0, w10, st, tab, c, 0.0, 0.0)
         return
-    t1, a1, ok1, m = _leg(beta0, b1, start_turn, k1 == EV_TURN, st, tab, slo, c, xg, wg, stack)
+    t1, a1, ok1, m = _leg(beta0, b1, ts, s1, st, tab, slo, c, xg, wg, stack)
     n_ev += m
     if not ok1:
         resi[RI_STATUS] = MAX_STEPS
     if t1 > t_max:  # on the rim at t_max, during leg 1
-        bt, at, ok, m = _at_time(beta0, b1, start_turn, k1 == EV_TURN, t_max, st, tab, slo, c, xg, wg, stack)
+        bt, at, ok, m = _at_time(beta0, b1, ts, s1, t_max, st, tab, slo, c, xg, wg, stack)
         n_ev += m
         if not ok:
             resi[RI_STATUS] = MAX_STEPS
@@ -567,7 +582,7 @@ def solve_one(beta0, w10, st, tab, slo, curv, c, p, xg, wg, stack, res, resi):
         k2, b2, t2, a2 = EV_TURN, beta0, 0.0, 0.0
         cross_first = _transversal(beta0, st, tab, c, p)
     else:
-        k2, b2, fmin2, m = _march(beta0, -d, st, tab, slo, curv, c, False)
+        k2, b2, fmin2, m = _march(beta0, -d, st, tab, slo, curv, c, 0.0)
         n_ev += m
         fmin = min(fmin, fmin2)
         if k2 == EV_FAIL or k2 == EV_CAP:
@@ -577,7 +592,7 @@ def solve_one(beta0, w10, st, tab, slo, curv, c, p, xg, wg, stack, res, resi):
             resi[RI_EVALS] = n_ev
             _finish(res, resi, beta0, w10, st, tab, c, 0.0, 0.0)
             return
-        t2, a2, ok2, m = _leg(beta0, b2, False, k2 == EV_TURN, st, tab, slo, c, xg, wg, stack)
+        t2, a2, ok2, m = _leg(beta0, b2, 0.0, 1.0 if k2 == EV_TURN else 0.0, st, tab, slo, c, xg, wg, stack)
         n_ev += m
         if not ok2:
             resi[RI_STATUS] = MAX_STEPS
@@ -607,11 +622,11 @@ def solve_one(beta0, w10, st, tab, slo, curv, c, p, xg, wg, stack, res, resi):
             # b1 -> beta0 -> b2
             if t + t1 + t2 > t_max:
                 if t + t1 > t_max:
-                    bt, at, ok, m = _at_time(b1, beta0, True, start_turn, t_max - t, st, tab, slo, c, xg, wg, stack)
+                    bt, at, ok, m = _at_time(b1, beta0, 1.0, ts, t_max - t, st, tab, slo, c, xg, wg, stack)
                     alpha_t = alpha + at
                 else:
-                    bt, at, ok, m = _at_time(beta0, b2, start_turn, k2 == EV_TURN, t_max - t - t1, st, tab, slo, c,
-                                             xg, wg, stack)
+                    bt, at, ok, m = _at_time(beta0, b2, ts, 1.0 if k2 == EV_TURN else 0.0, t_max - t - t1, st, tab,
+                                             slo, c, xg, wg, stack)
                     alpha_t = alpha + a1 + at
                 n_ev += m
                 if not ok:
@@ -645,10 +660,10 @@ def solve_one(beta0, w10, st, tab, slo, curv, c, p, xg, wg, stack, res, resi):
             # b2 -> beta0 -> b1
             if t + t1 + t2 > t_max:
                 if t + t2 > t_max:
-                    bt, at, ok, m = _at_time(b2, beta0, True, start_turn, t_max - t, st, tab, slo, c, xg, wg, stack)
+                    bt, at, ok, m = _at_time(b2, beta0, 1.0, ts, t_max - t, st, tab, slo, c, xg, wg, stack)
                     alpha_t = alpha + at
                 else:
-                    bt, at, ok, m = _at_time(beta0, b1, start_turn, True, t_max - t - t2, st, tab, slo, c, xg, wg,
+                    bt, at, ok, m = _at_time(beta0, b1, ts, 1.0, t_max - t - t2, st, tab, slo, c, xg, wg,
                                              stack)
                     alpha_t = alpha + a2 + at
                 n_ev += m
