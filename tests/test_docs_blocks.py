@@ -57,6 +57,7 @@ PAGES = {
     "how-to/benchmark.md": Page(slow=True),
     "explanation/dissipation-models.md": Page(slow=True),
     "explanation/predictability.md": Page(slow=True),
+    "explanation/exact-rolling.md": Page(),  # compiles the reduced solver's kernels (~11 s CPU)
     "shot-api.md": Page(),
     "shots.md": Page(slow=True),  # shot maps and traces; a capture compiles the rim engine's hybrid scene
 }

@@ -27,7 +27,7 @@ from rimroll.solver._arguments import (
     real_number,
     tolerances,
 )
-from rimroll.solver.engine import backends, compiling, kernels, scene_code
+from rimroll.solver.engine import backends, compiling, kernels, reduced_simulate, scene_code
 from rimroll.solver.engine.outcomes import STEADY_MOTION, on_rim_reason
 from rimroll.solver.engine.outputs import OUTPUTS, column
 from rimroll.solver.engine.scenes import scene_of
@@ -61,8 +61,14 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
         Relative tolerance (1e-14 <= rtol <= 1e-2) and absolute tolerance (0 < atol <= 1, in the
         units of each state component) of the embedded error estimate. rtol also sets what
         counts as a steady motion and as a transversal omega1 zero (``solver.engine.rules``).
-    method : {"dp5", "dop853"}
-        Dormand-Prince 5(4) with 4th-order dense output, or DOP853 with 7th-order dense output.
+    method : {"dp5", "dop853", "reduced", "auto"}
+        Dormand-Prince 5(4) with 4th-order dense output, or DOP853 with 7th-order dense output;
+        "reduced": the conservative rolling-only scene solved exactly on the level of the conserved
+        quantities (60), (68) (``solver.engine.reduced_rolling``, docs/explanation/exact-rolling.md;
+        ValueError with one line for any other scene; on the CPU; atol, max_steps, max_switches and
+        switching are not used, rtol only sets what counts as a transversal omega1 zero); "auto":
+        "reduced" where the scene allows it (and ``backend`` is not "cuda"), else "dp5". With "reduced"
+        or "auto" the result's ``attrs["method"]`` says which was used.
     max_steps : int
         Budget of attempted steps per trajectory, 1 <= max_steps <= ``MAX_COUNT`` (2**63 - 1)
         (status ``max_steps`` when spent).
@@ -124,8 +130,17 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
                          f"got {slip_method!r}")
     limits = _checked_limits(t_max, rtol, atol, max_steps, max_switches)._replace(
         periodic=not scene.dissipates(params), stiff_slips=slip_method == "rodas4")
+    if isinstance(method, str) and method in REDUCED_METHODS:  # exact rolling (issue 40)
+        use = _reduced_method(method, params, terms, backend)
+        if use == "reduced":
+            res = reduced_simulate.solve(x, params, limits.t_max, limits.rtol, _checked_workers(workers))
+            return SimulateResult(res, method="reduced")
+        return SimulateResult(simulate(states, params, t_max, rtol, atol, use, max_steps=max_steps,
+                                       max_switches=max_switches, workers=workers, switching=switching,
+                                       backend=backend, terms=terms), method=use)
     if not isinstance(method, str) or method not in TABLEAUS:
-        raise ValueError(f"`method` must be one of {sorted(TABLEAUS)}; got {method!r}")
+        raise ValueError(f"`method` must be one of {sorted(TABLEAUS)} or {', '.join(map(repr, REDUCED_METHODS))}; "
+                         f"got {method!r}")
     workers = integer("workers", min(os.cpu_count() or 1, MAX_WORKERS) if workers is None else workers,
                      maximum=MAX_WORKERS)
     sw = default_tolerances(**switching)
@@ -143,6 +158,34 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
         _run_cpu(scene, TABLEAUS[method].method, flat, params.as_array(), sw if scene.slips else None, limits, workers,
                  res_f, res_i)
     return _fields(flat, shape, res_f, res_i, params)
+
+
+REDUCED_METHODS = ("reduced", "auto")
+"""The ``method`` values of :func:`simulate` that may run the exact reduced solver (issue 40)."""
+
+
+class SimulateResult(dict):
+    """``simulate``'s result dict with ``attrs`` (``attrs["method"]``: the method that computed it)."""
+
+    def __init__(self, columns, method: str):
+        super().__init__(columns)
+        self.attrs = {"method": method}
+
+
+def _reduced_method(method, params, terms, backend) -> str:
+    """"reduced" or "dp5" for ``method`` "reduced" or "auto"; ValueError (one line) when "reduced" is
+    asked of a scene it cannot solve."""
+    why = reduced_simulate.unsupported(params, () if terms is None else terms)
+    if why is None and backend == "cuda":
+        why = "the reduced solver runs on the CPU; got backend='cuda'"
+    if method == "reduced" and why:
+        raise ValueError(f"method='reduced': {why}")
+    return "dp5" if why else "reduced"
+
+
+def _checked_workers(workers) -> int:
+    return integer("workers", min(os.cpu_count() or 1, MAX_WORKERS) if workers is None else workers,
+                   maximum=MAX_WORKERS)
 
 
 def _run_cpu(scene, method, flat, p, sw, limits, workers, res_f, res_i):
