@@ -483,9 +483,9 @@ def _extend(res, beta):
 
 @_helper
 def _f_min(lo, hi, st, tab, slo, c):
-    """Smallest F2/m [m/s^2] on [lo, hi] [rad]: samples every 1/8 panel, then the zero of dF/dbeta
-    bracketed around the smallest interior sample (bisection to 1e-7 of a panel)."""
-    n = min(int(np.ceil((hi - lo) / (0.125 * c[C_W]))), 4000) + 1
+    """Smallest F2/m [m/s^2] on [lo, hi] [rad]: samples every 1/4 panel, then the zero of dF/dbeta
+    bracketed around the smallest interior sample (bisection to 1e-6 of a panel)."""
+    n = min(int(np.ceil((hi - lo) / (0.25 * c[C_W]))), 4000) + 1
     best = np.inf
     k_best = 0
     step = (hi - lo) / max(n - 1, 1)
@@ -502,7 +502,7 @@ def _f_min(lo, hi, st, tab, slo, c):
         return best
     for _ in range(MAX_NEWTON):
         m = 0.5 * (a + b)
-        if b - a < 1e-7 * c[C_W]:  # F there is within |F''| 1e-16 of its minimum
+        if b - a < 1e-6 * c[C_W]:  # F there is within |F''| 1e-14 of its minimum
             break
         if _level_values(m, 1.0, st, tab, slo, c)[3] < 0.0:
             a = m
