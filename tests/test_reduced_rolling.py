@@ -131,6 +131,15 @@ def test_simulate_runs_it_on_request_and_by_choice():
     assert hybrid.attrs["method"] == "dp5" and hybrid["outcome"].shape == (0,)
 
 
+def test_threads_and_shapes_do_not_change_the_answer():
+    states = _states(105.0, 24, seed=5)
+    one = reduced_simulate.solve(states, P, workers=1)
+    grid = reduced_simulate.solve(states[:24].reshape(4, 6, 4), P, workers=3)
+    for name in one:
+        assert grid[name].shape == (4, 6)
+        np.testing.assert_array_equal(grid[name].reshape(-1), one[name][:24])
+
+
 @pytest.mark.parametrize("params", [solver.Params(mu=1.0), solver.Params(mu=np.inf, k_r=0.1)])
 def test_simulate_refuses_a_scene_it_cannot_solve_with_one_line(params):
     with pytest.raises(ValueError, match="method='reduced'") as info:
