@@ -131,8 +131,41 @@ def test_simulate_runs_it_on_request_and_by_choice():
     assert hybrid.attrs["method"] == "dp5" and hybrid["outcome"].shape == (0,)
 
 
+def test_threads_and_shapes_do_not_change_the_answer():
+    states = _states(105.0, 24, seed=5)
+    one = reduced_simulate.solve(states, P, workers=1)
+    grid = reduced_simulate.solve(states[:24].reshape(4, 6, 4), P, workers=3)
+    for name in one:
+        assert grid[name].shape == (4, 6)
+        np.testing.assert_array_equal(grid[name].reshape(-1), one[name][:24])
+
+
 @pytest.mark.parametrize("params", [solver.Params(mu=1.0), solver.Params(mu=np.inf, k_r=0.1)])
 def test_simulate_refuses_a_scene_it_cannot_solve_with_one_line(params):
     with pytest.raises(ValueError, match="method='reduced'") as info:
         solver.simulate(np.array([[1.2, 0.5, 35.0, 10.0]]), params, method="reduced")
     assert "\n" not in str(info.value)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("omega2", SECTIONS)
+def test_the_whole_rolling_section_equals_the_engine_at_rtol_1e_12(omega2):
+    """The full 360 x 240 rolling-only section of Fig. 11, 12 or 13: outcomes equal to the engine's DOP853 at
+    rtol 1e-12 on every cell, or the cell is within 1e-9 rad of a boundary of the reduced solver's own map (its
+    outcome changes between beta -+ 1e-9) and a tighter engine run (rtol 1e-14) agrees with it; t_end median
+    <= 1e-11 s."""
+    beta, omega1 = np.linspace(0.8, 1.8, 240), np.linspace(-20.0, 20.0, 360)
+    b, w = np.meshgrid(beta, omega1, indexing="ij")
+    states = np.stack([b, w, np.full_like(b, omega2), np.full_like(b, 10.0)], -1).reshape(-1, 4)
+    got = reduced_simulate.solve(states, P)
+    eng = solver.simulate(states, P, rtol=1e-12, atol=1e-14, method="dop853")
+    assert (got["status"] == 0).all()
+    differ = np.flatnonzero(got["outcome"] != eng["outcome"])
+    if differ.size:
+        x = states[differ]
+        shifted = [reduced_simulate.solve(x + [s, 0, 0, 0], P)["outcome"] for s in (-1e-9, 1e-9)]
+        tight = solver.simulate(x, P, rtol=1e-14, atol=1e-16, method="dop853")["outcome"]
+        near = (shifted[0] != shifted[1]) | (shifted[0] != got["outcome"][differ])
+        assert np.all(near | (tight == got["outcome"][differ])), x[~near & (tight != got["outcome"][differ])]
+    same = (got["outcome"] == eng["outcome"]) & (eng["t_end"] > 0)
+    assert np.median(np.abs(got["t_end"][same] - eng["t_end"][same])) <= 1e-11

@@ -85,12 +85,14 @@ GL_NODES = 10
 
 def _helper(func):
     """Compile a helper of the kernel: as ``solver._compile.kernel`` (nopython, nogil, cached on disk, numpy
-    error model, numba's runtime kept) but without the CPython and cfunc wrappers, which only a call from
-    Python needs and which cost a good part of each helper's compile; ``RIMROLL_NO_JIT=1``: the Python source."""
+    error model, no reference counting: the helpers allocate nothing) and without the CPython and cfunc
+    wrappers, which only a call from Python needs and which cost a good part of each helper's compile;
+    ``RIMROLL_NO_JIT=1``: the Python source."""
     if _jit._DISABLE:
         func.py_func = func
         return func
-    return _jit.njit_cached(func, nogil=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
+    return _jit.njit_cached(func, nogil=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True,
+                            **_jit.NO_REFCOUNT)
 
 
 # constants vector c
@@ -481,9 +483,9 @@ def _extend(res, beta):
 
 @_helper
 def _f_min(lo, hi, st, tab, slo, c):
-    """Smallest F2/m [m/s^2] on [lo, hi] [rad]: samples every 1/8 panel, then the zero of dF/dbeta
-    bracketed around the smallest interior sample (bisection to adjacent floating-point numbers)."""
-    n = min(int(np.ceil((hi - lo) / (0.125 * c[C_W]))), 4000) + 1
+    """Smallest F2/m [m/s^2] on [lo, hi] [rad]: samples every 1/4 panel, then the zero of dF/dbeta
+    bracketed around the smallest interior sample (bisection to 1e-6 of a panel)."""
+    n = min(int(np.ceil((hi - lo) / (0.25 * c[C_W]))), 4000) + 1
     best = np.inf
     k_best = 0
     step = (hi - lo) / max(n - 1, 1)
@@ -500,7 +502,7 @@ def _f_min(lo, hi, st, tab, slo, c):
         return best
     for _ in range(MAX_NEWTON):
         m = 0.5 * (a + b)
-        if m <= a or m >= b:
+        if b - a < 1e-6 * c[C_W]:  # F there is within |F''| 1e-14 of its minimum
             break
         if _level_values(m, 1.0, st, tab, slo, c)[3] < 0.0:
             a = m
