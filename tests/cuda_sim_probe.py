@@ -5,9 +5,10 @@ when ``numba.cuda`` is first imported): ``python tests/cuda_sim_probe.py OUT.npz
 [MAX_BATCH [SCENE,SCENE,...]]`` (MAX_BATCH 0: no batched run; default: every scene of ``SCENES``).
 ``tests/test_cuda_backend.py`` compares the two.
 
-What costs is not the states but the compiles, in a cold kernel cache: under the simulator each
-(scene, method) compiles the engine's trajectory kernel once more for the CPU (its call from Python,
-30-90 s each on 2 cores), and the coulomb_air scene also its own CPU scene kernel.
+What costs is not the states but the compiles: under the simulator each (scene, method) compiles the
+engine's trajectory kernel once more for the CPU (its call from Python), once into the kernel cache;
+the coulomb_air scene (a generated scene module) compiles it again in every run, about 5 min at load 12
+(tests/test_cuda_backend.py runs it with -m slow).
 """
 
 from __future__ import annotations
