@@ -2,7 +2,13 @@
 
 Run in a process of its own with ``NUMBA_ENABLE_CUDASIM=1`` (numba-cuda's simulator is chosen
 when ``numba.cuda`` is first imported): ``python tests/cuda_sim_probe.py OUT.npz N_PER_SCENE
-[MAX_BATCH]``. ``tests/test_cuda_backend.py`` compares the two.
+[MAX_BATCH [SCENE,SCENE,...]]`` (MAX_BATCH 0: no batched run; default: every scene of ``SCENES``).
+``tests/test_cuda_backend.py`` compares the two.
+
+What costs is not the states but the compiles: under the simulator each (scene, method) compiles the
+engine's trajectory kernel once more for the CPU (its call from Python), once into the kernel cache;
+the coulomb_air scene (a generated scene module) compiles it again in every run, about 5 min at load 12
+(tests/test_cuda_backend.py runs it with -m slow).
 """
 
 from __future__ import annotations
@@ -43,10 +49,12 @@ def section_states(n: int, seed: int = 14) -> np.ndarray:
     return np.stack([beta, omega1, np.full(n, OMEGA2), np.full(n, OMEGA3)], -1)
 
 
-def main(out: str, n: int, max_batch: int | None) -> None:
+def main(out: str, n: int, max_batch: int | None, labels: list[str] | None = None) -> None:
     states = section_states(n)
     saved = {"states": states}
     for label, (changes, t_max) in SCENES.items():
+        if labels is not None and label not in labels:
+            continue
         params = solver.Params(**changes)
         for backend in ("cpu", "cuda"):
             res = solver.simulate(states, params, t_max=t_max, backend=backend, workers=1)
@@ -71,4 +79,5 @@ def main(out: str, n: int, max_batch: int | None) -> None:
 
 
 if __name__ == "__main__":
-    main(sys.argv[1], int(sys.argv[2]), int(sys.argv[3]) if len(sys.argv) > 3 else None)
+    main(sys.argv[1], int(sys.argv[2]), int(sys.argv[3]) if len(sys.argv) > 3 else None,
+         sys.argv[4].split(",") if len(sys.argv) > 4 else None)
