@@ -1,8 +1,8 @@
 """A cluster that fails a run (issue 42, "Cluster"): every wait has a bound and a one-line message.
 
 Generated cases: the only worker of a ``--scheduler`` run killed (SIGKILL, with or without its
-nanny) or frozen (SIGSTOP), before or after its first chunk; each run stops within a bound of its
-``--timeout`` with one line naming the scheduler, exit 2, and the chunks it finished kept. And
+nanny) or frozen (SIGSTOP), before or after its first chunk, or the scheduler frozen; each run stops
+within a bound of its ``--timeout`` with one line naming the scheduler, exit 2, and the chunks it finished kept. And
 client-side TLS mistakes (generated from the settings a client can get wrong) are said as the
 client's, not as "not a dask scheduler"; a ``scheduler_file`` that is no path is one error.
 
@@ -44,7 +44,7 @@ def _scheduler(tmp_path):
     sfile = tmp_path / "scheduler.json"
     p = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port", "0",
                           "--no-dashboard", "--scheduler-file", str(sfile)], env=_env(),
-                         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
     try:
         deadline = time.monotonic() + START_S
         address = None
@@ -53,7 +53,7 @@ def _scheduler(tmp_path):
                 address = json.loads(sfile.read_text())["address"]
             assert p.poll() is None and time.monotonic() < deadline, "the scheduler did not start"
             time.sleep(0.1)
-        yield address
+        yield address, p
     finally:
         _stop(p)
 
@@ -79,8 +79,8 @@ def _worker(address: str, nanny: bool) -> subprocess.Popen:
                             env=_env(), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
 
 
-CASES = list(itertools.product(("SIGKILL", "SIGSTOP"), (False, True), (0, 1)))
-"""(signal to the worker's process group, with a nanny, chunks finished before it)."""
+CASES = [*itertools.product(("SIGKILL", "SIGSTOP"), (False, True), (0, 1)), ("SIGSTOP-scheduler", False, 1)]
+"""(signal to the worker's process group, or to the scheduler's; with a nanny; chunks finished before it)."""
 
 
 def _case_id(case) -> str:
@@ -89,12 +89,12 @@ def _case_id(case) -> str:
 
 
 @pytest.mark.parametrize("case", [pytest.param(c, id=_case_id(c), marks=() if i == 0 else pytest.mark.slow)
-                                  for i, c in enumerate(random.Random(42).sample(CASES, len(CASES)))])
+                                  for i, c in enumerate(random.Random(42).sample(CASES[:8], 8) + CASES[8:])])
 def test_a_run_whose_only_worker_dies_or_freezes_stops_in_one_line(tmp_path, case):
     how, nanny, after = case
     out = tmp_path / "out"
     log = tmp_path / "chunks.log"
-    with _scheduler(tmp_path) as address:
+    with _scheduler(tmp_path) as (address, scheduler):
         worker = _worker(address, nanny)
         try:
             run = subprocess.Popen([sys.executable, "-m", "rimroll.study", "run", "fanout-probe", "--out", str(out),
@@ -109,7 +109,8 @@ def test_a_run_whose_only_worker_dies_or_freezes_stops_in_one_line(tmp_path, cas
                 while not list(out.glob(".parts/*/chunk-*.npz")):
                     assert run.poll() is None and time.monotonic() < deadline, run.communicate(timeout=30)
                     time.sleep(0.02)
-            os.killpg(worker.pid, getattr(signal, how))
+            target = scheduler if how.endswith("-scheduler") else worker
+            os.killpg(target.pid, getattr(signal, how.split("-")[0]))
             t0 = time.monotonic()
             try:
                 err = run.communicate(timeout=TIMEOUT * 6 + 60)[1]
