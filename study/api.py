@@ -121,6 +121,11 @@ def run(name: str, quick: bool = False, out: str | os.PathLike | None = None, cl
         _check_flag("progress", progress)
     if out is not None:
         _check_path("out", out)
+    if scheduler_file is not None:
+        _check_path("scheduler_file", scheduler_file)
+    if scheduler is not None and not isinstance(scheduler, str):
+        raise UserError(f"scheduler must be an address str such as 'tcp://HOST:8786', not "
+                        f"{type(scheduler).__name__} {scheduler!r}")
     if isinstance(timeout, (bool, np.bool_)) or not isinstance(timeout, (int, float, np.integer, np.floating)):
         raise UserError(f"timeout must be a number of seconds, > 0 and <= 86400; got {timeout!r}")
     sets = [f"{key}={_word(key, value)}" for key, value in settings.items()]

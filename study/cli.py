@@ -24,7 +24,7 @@ import warnings
 import numpy as np
 
 from rimroll import _messages
-from rimroll.study import checks, keyvalue, registry, settings
+from rimroll.study import checks, keyvalue, registry, settings, stopping
 from rimroll.study.checks import DEFAULT_TIMEOUT
 from rimroll.study.registry import UserError, natural_order
 from rimroll.study.setting_table import lookup
@@ -412,7 +412,7 @@ def main(argv=None) -> int:
     words = sys.argv[1:] if argv is None else list(argv)
     command = shlex.join(["study", *words])
     _ignore_file_size_signal()
-    previous = _terminate_as_interrupt()
+    previous = stopping.install()  # SIGTERM: one stop, one line, exit 143 (study.stopping)
     shown = warnings.showwarning
     warnings.showwarning = _one_line_warning
     try:
@@ -420,7 +420,7 @@ def main(argv=None) -> int:
             return _main(words, command)
     finally:
         warnings.showwarning = shown
-        _restore_sigterm(previous)
+        stopping.restore(previous)
 
 
 def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
@@ -511,34 +511,6 @@ def _dispatch(args, command: str) -> int:
             from rimroll.study import shot_trace as trace
         return trace.run(args, command)
     return _cmd_info(args)
-
-
-def _terminate_as_interrupt():
-    """SIGTERM (``timeout``, a batch system) stops the command as Ctrl-C does, with what it finished
-    saved, one line and exit 143, instead of killing it with no word and its lock file left behind;
-    only where SIGTERM has its default action (an application that set its own keeps it). Returns the
-    handler to restore when the command returns (None: nothing changed)."""
-    import signal
-
-    def terminated(signum, frame):
-        raise registry.Terminated()
-
-    try:
-        if signal.getsignal(signal.SIGTERM) == signal.SIG_DFL:
-            return signal.signal(signal.SIGTERM, terminated)
-    except ValueError:  # not the main thread
-        pass
-    return None
-
-
-def _restore_sigterm(previous) -> None:
-    import signal
-
-    if previous is not None:
-        try:
-            signal.signal(signal.SIGTERM, previous)
-        except ValueError:
-            pass
 
 
 def _ignore_file_size_signal() -> None:

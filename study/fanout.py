@@ -36,6 +36,8 @@ from rimroll.study.parts import PartStore
 from rimroll.study.plan import Plan, compute_chunk
 from rimroll.study.progress import ProgressLine
 from rimroll.study.registry import UserError
+from rimroll.study.stopping import TEARDOWN_LOGGERS, silence
+from rimroll.study.stopping import unsilence as restore
 
 POLL = 0.5  # [s] how often a run checks that its cluster still has workers
 
@@ -64,12 +66,54 @@ def security():
     return Security()
 
 
-def scheduler_address(path: str, timeout: float) -> str:
+def tls_problem(address: str) -> str | None:
+    """What in this client's TLS settings (dask's configuration ``distributed.comm.tls`` and
+    ``distributed.comm.require-encryption``, :func:`security`) keeps it from connecting to ``address``,
+    checked without connecting; None when nothing does. A client-side mistake is said as such, not
+    taken for a server that does not speak dask."""
+    import ssl
+
+    from distributed.comm import parse_address
+
+    sec = security()
+    protocol = parse_address(address)[0]
+    if protocol not in ("tls", "wss"):
+        if sec.require_encryption:
+            return (f"the dask configuration of this client requires encryption (distributed.comm.require-encryption) "
+                    f"and {address} is not encrypted: use the scheduler's tls:// address, or unset that setting")
+        return None
+    settings = {"distributed.comm.tls.ca-file": sec.tls_ca_file,
+                "distributed.comm.tls.client.cert": sec.tls_client_cert,
+                "distributed.comm.tls.client.key": sec.tls_client_key}
+    missing = [key for key, value in list(settings.items())[:2] if not value]
+    if missing:
+        return (f"{address} needs this client's TLS settings and the dask configuration has no "
+                f"{' and no '.join(missing)} "
+                "(set them, and distributed.comm.tls.client.key when the key is not in the certificate's file; e.g. "
+                "DASK_DISTRIBUTED__COMM__TLS__CA_FILE=ca.pem)")
+    for key, value in settings.items():
+        if value and not os.path.isfile(value):
+            return f"the file {value} of this client's TLS setting {key} does not exist"
+    try:
+        sec.get_connection_args("client")
+    except (ssl.SSLError, OSError, ValueError) as exc:
+        given = ", ".join(f"{key.rsplit('.', 2)[-2] + '.' if 'client' in key else ''}{key.rsplit('.', 1)[-1]} {value}"
+                          for key, value in settings.items() if value)
+        hint = "" if sec.tls_client_key else "; a certificate without its key needs distributed.comm.tls.client.key"
+        return (f"this client's TLS settings ({given}) cannot be loaded: {' '.join(str(exc).split())} (not PEM "
+                f"certificates and key?){hint}")
+    return None
+
+
+def scheduler_address(path, timeout: float) -> str:
     """The address in the scheduler file ``path`` (``dask scheduler --scheduler-file``, dask-jobqueue,
     dask-mpi), waiting up to ``timeout`` s for the file to appear; UserError otherwise."""
     import json
     import pathlib
 
+    if not isinstance(path, (str, os.PathLike)) or not str(path):
+        raise UserError(f"scheduler_file must be the path of a dask scheduler file (a str or os.PathLike), "
+                        f"not {type(path).__name__} {path!r}")
     file = pathlib.Path(path)
     deadline = time.monotonic() + timeout
     while True:
@@ -182,6 +226,8 @@ def client(workers: int | None = None, scheduler: str | None = None, timeout: fl
         scheduler = scheduler_address(scheduler_file, timeout)
     if scheduler:
         check_address(scheduler)
+        if problem := tls_problem(scheduler):
+            raise UserError(f"cannot connect to the dask scheduler at {scheduler}: {problem}")
         probe_scheduler(scheduler, timeout)
         try:
             c = Client(scheduler, timeout=timeout, security=security())
@@ -220,25 +266,6 @@ def client(workers: int | None = None, scheduler: str | None = None, timeout: fl
         restore(silenced)
 
 
-TEARDOWN_LOGGERS = ("tornado.application", "asyncio", "distributed")
-"""Loggers of the event loop and of dask, silenced while a local cluster is torn down after Ctrl-C or an
-error: a callback of a cancelled future may log "Exception in callback ... NameError" with a traceback
-(seen once in 35 interrupted runs), where the command says its one line."""
-
-
-def silence(names) -> dict:
-    """Set the loggers ``names`` above CRITICAL; returns their levels, for :func:`restore`."""
-    levels = {name: logging.getLogger(name).level for name in names}
-    for name in names:
-        logging.getLogger(name).setLevel(logging.CRITICAL + 1)
-    return levels
-
-
-def restore(levels: dict) -> None:
-    for name, level in levels.items():
-        logging.getLogger(name).setLevel(level)
-
-
 def dashboard(c) -> str | None:
     """The link to the dashboard of client ``c``'s scheduler, or None when it has none."""
     try:
@@ -247,11 +274,39 @@ def dashboard(c) -> str | None:
         return None
 
 
-def _workers(c) -> int:
-    try:
-        return len(c.nthreads())
-    except Exception:  # noqa: BLE001  a scheduler that went away has no workers
-        return 0
+class Liveness:
+    """The workers of a cluster that are alive: known to its scheduler, and heard from within ``timeout``
+    seconds (each worker's heartbeat moves its ``last_seen`` on the scheduler; a worker whose process is
+    gone while its connection lingers, or that is frozen, stops moving it). Every question to the
+    scheduler is bounded (``ASK_S``): a scheduler that does not answer has no live worker either."""
+
+    ASK_S = 5.0  # [s] bound on one question to the scheduler
+
+    def __init__(self, timeout: float):
+        self.timeout = timeout
+        self.heard: dict[str, tuple[float, float]] = {}  # worker -> (its last_seen, when it last moved)
+        self.answered = True  # whether the scheduler answered the last question
+
+    def threads(self, c) -> dict[str, int]:
+        """The threads of each live worker (``{}`` when none, or the scheduler does not answer)."""
+        try:
+            info = c.sync(c.scheduler.identity, n_workers=-1, callback_timeout=min(self.ASK_S, self.timeout))
+            workers = info["workers"]
+        except Exception:  # noqa: BLE001  a scheduler gone, frozen or closing: no live worker
+            self.answered = False
+            return {}
+        self.answered = True
+        now = time.monotonic()
+        live = {}
+        for address, worker in workers.items():
+            seen = worker.get("last_seen")
+            last, moved = self.heard.get(address, (None, now))
+            if seen != last:
+                moved = now
+            self.heard[address] = (seen, moved)
+            if now - moved <= self.timeout:
+                live[address] = int(worker.get("nthreads") or 1)
+        return live
 
 
 def run(plan: Plan, store: PartStore, todo: list[int], c, progress: ProgressLine,
@@ -270,7 +325,9 @@ def run(plan: Plan, store: PartStore, todo: list[int], c, progress: ProgressLine
     stats = RunStats(total=plan.n_chunks, resumed=plan.n_chunks - len(todo))
     if not todo:
         return stats
-    threads = sum(c.nthreads().values()) or 1
+    _drop_all_exit()
+    liveness = Liveness(timeout)
+    threads = sum(liveness.threads(c).values()) or 1
     window = 2 * threads + 2
     pending = iter(todo)
     token = uuid.uuid4().hex[:8]  # keys unique per run, even on a long-lived shared scheduler
@@ -284,6 +341,13 @@ def run(plan: Plan, store: PartStore, todo: list[int], c, progress: ProgressLine
     def lost(why: str, what: str = "worker") -> UserError:
         return UserError(f"{what} lost ({why}); {store.count()} of {plan.n_chunks} chunks saved, "
                          "rerun the same command to resume")
+
+    def no_worker() -> UserError:
+        where = _scheduler_of(c)
+        if not liveness.answered:
+            return lost(f"the scheduler{where} has not answered for {timeout:g} s", "scheduler")
+        return lost(f"no live worker at the scheduler{where} for {timeout:g} s: start workers there (dask worker "
+                    "SCHEDULER_ADDRESS) or check why they died")
 
     t0 = time.perf_counter()
     inflight = {f for f in (submit() for _ in range(window)) if f is not None}
@@ -299,25 +363,18 @@ def run(plan: Plan, store: PartStore, todo: list[int], c, progress: ProgressLine
                 finished = set()
             except FuturesCancelledError:  # the scheduler went away: the client cancels every future
                 raise lost("the client lost its connection", "scheduler") from None
-            now = time.perf_counter()
-            if finished:
-                quiet_since, beat = now, runguard.next_heartbeat(0.0)
-            elif now - quiet_since >= beat:
-                if not progress.shown:  # a progress line on a terminal says it already
-                    runguard.heartbeat(plan, stats.computed, len(todo), now - t0)
-                beat = runguard.next_heartbeat(now - quiet_since)
-            if not finished:
-                if _workers(c):
-                    no_worker_since = None
-                elif no_worker_since is None:
-                    no_worker_since = time.monotonic()
-                elif time.monotonic() - no_worker_since > timeout:
-                    raise lost(f"no worker for {timeout:g} s")
-                continue
+            saved = 0
             for future in finished:
                 inflight.discard(future)
+                if future.status == "pending":  # done when wait looked, its worker died since: computed anew
+                    inflight.add(future)
+                    continue
                 try:
-                    k, arrays, seconds = future.result()
+                    # bounded: the future can turn pending again between the two lines, and result() would wait
+                    k, arrays, seconds = future.result(timeout=POLL)
+                except TimeoutError:
+                    inflight.add(future)
+                    continue
                 except (KilledWorker, FuturesCancelledError) as exc:
                     raise lost(type(exc).__name__) from None
                 except ArithmeticError as exc:  # settings whose numbers leave floating point (j=1e308)
@@ -327,14 +384,35 @@ def run(plan: Plan, store: PartStore, todo: list[int], c, progress: ProgressLine
                 future.release()
                 store.save(k, arrays)
                 del arrays
+                saved += 1
                 stats.computed += 1
                 stats.compute_s += seconds
                 progress.advance()
                 nxt = submit()
                 if nxt is not None:
                     inflight.add(nxt)
+                if not estimated:
+                    seconds_of.append(seconds)
+            now = time.perf_counter()
+            if saved:
+                quiet_since, beat = now, runguard.next_heartbeat(0.0)
+                no_worker_since = None
+            elif now - quiet_since >= beat:
+                if not progress.shown:  # a progress line on a terminal says it already
+                    runguard.heartbeat(plan, stats.computed, len(todo), now - t0)
+                beat = runguard.next_heartbeat(now - quiet_since)
+            if not saved:
+                if liveness.threads(c):
+                    no_worker_since = None
+                elif no_worker_since is None:
+                    no_worker_since = time.monotonic()
+                elif time.monotonic() - no_worker_since > timeout:
+                    raise no_worker()
+                if not finished:
+                    continue
+                time.sleep(POLL)  # futures seen done and pending again: wait a moment before asking again
+                continue
             if not estimated:
-                seconds_of.append(seconds)
                 per_chunk = runguard.seconds_per_chunk(seconds_of, threads, len(todo))
                 if per_chunk is not None:
                     estimated = True
@@ -350,6 +428,30 @@ def run(plan: Plan, store: PartStore, todo: list[int], c, progress: ProgressLine
         progress.close()
     stats.wall_s = time.perf_counter() - t0
     return stats
+
+
+class _AllExitFilter(logging.Filter):
+    """Drops asyncio's "Task exception was never retrieved ... exception=AllExit()": the leftover of a
+    bounded ``Future.result(timeout=...)`` that timed out (AllExit is dask's internal sentinel)."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return "exception=AllExit()" not in record.getMessage()
+
+
+def _drop_all_exit() -> None:
+    """Install :class:`_AllExitFilter` on the ``asyncio`` logger, once per process."""
+    logger = logging.getLogger("asyncio")
+    if not any(isinstance(f, _AllExitFilter) for f in logger.filters):
+        logger.addFilter(_AllExitFilter())
+
+
+def _scheduler_of(c) -> str:
+    """`` ADDRESS`` of client ``c``'s scheduler, for messages ('' when unknown)."""
+    try:
+        address = c.scheduler.address
+    except Exception:  # noqa: BLE001
+        return ""
+    return f" {address}" if address else ""
 
 
 def _stop_compiles() -> None:

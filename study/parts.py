@@ -122,7 +122,15 @@ class PartStore:
             os.close(fd)
 
     def save(self, k: int, arrays: dict[str, np.ndarray]) -> pathlib.Path:
-        """Write chunk ``k`` atomically (temp file, fsync, rename)."""
+        """Write chunk ``k`` atomically (temp file, fsync, rename). A parts folder removed while the run
+        goes on (its temporary file with it) is made again and the part written once more: the chunk
+        is in memory, and only the chunks saved before the removal are lost (the assembly says so)."""
+        try:
+            return self._save(k, arrays)
+        except FileNotFoundError:
+            return self._save(k, arrays)
+
+    def _save(self, k: int, arrays: dict[str, np.ndarray]) -> pathlib.Path:
         self.dir.mkdir(parents=True, exist_ok=True)
         path = self.path(k)
         payload = {**arrays, _INDEX: np.array(int(k), dtype=np.int64), _FINGERPRINT: np.array(self.fingerprint)}

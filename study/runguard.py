@@ -89,6 +89,10 @@ def saved_on_stop(store, plan):
         what, status = registry.stopped_by(exc)
         raise RunInterrupted(f"{what}; {_saved(store, plan)}; rerun the same command to resume", status) from None
     except OSError as exc:
+        if exc.errno == errno.ENOENT and _removed(store, exc):
+            raise RunStopped(f"{exc.filename or store.dir} vanished during the run (was the parts folder "
+                             f"{store.root} removed?); {_saved(store, plan)}; rerun the same command to "
+                             "recompute the missing ones") from None
         if exc.errno not in (errno.ENOSPC, errno.EFBIG, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EIO):
             raise
         what = exc.strerror or str(exc)
@@ -102,6 +106,16 @@ def saved_on_stop(store, plan):
         raise RunStopped(f"cannot write {store.target}: the netCDF library failed ({' '.join(str(exc).split())}); "
                          f"{_space(store.target.parent)}; {_saved(store, plan)}; free space (or raise the limit) "
                          "and rerun the same command to resume") from None
+
+
+def _removed(store, exc: OSError) -> bool:
+    """Whether the missing file of ``exc`` is in the run's parts folder (a part, the lock, the assembly's
+    temporary file), or that folder is gone: removed by someone while the run went on."""
+    names = [n for n in (exc.filename, getattr(exc, "filename2", None)) if n]
+    root = store.root.resolve()
+    inside = any(root == pathlib.Path(n).resolve() or root in pathlib.Path(n).resolve().parents
+                 for n in names if isinstance(n, (str, os.PathLike)))
+    return inside or not store.dir.is_dir()
 
 
 def _space(directory: pathlib.Path) -> str:

@@ -12,11 +12,13 @@ import os
 import sys
 
 EXIT_INTERRUPTED = 130
+EXIT_TERMINATED = 143  # 128 + SIGTERM
 
 
 def main() -> int:
     """Entry point of the ``study`` console script: :func:`rimroll.study.cli.main`."""
     sys.unraisablehook = _interrupt_in_a_callback_goes_on
+    _terminated_while_starting.install()
     try:
         from rimroll.study.cli import main as command
 
@@ -33,6 +35,31 @@ def main() -> int:
         _quiet_exit()
 
 
+class _TerminatedWhileStarting:
+    """SIGTERM while the command imports (before ``rimroll.study.stopping`` takes SIGTERM over): nothing
+    is computed yet, so one line and exit 143 at once, as Ctrl-C's 130 above (the default action would
+    kill the process with no word, status -15). ``replaceable``: the command's own handler replaces it."""
+
+    replaceable = True
+
+    def __call__(self, signum, frame) -> None:
+        print("study: terminated (SIGTERM)", file=sys.stderr)
+        sys.stderr.flush()
+        os._exit(EXIT_TERMINATED)
+
+    def install(self) -> None:
+        import signal
+
+        try:
+            if signal.getsignal(signal.SIGTERM) == signal.SIG_DFL:
+                signal.signal(signal.SIGTERM, self)
+        except ValueError:  # not the main thread
+            pass
+
+
+_terminated_while_starting = _TerminatedWhileStarting()
+
+
 def _interrupt_in_a_callback_goes_on(unraisable) -> None:
     """``sys.unraisablehook`` of the command: a Ctrl-C that lands while Python runs a callback (a weak
     reference's, a finaliser's: objects freed as a command returns) cannot interrupt anything, and
@@ -40,6 +67,10 @@ def _interrupt_in_a_callback_goes_on(unraisable) -> None:
     (the command goes on to its end, whose exit status and one line stand). Anything else is
     reported as Python does."""
     if isinstance(unraisable.exc_value, KeyboardInterrupt):
+        if type(unraisable.exc_value).__name__ == "Terminated":  # a SIGTERM: the command must still stop
+            from rimroll.study import stopping
+
+            stopping.redeliver()
         return
     sys.__unraisablehook__(unraisable)
 
@@ -56,6 +87,7 @@ def _quiet_exit() -> None:
 
     try:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)  # the exit status stays the command's (143 after a SIGTERM)
     except ValueError:  # not the main thread
         pass
     gc.freeze()
