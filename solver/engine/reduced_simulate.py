@@ -148,6 +148,7 @@ def solve(states, params: Params, t_max=20.0, rtol=1e-8, workers=None) -> dict:
         "beta_end": end[:, 0], "omega1_end": end[:, 1], "omega2_end": end[:, 2], "omega3_end": end[:, 3],
         "outcome": outcome, "slip_phases": np.zeros(m), "n_steps": evals, "status": status,
         "n_searched": np.zeros(m), "n_slip_steps": np.zeros(m),
+        "u1_end": np.zeros(m), "u3_end": np.zeros(m),  # rolling only: the contact point never slips [m/s]
     }
     h = np.full(m, np.nan)
     if steady.any():
