@@ -17,8 +17,10 @@ one single-threaded worker per visible GPU (processes when there are several), o
 
 Every wait is bounded by ``timeout`` seconds (``study run --timeout``): a ``--scheduler`` address
 must answer dask's identity call in that time (an HTTP server, a socket that never answers or
-an unreachable host give one line), must have a worker within it, and a run whose cluster has
-had no worker for that long stops with the count of saved chunks (a rerun resumes).
+an unreachable host give one line; a client-side TLS mistake is said as such first, :func:`tls_problem`),
+must have a worker within it, and a run whose cluster has had no live worker for that long (one the
+scheduler has heard from, :class:`Liveness`; a scheduler that does not answer has none) stops with
+the count of saved chunks (a rerun resumes).
 """
 
 from __future__ import annotations
