@@ -2,7 +2,7 @@
 
     python benchmarks/shot_probability.py [--workers 2] [--rounds 3] [--draws 10000] [--out bench_results]
 
-The workload is one nominal free throw of the ``shot-probability`` study (7.2 m/s, 53 degree, 3 Hz
+The workload is one nominal free throw of the ``shot-probability`` study (7.2 m/s, 55 degree, 3 Hz
 backspin, 4.19 m from the hoop's axis, 0.92 m below the rim, the paper's ring, the solver's default
 contact) under the study's default release noise (speed SD 0.08 m/s, angle SD 1.3 degree, backspin
 SD 3 1/s, aim SD 0.5 degree), ``--draws`` noisy shots, in vacuum and with air drag (rho_air = 1.2

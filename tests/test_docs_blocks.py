@@ -59,6 +59,7 @@ PAGES = {
     "explanation/predictability.md": Page(slow=True),
     "shot-api.md": Page(),
     "shots.md": Page(slow=True),  # shot maps and traces; a capture compiles the rim engine's hybrid scene
+    "explanation/shot-questions.md": Page(slow=True),  # three --quick shot studies: about 30 s warm
 }
 
 

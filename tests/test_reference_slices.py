@@ -122,7 +122,7 @@ def test_default_settings_reproduce_the_reference(name, grid):
     assert report.n_common == np.prod(list(ref.sizes.values())), text
     assert report.ok, text
     cats = [v for v in report.variables if v.kind == "categorical"]
-    assert cats or name in ("fig3", "invariants", "work-precision")
+    assert cats or name in ("fig3", "invariants", "work-precision", "shot-sensitivity")
     for v in cats:
         if name in EVERY_POINT:
             assert v.identical == 1.0, text

@@ -271,7 +271,7 @@ CASES = {  # label -> (what moves, changes of the settings, changes of the Param
 }
 """The cases of ``shot-sensitivity``: one unknown of the model moved from the base each. Magnus lift is no
 case: the shot has no Magnus term yet (docs/explanation/shot-questions.md)."""
-SENS_SETTINGS = {**SETTINGS, "speed": 7.2, "angle": 53.0, "n_draws": 2000}
+SENS_SETTINGS = {**SETTINGS, "speed": 7.2, "angle": 55.0, "n_draws": 2000}  # the best free throw of shot-probability
 for _key in GRID:
     del SENS_SETTINGS[_key]
 SENS_QUICK = {"n_draws": 200}
