@@ -33,9 +33,9 @@ from rimroll.workflows import shot_probability as sp
 
 
 def estimate(settings: dict, params, workers: int) -> tuple[float, dict]:
-    """Wall time [s] of one make-probability estimate of ``settings['n_draws']`` draws on ``workers``
+    """Wall time [s] of one make-probability estimate of ``settings['draws']`` draws on ``workers``
     threads, and its counts (the draws of the study: ``noise_draws`` of the seed, split in blocks)."""
-    n = int(settings["n_draws"])
+    n = int(settings["draws"])
     releases = sp.noisy_releases(settings, np.array(float(settings["speed"])), np.array(float(settings["angle"])))
     blocks = np.array_split(np.arange(n), workers)
 
@@ -63,11 +63,11 @@ def main() -> None:
     a = ap.parse_args()
     if a.workers < 1 or a.rounds < 1 or a.draws < a.workers:
         raise SystemExit("benchmark: --workers and --rounds must be >= 1 and --draws >= --workers")
-    settings = {**sp.SENS_SETTINGS, "n_draws": a.draws}
+    settings = {**sp.SENS_SETTINGS, "draws": a.draws}
     load_before = os.getloadavg()
     rows = []
     for label, params in (("vacuum", solver.Params()), ("drag", solver.Params(rho_air=1.2))):
-        estimate({**settings, "n_draws": max(a.workers, 50)}, params, a.workers)  # warm: compiles once
+        estimate({**settings, "draws": max(a.workers, 50)}, params, a.workers)  # warm: compiles once
         # drag: the flight is integrated (about 10 x the vacuum shot): one round on --workers threads only
         for workers in (sorted({1, a.workers}) if label == "vacuum" else [a.workers]):
             walls, cpus = [], []
