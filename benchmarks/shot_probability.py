@@ -2,7 +2,7 @@
 
     python benchmarks/shot_probability.py [--workers 2] [--rounds 3] [--draws 10000] [--out bench_results]
 
-The workload is one nominal free throw of the ``shot-probability`` study (7.2 m/s, 53 degree, 3 Hz
+The workload is one nominal free throw of the ``shot-probability`` study (7.2 m/s, 55 degree, 3 Hz
 backspin, 4.19 m from the hoop's axis, 0.92 m below the rim, the paper's ring, the solver's default
 contact) under the study's default release noise (speed SD 0.08 m/s, angle SD 1.3 degree, backspin
 SD 3 1/s, aim SD 0.5 degree), ``--draws`` noisy shots, in vacuum and with air drag (rho_air = 1.2
@@ -33,9 +33,9 @@ from rimroll.workflows import shot_probability as sp
 
 
 def estimate(settings: dict, params, workers: int) -> tuple[float, dict]:
-    """Wall time [s] of one make-probability estimate of ``settings['n_draws']`` draws on ``workers``
+    """Wall time [s] of one make-probability estimate of ``settings['draws']`` draws on ``workers``
     threads, and its counts (the draws of the study: ``noise_draws`` of the seed, split in blocks)."""
-    n = int(settings["n_draws"])
+    n = int(settings["draws"])
     releases = sp.noisy_releases(settings, np.array(float(settings["speed"])), np.array(float(settings["angle"])))
     blocks = np.array_split(np.arange(n), workers)
 
@@ -63,11 +63,11 @@ def main() -> None:
     a = ap.parse_args()
     if a.workers < 1 or a.rounds < 1 or a.draws < a.workers:
         raise SystemExit("benchmark: --workers and --rounds must be >= 1 and --draws >= --workers")
-    settings = {**sp.SENS_SETTINGS, "n_draws": a.draws}
+    settings = {**sp.SENS_SETTINGS, "draws": a.draws}
     load_before = os.getloadavg()
     rows = []
     for label, params in (("vacuum", solver.Params()), ("drag", solver.Params(rho_air=1.2))):
-        estimate({**settings, "n_draws": max(a.workers, 50)}, params, a.workers)  # warm: compiles once
+        estimate({**settings, "draws": max(a.workers, 50)}, params, a.workers)  # warm: compiles once
         # drag: the flight is integrated (about 10 x the vacuum shot): one round on --workers threads only
         for workers in (sorted({1, a.workers}) if label == "vacuum" else [a.workers]):
             walls, cpus = [], []

@@ -257,7 +257,8 @@ _ENTRIES = (
       NONNEGATIVE, sweep=True, long_name="release angle SD"),
     S("sd_backspin", "s-1", "standard deviation of the backspin [rad/s]", NONNEGATIVE),
     S("sd_azimuth", "degree", "standard deviation of the sideways aim (azimuth)", NONNEGATIVE),
-    S("n_draws", "", "noisy releases per nominal release", COUNT),
+    S("draws", "", "noisy releases per nominal release (a setting of the estimate, not a grid size: compared by "
+      "study verify)", COUNT),
     S("speed", "m s-1", "nominal release speed", _release_range("speed", low_open=True)),
     S("angle", "degree", "nominal release angle above the horizontal", Range(0.0, 90.0, low_open=True,
                                                                                high_open=True)),

@@ -60,6 +60,7 @@ PAGES = {
     "explanation/exact-rolling.md": Page(),  # compiles the reduced solver's kernels (~11 s CPU)
     "shot-api.md": Page(),
     "shots.md": Page(slow=True),  # shot maps and traces; a capture compiles the rim engine's hybrid scene
+    "explanation/shot-questions.md": Page(slow=True),  # three --quick shot studies: about 30 s warm
 }
 
 

@@ -47,8 +47,9 @@ MAP_TOLERANCES = {"omega20": (1e-12, 1e-12), "h": (1e-12, 1e-12), "required_fric
                   "F2": (1e-12, 1e-12), "throw_speed": (1e-12, 1e-12), "trace_M": (1e-10, 1e-10),
                   "abs_mu1": (1e-10, 1e-10), "abs_mu2": (1e-10, 1e-10)}
 MIN_AWAY = 0.7  # at least 70 % of a slice lies away from boundaries, or the comparison says little
-EVERY_POINT = {"shot"}  # maps of many small regions (a shot's outcomes), rebuilt by the same event-driven code:
-# their categories must be identical at every point instead (a stronger check where few points lie away)
+EVERY_POINT = {"shot", "shot-probability", "rim-states"}  # maps of many small regions (a shot's outcomes), rebuilt
+# by the same event-driven code: their categories must be identical at every point instead (a stronger check where
+# few points lie away)
 
 
 # (atol, rtol) of the studies whose reference is more precise than their default run, beyond what
@@ -122,7 +123,7 @@ def test_default_settings_reproduce_the_reference(name, grid):
     assert report.n_common == np.prod(list(ref.sizes.values())), text
     assert report.ok, text
     cats = [v for v in report.variables if v.kind == "categorical"]
-    assert cats or name in ("fig3", "invariants", "work-precision")
+    assert cats or name in ("fig3", "invariants", "work-precision", "shot-sensitivity")
     for v in cats:
         if name in EVERY_POINT:
             assert v.identical == 1.0, text

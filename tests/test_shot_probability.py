@@ -34,7 +34,7 @@ def test_estimate_within_wilson_interval_of_an_independent_draw(speed, angle):
     """Another draw of the same noisy releases (seed 2024, ``Generator.normal``, not the study's
     ``noise_draws``) gives a Wilson interval (scipy's, 99 %) that holds the study's estimate."""
     n = 600
-    s = _settings(n_draws=n, seed=0)
+    s = _settings(draws=n, seed=0)
     est = _study_estimate(s, speed, angle)
     rng = np.random.default_rng(2024)
     release = {"speed": rng.normal(speed, s["sd_speed"], n),
@@ -78,7 +78,7 @@ def test_swish_only_in_vacuum_is_the_closed_form_window(speed, angle):
     of the closed-form swish window under the same Gaussian speed and angle noise (within its 99 %
     Wilson interval)."""
     n = 2000
-    s = _settings(n_draws=n, makes="swish_only", sd_backspin=0.0, sd_azimuth=0.0, confidence=0.99)
+    s = _settings(draws=n, makes="swish_only", sd_backspin=0.0, sd_azimuth=0.0, confidence=0.99)
     est = _study_estimate(s, speed, angle)
     exact = _window_probability(speed, angle, s["sd_speed"], s["sd_angle"])
     assert 0.05 < exact < 0.95
@@ -90,11 +90,11 @@ def test_swish_only_in_vacuum_is_the_closed_form_window(speed, angle):
 def test_common_random_numbers_and_bad_settings():
     """Every nominal release sees the same draws (a shift of the nominal speed shifts every draw by it),
     and a bad spread or count is refused with a message naming it."""
-    s = _settings(n_draws=5)
+    s = _settings(draws=5)
     a = sp.noisy_releases(s, np.array([7.0, 7.1]), np.array([50.0, 50.0]))
     assert np.allclose(a["speed"][1] - a["speed"][0], 0.1)
     assert np.array_equal(a["angle"][0], a["angle"][1])
-    for key, value in (("sd_speed", -0.1), ("sd_angle", math.nan), ("n_draws", 0), ("confidence", 1.0)):
+    for key, value in (("sd_speed", -0.1), ("sd_angle", math.nan), ("draws", 0), ("confidence", 1.0)):
         with pytest.raises(ValueError, match=key):
             sp.check_noise({**s, key: value})
     with pytest.raises(ValueError, match="makes"):

@@ -47,9 +47,9 @@ NOISE = {"sd_speed": 0.08,  # [m/s] Slegers et al. (2021): 0.05-0.13 m/s
 GRID = {"speed_min": 6.8, "speed_max": 7.7, "n_speed": 19,  # [m/s]
         "angle_min": 44.0, "angle_max": 62.0, "n_angle": 19}  # [degree]
 SETTINGS = {**GRID, **RELEASE_SETTINGS, **CONTACT_SETTINGS, **NOISE,
-            "n_draws": 1000, "seed": 0, "confidence": 0.95, "makes": "all",
+            "draws": 1000, "seed": 0, "confidence": 0.95, "makes": "all",
             "geometry": "paper", "t_max_shot": 5.0, "max_impacts": 100}
-QUICK = {"n_speed": 7, "n_angle": 6, "n_draws": 200}
+QUICK = {"n_speed": 7, "n_angle": 6, "draws": 200}
 SWEEPABLE = ("sd_speed", "sd_angle", "backspin", "distance", "height", *CONTACT_SETTINGS)
 RING_IGNORES = {k: "the ring is the geometry setting's (paper: Table 1; regulation: FIBA)" for k in ("R", "a")}
 
@@ -69,18 +69,18 @@ def check_noise(s: dict) -> None:
         values = s[key] if isinstance(s[key], tuple) else (s[key],)
         if not all(np.isfinite(v) and v >= 0 for v in values):
             raise ValueError(f"{key} must be a finite standard deviation >= 0; got {s[key]!r}")
-    if not int(s["n_draws"]) >= 1:
-        raise ValueError(f"n_draws must be >= 1; got {s['n_draws']!r}")
+    if not int(s["draws"]) >= 1:
+        raise ValueError(f"draws must be >= 1; got {s['draws']!r}")
     if not 0 < float(s["confidence"]) < 1:
         raise ValueError(f"confidence must lie in (0, 1); got {s['confidence']!r}")
 
 
 def noisy_releases(s: dict, speed, angle_deg) -> dict:
     """The release dict of ``shots.simulate_shots`` for every nominal (speed [m/s], angle [degree]) and
-    draw: arrays of shape speed.shape + (n_draws,). Draw i is the nominal release plus
-    (sd_speed, sd_angle, sd_backspin, sd_azimuth) * z_i, z_i = ``predictability.noise_draws(n_draws,
+    draw: arrays of shape speed.shape + (draws,). Draw i is the nominal release plus
+    (sd_speed, sd_angle, sd_backspin, sd_azimuth) * z_i, z_i = ``predictability.noise_draws(draws,
     seed)[i]``, the same for every nominal release (common random numbers)."""
-    z = pred.noise_draws(int(s["n_draws"]), int(s["seed"]))
+    z = pred.noise_draws(int(s["draws"]), int(s["seed"]))
     v = np.asarray(speed, float)[..., None] + float(s["sd_speed"]) * z[:, 0]
     theta = np.radians(np.asarray(angle_deg, float)[..., None] + float(s["sd_angle"]) * z[:, 1])
     spin = float(s["backspin"]) + float(s["sd_backspin"]) * z[:, 2]
@@ -126,7 +126,7 @@ def probability_fields(counts: dict, n: int, confidence: float) -> dict:
 
 
 def simulate_noisy(s: dict, p, speed, angle_deg) -> dict:
-    """The outcome codes (..., n_draws) of the noisy shots about each nominal release."""
+    """The outcome codes (..., draws) of the noisy shots about each nominal release."""
     geometry = str(s["geometry"])
     res = shots.simulate_shots(noisy_releases(s, speed, angle_deg), rim_params(p, geometry), contact_of(s),
                                geometry=geometry, t_max=float(s["t_max_shot"]), max_impacts=int(s["max_impacts"]))
@@ -147,7 +147,7 @@ def _compute(coords, p, s: dict) -> dict:
     check_noise(s)
     speed, angle = coords
     counts = make_counts(simulate_noisy(s, p, speed, angle), str(s["makes"]))
-    out = probability_fields(counts, int(s["n_draws"]), float(s["confidence"]))
+    out = probability_fields(counts, int(s["draws"]), float(s["confidence"]))
     out["n_unfinished"] = counts["unfinished"]
     out["outcome"] = _nominal(s, p, speed, angle)
     return out
@@ -176,7 +176,7 @@ def _variables() -> list:
                flag_values=OUTCOME_FLAGS[0], flag_meanings=OUTCOME_FLAGS[1])]
     for kind, text in KIND_TEXT.items():
         out += [Var(f"p_{kind}", "1", f"probability of {text} under the release noise",
-                    comment="Monte Carlo over n_draws noisy releases, the same draws for every nominal release "
+                    comment="Monte Carlo over draws noisy releases, the same draws for every nominal release "
                             "(common random numbers); makes = swish_only: a shot that touches the rim or the board "
                             "counts as a miss"),
                 Var(f"p_{kind}_lower", "1", f"lower end of the Wilson interval of p_{kind}"),
@@ -233,7 +233,7 @@ def _plot(ds) -> Figure:
     b_speed, b_angle = float(sel["best_speed"]), float(sel["best_angle"])
     axes[0].plot([b_speed], [b_angle], "r*", ms=12)
     spread = ", ".join(f"{k} {float(setting_of(sel, k)):g}" for k in NOISE)
-    fig.suptitle(f"make-probability under release noise ({spread}; {int(setting_of(sel, 'n_draws'))} draws, "
+    fig.suptitle(f"make-probability under release noise ({spread}; {int(setting_of(sel, 'draws'))} draws, "
                  f"makes = {setting_of(sel, 'makes')}); best (red star): {b_speed:.3g} m/s, {b_angle:.3g} deg, "
                  f"P = {float(sel['best_p_make']):.3f}" + (f"\n({note})" if note else ""), fontsize=10)
     return fig
@@ -244,7 +244,7 @@ register(Study(
     title="Make-probability of a release under Gaussian release noise (swish, rim, roll and board makes)",
     settings=SETTINGS, quick=QUICK, axes=_axes, variables=VARIABLES, compute=_compute, plot=_plot,
     chunks={"speed": 1}, sweepable=SWEEPABLE, derive=best_release, ignores=RING_IGNORES, compiles=True,
-    cost=0.12, cost_scale="n_draws",
+    cost=0.12, cost_scale="draws",
     derived_docs=((("best_speed", "best_angle"), "m s-1, degree", "the nominal release of the largest make-probability "
                    "(per point of the swept axes)"),
                   (("best_p_make", "best_p_make_lower", "best_p_make_upper"), "1",
@@ -271,10 +271,10 @@ CASES = {  # label -> (what moves, changes of the settings, changes of the Param
 }
 """The cases of ``shot-sensitivity``: one unknown of the model moved from the base each. Magnus lift is no
 case: the shot has no Magnus term yet (docs/explanation/shot-questions.md)."""
-SENS_SETTINGS = {**SETTINGS, "speed": 7.2, "angle": 53.0, "n_draws": 2000}
+SENS_SETTINGS = {**SETTINGS, "speed": 7.2, "angle": 55.0, "draws": 2000}  # the best free throw of shot-probability
 for _key in GRID:
     del SENS_SETTINGS[_key]
-SENS_QUICK = {"n_draws": 200}
+SENS_QUICK = {"draws": 200}
 
 
 def case_inputs(case: str, s: dict, p):
@@ -295,7 +295,7 @@ def _sens_compute(coords, p, s: dict) -> dict:
         reach = float(shots.speed_to_reach(math.radians(float(cs["angle"])), float(cs["distance"]),
                                            float(cs["height"]), rim_params(cp, str(cs["geometry"]))))
         aimed = float(s["speed"]) + reach - base_reach
-        n, conf = int(cs["n_draws"]), float(cs["confidence"])
+        n, conf = int(cs["draws"]), float(cs["confidence"])
         for suffix, speed in (("", float(s["speed"])), ("_aimed", aimed)):
             counts = make_counts(simulate_noisy(cs, cp, np.array(speed), np.array(float(cs["angle"]))), cs["makes"])
             f = probability_fields(counts, n, conf)
@@ -341,7 +341,7 @@ def _sens_plot(ds) -> Figure:
     ax.set_xlabel("make-probability [-] (Wilson interval)")
     ax.legend(fontsize=8)
     ax.set_title(f"sensitivity of the make-probability of {float(setting_of(ds, 'speed')):g} m/s, "
-                 f"{float(setting_of(ds, 'angle')):g} deg ({int(setting_of(ds, 'n_draws'))} draws per case)",
+                 f"{float(setting_of(ds, 'angle')):g} deg ({int(setting_of(ds, 'draws'))} draws per case)",
                  fontsize=10)
     return fig
 
@@ -350,7 +350,7 @@ register(Study(
     name="shot-sensitivity",
     title="Sensitivity of a release's make-probability to e, mu, v_cap, drag, the ring and the rim's dissipation",
     settings=SENS_SETTINGS, quick=SENS_QUICK, axes=_sens_axes, variables=SENS_VARIABLES, compute=_sens_compute,
-    plot=_sens_plot, chunks={"case": 1}, ignores=RING_IGNORES, compiles=True, cost=1.0, cost_scale="n_draws",
+    plot=_sens_plot, chunks={"case": 1}, ignores=RING_IGNORES, compiles=True, cost=1.0, cost_scale="draws",
     reference=ReferenceSpec(points={}, method="solver.shots.simulate_shots with seeded draws (a regression "
                             "reference at the study's own settings)"),
 ))
