@@ -97,6 +97,7 @@ def _compare_scenes(saved: dict, labels: list[str], kinds_reached: int) -> None:
     assert len(kinds) >= kinds_reached, f"the sample reaches only outcomes {kinds}"
 
 
+@pytest.mark.slow  # ~170 s of simulator compiles (docs/contributing.md: the test suite's time)
 def test_simulator_gives_the_cpu_engines_results_in_every_scene(simulated_run):
     """A few dozen states per outcome scene: same outcome, status, counts; t_end and every float within 1e-12."""
     _compare_scenes(simulated_run, OUTCOME_SCENES, 3)

@@ -54,6 +54,7 @@ def test_every_island_state_has_one_fate_and_the_fractions_add_up(quick):
     assert float(ds["t_on_rim"].max()) <= float(ds.attrs["setting_t_max_dissipative"])
 
 
+@pytest.mark.slow  # ~40 s on 2 cores
 def test_a_models_fates_are_those_of_its_own_scene_kernel(quick):
     """The study runs every model through the kernel with all three load terms; a model's states run
     in the scene of its own parameters alone (its own compiled kernel) give the same outcomes and
@@ -82,6 +83,7 @@ def test_unknown_model_is_a_clear_error():
         dissipation.model_params("viscous", 0.02, solver.Params(), {})
 
 
+@pytest.mark.slow  # ~30 s on 2 cores
 def test_outcome_cube_sweeps_a_terms_strength(tmp_path):
     """Any term's parameter is a sweep axis of outcome-cube (here Coulomb rolling resistance c_r [m])."""
     from rimroll.study.cli import main

@@ -149,7 +149,8 @@ def _section_states(n, seed):
 
 
 @pytest.mark.parametrize("names, mu", [(("coulomb_rolling",), np.inf), (("coulomb_drilling",), 1.0),
-                                       (("air_drag",), 1.0), (NEW_TERMS, np.inf), (NEW_TERMS, 1.0)])
+                                       (("air_drag",), 1.0), (NEW_TERMS, np.inf),
+                                       pytest.param(NEW_TERMS, 1.0, marks=pytest.mark.slow)])  # ~45 s compile
 def test_a_term_at_zero_strength_gives_the_scene_without_it_bit_for_bit(names, mu):
     """The term's kernel at strength 0 (named in ``terms``) against the conservative scene: every
     output equal, periodic detection included (a term at zero strength does not dissipate). Also the

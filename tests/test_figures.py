@@ -443,7 +443,8 @@ def test_select_refuses_a_value_outside_the_axis(tmp_path, capsys):
     ("solution-types", ("n_samples=8",)), ("invariants", ("n_time=21",)),
     ("predictability", ("omega2=65", "n_sample=20")),
     ("make-probability", ("n_beta=6", "n_omega1=8", "n_samples=4", "sigma=0.5,1", "mu=1,inf")),
-    ("work-precision", ("n_states=16", "n_scipy=2", "n_scipy_hybrid=1", "n_rtol=2", "rtol_max=1e-6")),
+    pytest.param("work-precision", ("n_states=16", "n_scipy=2", "n_scipy_hybrid=1", "n_rtol=2", "rtol_max=1e-6"),
+                 marks=pytest.mark.slow),  # ~50 s: scipy at rtol 1e-6 in every scene
     ("continuation", ("n_beta=6", "n_omega1=8")),
 ])
 def test_figures_label_their_axes_with_units_and_no_text_covers_another(tmp_path, name, sets):

@@ -43,7 +43,7 @@ def _states(n=120, seed=3):
                      np.full(n, 10.0)], -1)
 
 
-@pytest.mark.parametrize("mu", [np.inf, 1.0])
+@pytest.mark.parametrize("mu", [np.inf, pytest.param(1.0, marks=pytest.mark.slow)])  # mu = 1: a second compile, ~40 s
 def test_a_toy_term_equals_the_same_physics_written_into_the_equations(mu):
     x = _states()
     toy = solver.simulate(x, solver.Params(mu=mu), t_max=5.0, rtol=1e-10, atol=1e-12, terms=("toy_drilling",))
@@ -56,6 +56,7 @@ def test_a_toy_term_equals_the_same_physics_written_into_the_equations(mu):
         assert toy["slip_phases"].max() > 0  # the load enters the slipping phase and the switches too
 
 
+@pytest.mark.slow  # two generated-scene compiles, ~60 s (docs/contributing.md: the test suite's time)
 def test_a_load_of_zero_strength_gives_the_scene_without_it_bit_for_bit():
     x = _states(60)
     for mu in (np.inf, 1.0):
