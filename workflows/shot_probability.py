@@ -353,7 +353,7 @@ def _sens_plot(ds) -> Figure:
 
 register(Study(
     name="shot-sensitivity",
-    title="Sensitivity of a release's make-probability to e, mu, v_cap, drag, Magnus, the ring and the rim's dissipation",
+    title="Sensitivity of a release's make-probability to e, mu, v_cap, drag, Magnus, the ring, the rim's dissipation",
     settings=SENS_SETTINGS, quick=SENS_QUICK, axes=_sens_axes, variables=SENS_VARIABLES, compute=_sens_compute,
     plot=_sens_plot, chunks={"case": 1}, ignores=RING_IGNORES, compiles=True, cost=1.0, cost_scale="draws",
     reference=ReferenceSpec(points={}, method="solver.shots.simulate_shots with seeded draws (a regression "
