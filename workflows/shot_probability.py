@@ -15,8 +15,8 @@
   release of each spread (the grid point of the largest make-probability).
 - ``shot-sensitivity``: the make-probability of one release (by default the best free throw of the
   ``shot-probability`` default run) for each of a list of cases, each one unknown of the model moved
-  (the restitution e and friction mu of the rim, the capture speed v_cap, drag on, the rim phase's
-  dissipation), so that a reader sees which unknown matters most.
+  (the restitution e and friction mu of the rim, the capture speed v_cap, drag on, drag with
+  the Magnus lift on, the rim phase's dissipation), so that a reader sees which unknown matters most.
 
 The shots are ``solver.shots.simulate_shots`` (docs/shots.md); nothing here changes the shot.
 """
@@ -129,7 +129,8 @@ def simulate_noisy(s: dict, p, speed, angle_deg) -> dict:
     """The outcome codes (..., draws) of the noisy shots about each nominal release."""
     geometry = str(s["geometry"])
     res = shots.simulate_shots(noisy_releases(s, speed, angle_deg), rim_params(p, geometry), contact_of(s),
-                               geometry=geometry, t_max=float(s["t_max_shot"]), max_impacts=int(s["max_impacts"]))
+                               geometry=geometry, t_max=float(s["t_max_shot"]), max_impacts=int(s["max_impacts"]),
+                               lift=bool(s.get("lift", False)))
     return res["outcome"]
 
 
@@ -264,13 +265,16 @@ CASES = {  # label -> (what moves, changes of the settings, changes of the Param
     "v_cap_low": ("v_cap halved", {"v_cap": CONTACT_SETTINGS["v_cap"] / 2}, {}),
     "v_cap_high": ("v_cap doubled", {"v_cap": CONTACT_SETTINGS["v_cap"] * 2}, {}),
     "mu_roll_low": ("friction of the rolling phase mu = 0.5 (Params.mu)", {}, {"mu": 0.5}),
-    "drag": ("air drag, rho_air = 1.2 kg/m^3, C_D = 0.5", {}, {"rho_air": 1.2}),
+    "drag": ("air drag, rho_air = 1.2 kg/m^3, C_D = 0.5 (no Magnus lift)", {}, {"rho_air": 1.2}),
+    "drag_magnus": ("air drag and the Magnus lift (shots.simulate_shots lift=True), rho_air = 1.2 kg/m^3",
+                    {"lift": True}, {"rho_air": 1.2}),
     "rolling_resistance": ("rolling resistance k_r = 0.02 1/s on the rim (83)", {}, {"k_r": 0.02}),
     "drilling_resistance": ("drilling resistance k_d = 0.02 1/s on the rim (83)", {}, {"k_d": 0.02}),
     "regulation_ring": ("the FIBA ring (R = 0.234 m, a = 0.009 m) for the paper's", {"geometry": "regulation"}, {}),
 }
-"""The cases of ``shot-sensitivity``: one unknown of the model moved from the base each. Magnus lift is no
-case: the shot has no Magnus term yet (docs/explanation/shot-questions.md)."""
+"""The cases of ``shot-sensitivity``: one unknown of the model moved from the base each (``drag_magnus``:
+the lift on top of ``drag``, as the lift needs air). A case's setting ``lift`` is the ``lift`` keyword of
+``shots.simulate_shots``, no study setting."""
 SENS_SETTINGS = {**SETTINGS, "speed": 7.2, "angle": 55.0, "draws": 2000}  # the best free throw of shot-probability
 for _key in GRID:
     del SENS_SETTINGS[_key]
@@ -318,7 +322,8 @@ SENS_VARIABLES = [
     Var("p_make_upper", "1", "upper end of the Wilson interval of p_make"),
     Var("p_make_aimed", "1", "make-probability of the release re-aimed for the case",
         comment="nominal speed moved by the change of the speed through the hoop's centre (shots.speed_to_reach): "
-                "the shooter's correction for drag or another ring"),
+                "the shooter's correction for drag or another ring (speed_to_reach has no lift: drag_magnus is "
+                "re-aimed as drag is)"),
     Var("p_make_aimed_lower", "1", "lower end of the Wilson interval of p_make_aimed"),
     Var("p_make_aimed_upper", "1", "upper end of the Wilson interval of p_make_aimed"),
     Var("speed_aimed", "m s-1", "nominal speed of the re-aimed release"),
@@ -348,7 +353,7 @@ def _sens_plot(ds) -> Figure:
 
 register(Study(
     name="shot-sensitivity",
-    title="Sensitivity of a release's make-probability to e, mu, v_cap, drag, the ring and the rim's dissipation",
+    title="Sensitivity of a release's make-probability to e, mu, v_cap, drag, Magnus, the ring, the rim's dissipation",
     settings=SENS_SETTINGS, quick=SENS_QUICK, axes=_sens_axes, variables=SENS_VARIABLES, compute=_sens_compute,
     plot=_sens_plot, chunks={"case": 1}, ignores=RING_IGNORES, compiles=True, cost=1.0, cost_scale="draws",
     reference=ReferenceSpec(points={}, method="solver.shots.simulate_shots with seeded draws (a regression "
