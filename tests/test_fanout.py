@@ -246,7 +246,7 @@ def test_unreachable_scheduler_is_a_user_error(probe, tmp_path, capsys):
     import dask
 
     with dask.config.set({"distributed.comm.timeouts.connect": "1s"}):
-        assert _run(tmp_path, "--scheduler", "tcp://127.0.0.1:9") == 2
+        assert _run(tmp_path, "--scheduler", "tcp://127.0.0.1:9", "--timeout", "2") == 2  # dask retries until then
     assert "cannot connect to the dask scheduler" in capsys.readouterr().err
 
 
