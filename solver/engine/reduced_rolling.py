@@ -525,18 +525,66 @@ def _finish(res, resi, beta, w1, st, tab, c, t, alpha):
 
 
 @_helper
-def solve_one(beta0, w10, st, tab, slo, curv, c, p, xg, wg, stack, res, resi):
+def _end_on_rim(res, resi, bt, d, ok, st, tab, slo, c, t_max, alpha):
+    """Ends the state on the rim at t_max at beta = bt, moving in direction d (status max_steps unless ok)."""
+    if not ok:
+        resi[RI_STATUS] = MAX_STEPS
+    W = _level_values(bt, d, st, tab, slo, c)[0]
+    _finish(res, resi, bt, d * np.sqrt(max(W, 0.0)), st, tab, c, t_max, alpha)
+    resi[RI_OUTCOME] = ON_RIM_AT_T_MAX
+
+
+@_helper
+def _end_periodic(res, resi, b, st, tab, c, t, alpha, half):
+    """Ends the state as periodic rolling at its second counted turning point b, time t [s], half period [s]."""
+    _finish(res, resi, b, 0.0, st, tab, c, t, alpha)
+    res[R_HALF] = half
+    resi[RI_OUTCOME] = PERIODIC_ROLLING
+
+
+@_helper
+def _end_fall(res, resi, b, d, st, tab, slo, c, t, alpha):
+    """Ends the state where the ball leaves the rim (F2 = 0) at beta = b, moving in direction d, time t [s]."""
+    W = _level_values(b, d, st, tab, slo, c)[0]
+    _finish(res, resi, b, d * np.sqrt(max(W, 0.0)), st, tab, c, t, alpha)
+    resi[RI_FELL] = 1
+
+
+@_helper
+def _count_turn(count, t_first, t):
+    """One more counted turning point at time t [s]: (count, time of the first counted one [s])."""
+    count += 1
+    return count, (t if count == 1 else t_first)
+
+
+@_helper
+def _end_failed(res, resi, k, fmin, beta0, w10, st, tab, c):
+    """Ends the state at its start when the march failed (k: EV_FAIL non-finite, else the step cap)."""
+    resi[RI_STATUS] = NON_FINITE if k == EV_FAIL else MAX_STEPS
+    resi[RI_OUTCOME] = ON_RIM_AT_T_MAX
+    res[R_F2MIN] = fmin
+    _finish(res, resi, beta0, w10, st, tab, c, 0.0, 0.0)
+
+
+@_helper
+def solve_one(x, st, tab, slo, curv, c, p, xg, wg, stack, res, resi):
     """One conservative rolling state that neither starts off the rim nor on a steady motion.
 
-    beta0 [rad], omega1 at the start w10 [1/s], its level st (C0, P1, P2). Writes res (N_R floats:
+    x: the state (beta [rad], omega1 [1/s], ...) at the start, its level st (C0, P1, P2). Writes res (N_R floats:
     t_end [s], f2_min [N/kg], half_period [s], revolutions, end state) and resi (outcome, status,
     evaluations, fell: 1 when the ball left the rim at the end state)."""
+    resi[RI_EVALS] = _solve_legs(x, st, tab, slo, curv, c, p, xg, wg, stack, res, resi)
+
+
+@_helper
+def _solve_legs(x, st, tab, slo, curv, c, p, xg, wg, stack, res, resi):
+    """``solve_one``'s work; returns the number of evaluations of the tables."""
+    beta0, w10 = x[0], x[1]
     t_max = c[C_TMAX]
     resi[RI_STATUS] = OK
     resi[RI_FELL] = 0
     res[R_HALF] = np.nan
-    res[R_LO] = beta0
-    res[R_HI] = beta0
+    res[R_LO] = res[R_HI] = beta0
     start_turn = w10 == 0.0
     if start_turn:
         d = 1.0 if _level_values(beta0, 1.0, st, tab, slo, c)[1] > 0.0 else -1.0
@@ -550,12 +598,8 @@ def solve_one(beta0, w10, st, tab, slo, curv, c, p, xg, wg, stack, res, resi):
     n_ev += m
     fmin = fmin1
     if k1 == EV_FAIL or k1 == EV_CAP:
-        resi[RI_STATUS] = NON_FINITE if k1 == EV_FAIL else MAX_STEPS
-        resi[RI_OUTCOME] = ON_RIM_AT_T_MAX
-        res[R_F2MIN] = fmin
-        resi[RI_EVALS] = n_ev
-        _finish(res, resi, beta0, w10, st, tab, c, 0.0, 0.0)
-        return
+        _end_failed(res, resi, k1, fmin, beta0, w10, st, tab, c)
+        return n_ev
     t1, a1, ok1, m = _leg(beta0, b1, ts, s1, st, tab, slo, c, xg, wg, stack)
     n_ev += m
     if not ok1:
@@ -563,22 +607,14 @@ def solve_one(beta0, w10, st, tab, slo, curv, c, p, xg, wg, stack, res, resi):
     if t1 > t_max:  # on the rim at t_max, during leg 1
         bt, at, ok, m = _at_time(beta0, b1, ts, s1, t_max, st, tab, slo, c, xg, wg, stack)
         n_ev += m
-        if not ok:
-            resi[RI_STATUS] = MAX_STEPS
-        W = _level_values(bt, d, st, tab, slo, c)[0]
-        _finish(res, resi, bt, d * np.sqrt(max(W, 0.0)), st, tab, c, t_max, at)
-        resi[RI_OUTCOME] = ON_RIM_AT_T_MAX
+        _end_on_rim(res, resi, bt, d, ok, st, tab, slo, c, t_max, at)
         res[R_F2MIN] = fmin
-        resi[RI_EVALS] = n_ev
-        return
+        return n_ev
     _extend(res, b1)
     if k1 == EV_FALL:
-        W = _level_values(b1, d, st, tab, slo, c)[0]
-        _finish(res, resi, b1, d * np.sqrt(max(W, 0.0)), st, tab, c, t1, a1)
-        resi[RI_FELL] = 1
+        _end_fall(res, resi, b1, d, st, tab, slo, c, t1, a1)
         res[R_F2MIN] = fmin
-        resi[RI_EVALS] = n_ev
-        return
+        return n_ev
     # the other way: from beta0 in direction -d (unless beta0 itself is the turning point)
     if start_turn:
         k2, b2, t2, a2 = EV_TURN, beta0, 0.0, 0.0
@@ -588,12 +624,8 @@ def solve_one(beta0, w10, st, tab, slo, curv, c, p, xg, wg, stack, res, resi):
         n_ev += m
         fmin = min(fmin, fmin2)
         if k2 == EV_FAIL or k2 == EV_CAP:
-            resi[RI_STATUS] = NON_FINITE if k2 == EV_FAIL else MAX_STEPS
-            resi[RI_OUTCOME] = ON_RIM_AT_T_MAX
-            res[R_F2MIN] = fmin
-            resi[RI_EVALS] = n_ev
-            _finish(res, resi, beta0, w10, st, tab, c, 0.0, 0.0)
-            return
+            _end_failed(res, resi, k2, fmin, beta0, w10, st, tab, c)
+            return n_ev
         t2, a2, ok2, m = _leg(beta0, b2, 0.0, 1.0 if k2 == EV_TURN else 0.0, st, tab, slo, c, xg, wg, stack)
         n_ev += m
         if not ok2:
@@ -607,17 +639,11 @@ def solve_one(beta0, w10, st, tab, slo, curv, c, p, xg, wg, stack, res, resi):
     count = 1 if cross_first else 0
     t_first = 0.0
     if turn_b1:
-        count += 1
-        if count == 1:
-            t_first = t1
-        elif count == 2:  # the start was the first zero
-            _finish(res, resi, b1, 0.0, st, tab, c, t1, a1)
-            res[R_HALF] = t1
-            resi[RI_OUTCOME] = PERIODIC_ROLLING
-            resi[RI_EVALS] = n_ev
-            return
-    t = t1
-    alpha = a1
+        count, t_first = _count_turn(count, t_first, t1)
+        if count == 2:  # the start was the first zero
+            _end_periodic(res, resi, b1, st, tab, c, t1, a1, t1 - t_first)
+            return n_ev
+    t, alpha = t1, a1
     at_b1 = True  # the ball is at the turning point b1 (else at b2)
     for _ in range(MAX_LEGS):
         if at_b1:
@@ -631,33 +657,20 @@ def solve_one(beta0, w10, st, tab, slo, curv, c, p, xg, wg, stack, res, resi):
                                              slo, c, xg, wg, stack)
                     alpha_t = alpha + a1 + at
                 n_ev += m
-                if not ok:
-                    resi[RI_STATUS] = MAX_STEPS
-                W = _level_values(bt, -d, st, tab, slo, c)[0]
-                _finish(res, resi, bt, -d * np.sqrt(max(W, 0.0)), st, tab, c, t_max, alpha_t)
-                resi[RI_OUTCOME] = ON_RIM_AT_T_MAX
-                resi[RI_EVALS] = n_ev
-                return
+                _end_on_rim(res, resi, bt, -d, ok, st, tab, slo, c, t_max, alpha_t)
+                return n_ev
             t += t1 + t2
             alpha += a1 + a2
             _extend(res, b2)
             if k2 == EV_FALL:
-                W = _level_values(b2, -d, st, tab, slo, c)[0]
-                _finish(res, resi, b2, -d * np.sqrt(max(W, 0.0)), st, tab, c, t, alpha)
-                resi[RI_FELL] = 1
-                resi[RI_EVALS] = n_ev
-                return
+                _end_fall(res, resi, b2, -d, st, tab, slo, c, t, alpha)
+                return n_ev
             at_b1 = False
             if turn_b2:
-                count += 1
-                if count == 1:
-                    t_first = t
-                elif count == 2:
-                    _finish(res, resi, b2, 0.0, st, tab, c, t, alpha)
-                    res[R_HALF] = t - t_first
-                    resi[RI_OUTCOME] = PERIODIC_ROLLING
-                    resi[RI_EVALS] = n_ev
-                    return
+                count, t_first = _count_turn(count, t_first, t)
+                if count == 2:
+                    _end_periodic(res, resi, b2, st, tab, c, t, alpha, t - t_first)
+                    return n_ev
         else:
             # b2 -> beta0 -> b1
             if t + t1 + t2 > t_max:
@@ -669,31 +682,21 @@ def solve_one(beta0, w10, st, tab, slo, curv, c, p, xg, wg, stack, res, resi):
                                              stack)
                     alpha_t = alpha + a2 + at
                 n_ev += m
-                if not ok:
-                    resi[RI_STATUS] = MAX_STEPS
-                W = _level_values(bt, d, st, tab, slo, c)[0]
-                _finish(res, resi, bt, d * np.sqrt(max(W, 0.0)), st, tab, c, t_max, alpha_t)
-                resi[RI_OUTCOME] = ON_RIM_AT_T_MAX
-                resi[RI_EVALS] = n_ev
-                return
+                _end_on_rim(res, resi, bt, d, ok, st, tab, slo, c, t_max, alpha_t)
+                return n_ev
             t += t1 + t2
             alpha += a1 + a2
             at_b1 = True
             if turn_b1:
-                count += 1
-                if count == 1:
-                    t_first = t
-                elif count == 2:
-                    _finish(res, resi, b1, 0.0, st, tab, c, t, alpha)
-                    res[R_HALF] = t - t_first
-                    resi[RI_OUTCOME] = PERIODIC_ROLLING
-                    resi[RI_EVALS] = n_ev
-                    return
+                count, t_first = _count_turn(count, t_first, t)
+                if count == 2:
+                    _end_periodic(res, resi, b1, st, tab, c, t, alpha, t - t_first)
+                    return n_ev
     # turning points that do not count, more than MAX_LEGS of them before t_max
     resi[RI_STATUS] = MAX_STEPS
     resi[RI_OUTCOME] = ON_RIM_AT_T_MAX
     _finish(res, resi, b1 if at_b1 else b2, 0.0, st, tab, c, t, alpha)
-    resi[RI_EVALS] = n_ev
+    return n_ev
 
 
 @kernel(runtime=True)
@@ -702,7 +705,7 @@ def solve_many(x0, levels, tab, slo, curv, c, p, xg, wg, res, resi):
     and resi (m, N_RI). Falls are classified by ``rules.fall_outcome`` here."""
     stack = np.empty((MAX_PANELS + 4, 4))
     for n in range(x0.shape[0]):
-        solve_one(x0[n, 0], x0[n, 1], levels[n], tab, slo, curv, c, p, xg, wg, stack, res[n], resi[n])
+        solve_one(x0[n], levels[n], tab, slo, curv, c, p, xg, wg, stack, res[n], resi[n])
         fmin = _f_min(res[n, R_LO], res[n, R_HI], levels[n], tab, slo, c)
         res[n, R_F2MIN] = min(fmin, 0.0) if resi[n, RI_FELL] == 1 else fmin
         if resi[n, RI_FELL] == 1:

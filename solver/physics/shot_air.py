@@ -69,15 +69,16 @@ def acceleration(vx, vy, vz, wx, wy, wz, k, k_lift, r, g):
 
 
 @kernel
-def flight_steps(rows, gates, n, w, k, k_lift, r, g, h, t_until, z_stop, R, rho, level):
+def flight_steps(rows, gates, n, w, k, k_lift, r, g, h, t_until, z_stop, ring):
     """Runge-Kutta 4 steps of length ``h`` [s] from row ``n - 1`` of ``rows`` (rows (t, x, y, z, vx, vy,
     vz) [s, m, m/s]), spin ``w`` (3,) [1/s], rates ``k``, ``k_lift`` [1/m], radius ``r`` [m], gravity
     ``g``, until a row reaches ``t_until`` [s], or its z is below ``z_stop`` [m] descending, or ``rows``
-    is full. ``gates[i]`` of step i (rows i to i + 1): 1 if the centre may come within ``rho`` [m] of the
-    ring's centre circle (radius ``R``), plus 2 if its x may reach ``level`` [m]; the bound: the
+    is full. ``ring`` = (R, rho, level) [m]. ``gates[i]`` of step i (rows i to i + 1): 1 if the centre may come
+    within ``rho`` of the ring's centre circle (radius ``R``), plus 2 if its x may reach ``level``; the bound: the
     distance and x are 1-Lipschitz along the path, whose length over the step is at most
     PATH_MARGIN (largest end speed + g h) h. Returns the number of filled rows."""
     cap = rows.shape[0]
+    R, rho, level = ring
     while n < cap:
         t0, x, y, z, vx, vy, vz = rows[n - 1, 0], rows[n - 1, 1], rows[n - 1, 2], rows[n - 1, 3], rows[n - 1, 4], \
             rows[n - 1, 5], rows[n - 1, 6]

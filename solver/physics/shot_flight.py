@@ -70,7 +70,7 @@ class Flight:
                 self.rows = np.concatenate([self.rows, np.empty((CHUNK, 7))])
                 self.gates = np.concatenate([self.gates, np.zeros(CHUNK, np.int8)])
             n = flight_steps(self.rows, self.gates, self.n, self.w, self.k, self.k_lift, self.r, self.g, DRAG_STEP,
-                             t_until, z_stop, self.R, self.rho, self.level)
+                             t_until, z_stop, (self.R, self.rho, self.level))
             grew, self.n = n > self.n, n
             if n < self.rows.shape[0] or not grew:
                 return self.n > n0
