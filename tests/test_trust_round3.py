@@ -8,6 +8,7 @@ case is a second or two.
 
 from __future__ import annotations
 
+import importlib
 import os
 import pathlib
 import random
@@ -25,8 +26,9 @@ from rimroll.study.registry import PLUGIN_ENV, UserError
 
 HERE = pathlib.Path(__file__).parent
 PROBE = str(HERE / "fanout_probe.py")
-STUDY = HERE.parent / "study"
-WATCHED = {str(STUDY / name) for name in ("parts.py", "assemble.py", "io.py", "execute.py", "fanout.py")}
+# the modules as imported (a plain install's site-packages or a source checkout), not the checkout's paths
+WATCHED = {str(pathlib.Path(importlib.import_module(f"rimroll.study.{name}").__file__).resolve())
+           for name in ("parts", "assemble", "io", "execute", "fanout")}
 
 
 def _env(**extra):

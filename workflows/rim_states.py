@@ -131,7 +131,7 @@ def _compute(coords, p, s: dict) -> dict:
 
 def _axes(s: dict) -> list:
     return [Axis("dv", np.linspace(s["dv_min"], s["dv_max"], int(s["n_dv"])), "m s-1",
-                 "speed above centre speed", comment="release speed minus the speed whose centre path passes "
+                 "excess release speed", comment="release speed minus the speed whose centre path passes "
                  "through the hoop's centre (shots.speed_to_reach)"),
             Axis("angle", np.linspace(s["angle_min"], s["angle_max"], int(s["n_angle"])), "degree",
                  "release angle", comment="elevation of the release velocity above the horizontal"),
