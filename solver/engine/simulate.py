@@ -130,7 +130,7 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
                          f"got {slip_method!r}")
     limits = _checked_limits(t_max, rtol, atol, max_steps, max_switches)._replace(
         periodic=not scene.dissipates(params), stiff_slips=slip_method == "rodas4")
-    if isinstance(method, str) and method in REDUCED_METHODS:  # exact rolling (issue 40)
+    if isinstance(method, str) and method in REDUCED_METHODS:  # exact rolling
         use = _reduced_method(method, params, terms, backend)
         if use == "reduced":
             res = reduced_simulate.solve(x, params, limits.t_max, limits.rtol, _checked_workers(workers))
@@ -141,8 +141,7 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
     if not isinstance(method, str) or method not in TABLEAUS:
         raise ValueError(f"`method` must be one of {sorted(TABLEAUS)} or {', '.join(map(repr, REDUCED_METHODS))}; "
                          f"got {method!r}")
-    workers = integer("workers", min(os.cpu_count() or 1, MAX_WORKERS) if workers is None else workers,
-                     maximum=MAX_WORKERS)
+    workers = _checked_workers(workers)
     sw = default_tolerances(**switching)
     where = backends.resolve(backend)
 
@@ -161,7 +160,7 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
 
 
 REDUCED_METHODS = ("reduced", "auto")
-"""The ``method`` values of :func:`simulate` that may run the exact reduced solver (issue 40)."""
+"""The ``method`` values of :func:`simulate` that may run the exact reduced solver."""
 
 
 class SimulateResult(dict):
@@ -184,6 +183,7 @@ def _reduced_method(method, params, terms, backend) -> str:
 
 
 def _checked_workers(workers) -> int:
+    """``workers`` checked (1 to MAX_WORKERS); None: one per core."""
     return integer("workers", min(os.cpu_count() or 1, MAX_WORKERS) if workers is None else workers,
                    maximum=MAX_WORKERS)
 
