@@ -22,7 +22,7 @@ import numpy as np
 import xarray as xr
 
 from rimroll._messages import LaneStatusWarning
-from rimroll.study import checks, execute, fanout, io, registry, runguard
+from rimroll.study import checks, execute, fanout, io, registry, run_notices
 from rimroll.study import progress as _progress
 from rimroll.study.plan import make_plan
 from rimroll.study.registry import UserError, natural_order
@@ -148,8 +148,8 @@ def run(name: str, quick: bool = False, out: str | os.PathLike | None = None, cl
         with tempfile.TemporaryDirectory(prefix="rimroll-") as tmp:
             try:
                 outcome = execute.run_to_file(plan, tmp, command, cluster, progress=shown)
-            except runguard.RunInterrupted as stop:  # its chunks were in the temporary folder, deleted now
-                raise runguard.RunInterrupted(
+            except run_notices.RunInterrupted as stop:  # its chunks were in the temporary folder, deleted now
+                raise run_notices.RunInterrupted(
                     f"{stop.args[0].split(';')[0]}; without out= nothing is kept (the run's temporary folder is "
                     "deleted): give out= to keep what a run finishes and resume it", stop.exit_status) from None
             _warn_lanes(outcome.path, f"rimroll.run({name!r})")
@@ -214,6 +214,6 @@ def _bounded_list(key: str, value) -> list:
 
 
 def _warn_lanes(path: pathlib.Path, what: str) -> None:
-    summary = runguard.status_summary(path)
+    summary = run_notices.status_summary(path)
     if summary:
         warnings.warn(summary.replace(str(path), what), LaneStatusWarning, stacklevel=3)

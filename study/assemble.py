@@ -31,7 +31,7 @@ import xarray as xr
 
 from rimroll.study import io
 from rimroll.study.dataset import coords_of, scalar_coords
-from rimroll.study.derived import derived_variables
+from rimroll.study.derived_variables import derived_variables
 from rimroll.study.parts import PartStore
 from rimroll.study.plan import Plan
 from rimroll.study.registry import UserError
@@ -58,7 +58,7 @@ def assemble(plan: Plan, store: PartStore, path, attrs: dict) -> None:
             _fill(plan, store, variables)
         if plan.study.derive is not None:
             _add_derived(plan, tmp, skeleton)
-        io.seal(tmp)  # the checksum of every variable: a damaged result is never reused (study.reuse)
+        io.seal(tmp)  # the checksum of every variable: a damaged result is never reused (study.existing_result)
 
 
 def _coord_encoding(coord: xr.DataArray) -> dict:

@@ -24,7 +24,7 @@ import warnings
 import numpy as np
 
 from rimroll import _messages
-from rimroll.study import checks, keyvalue, registry, settings, stopping
+from rimroll.study import checks, cli_text, registry, settings, stopping
 from rimroll.study.checks import DEFAULT_TIMEOUT
 from rimroll.study.registry import UserError, natural_order
 from rimroll.study.setting_table import lookup
@@ -111,7 +111,7 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _trace_parser(sub) -> None:
-    t = sub.add_parser("trace", help="one trajectory: netCDF time series and figure (study.trace)")
+    t = sub.add_parser("trace", help="one trajectory: netCDF time series and figure (study.rim_trace)")
     t.add_argument("file", nargs="?", default=None, help="an outcome map (fig11-13, outcome-cube) to pick --at from")
     t.add_argument("--release", default=None, metavar="speed=V,angle=DEG,...",
                    help="a shot (docs/shots.md): its release, speed [m/s] and angle [degree] above the horizontal, "
@@ -202,10 +202,10 @@ def _draw(study, nc: pathlib.Path, select: dict | None = None) -> pathlib.Path |
 
 def _selection(words: list[str], ds) -> dict:
     """``--select DIM=VALUE[,DIM=VALUE...]`` words as {dim: float}; a user error names a bad word or
-    dimension (``study.keyvalue``: several pairs may share one word)."""
+    dimension (``study.cli_text``: several pairs may share one word)."""
     out = {}
     swept = str(ds.attrs.get("swept", "")).split()
-    for key, value in keyvalue.parse(words, "--select", "DIM=VALUE", "--select j=0.5"):
+    for key, value in cli_text.parse(words, "--select", "DIM=VALUE", "--select j=0.5"):
         if key in out:
             raise UserError(f"--select {key} is given twice ({out[key]:g} and {value}): one value per axis")
         if key not in swept:
@@ -245,7 +245,7 @@ def _cmd_run(args, command: str) -> int:
     if not (0 < args.timeout <= 86400):
         raise UserError(f"--timeout must be > 0 and <= 86400 s; got {args.timeout}")
     study = registry.get(args.name)
-    from rimroll.study import execute, fanout, runguard
+    from rimroll.study import execute, fanout, run_notices
     from rimroll.study.plan import make_plan
 
     fanout.check_address(args.scheduler)
@@ -264,11 +264,11 @@ def _cmd_run(args, command: str) -> int:
         png = _draw(study, nc)
     except KeyboardInterrupt as stop:  # the result is complete: say so, not only "interrupted"
         what, status = registry.stopped_by(stop)
-        raise runguard.RunInterrupted(f"{what} while drawing the figure; {nc} is complete ({stats.total} of "
+        raise run_notices.RunInterrupted(f"{what} while drawing the figure; {nc} is complete ({stats.total} of "
                                       f"{stats.total} chunks); the same command draws the figure", status) from None
     resumed = f" ({stats.resumed} of {stats.total} chunks resumed)" if stats.resumed else ""
     print(f"wrote {nc}" + (f" and {png}" if png else "") + resumed)
-    warning = runguard.status_summary(nc)
+    warning = run_notices.status_summary(nc)
     if warning:
         print(f"study: warning: {warning}", file=sys.stderr)
     return 0
@@ -292,7 +292,7 @@ def _cmd_plot(args) -> int:
 
     ds = io.open_result(nc)
     if ds.attrs["study"] in ("trace", "shot-trace"):
-        from rimroll.study import trace
+        from rimroll.study import rim_trace as trace
 
         if ds.attrs["study"] == "shot-trace":
             from rimroll.study import shot_trace as trace
@@ -443,7 +443,7 @@ def _main(words: list[str], command: str) -> int:
         message = " ".join(str(exc).split())
         print(f"study: error: {message}", file=sys.stderr)
         return getattr(exc, "exit_status", EXIT_USAGE)
-    except KeyboardInterrupt as exc:  # Ctrl-C, SIGTERM (registry.Terminated), a run's (runguard.RunInterrupted)
+    except KeyboardInterrupt as exc:  # Ctrl-C, SIGTERM (registry.Terminated), a run's (run_notices.RunInterrupted)
         what, status = registry.stopped_by(exc)
         print(f"study: {' '.join(str(exc).split()) or what}", file=sys.stderr)
         return getattr(exc, "exit_status", status)
@@ -466,7 +466,7 @@ def _main(words: list[str], command: str) -> int:
 
 
 _WRITE_ERRNOS = {errno.ENOSPC, errno.EFBIG, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EIO}
-"""Failures of a write outside a run's own guard (``runguard.saved_on_stop``): one line, exit 2."""
+"""Failures of a write outside a run's own guard (``run_notices.saved_on_stop``): one line, exit 2."""
 
 
 def _backend_error():
@@ -505,7 +505,7 @@ def _dispatch(args, command: str) -> int:
     if args.command == "reference":
         return _cmd_reference(args, command)
     if args.command == "trace":
-        from rimroll.study import trace
+        from rimroll.study import rim_trace as trace
 
         if _traces_a_shot(args):
             from rimroll.study import shot_trace as trace

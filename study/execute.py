@@ -19,7 +19,7 @@ from typing import Any
 
 import xarray as xr
 
-from rimroll.study import fanout, io, reuse, runguard
+from rimroll.study import existing_result, fanout, io, run_notices
 from rimroll.study.assemble import assemble
 from rimroll.study.dataset import global_attrs
 from rimroll.study.parts import PartStore
@@ -33,10 +33,10 @@ log = logging.getLogger(__name__)
 def file_attrs(plan: Plan, command: str, device: str | None = None) -> dict:
     """Global attributes of the file of ``plan`` made by ``command``: provenance
     (``study.dataset.global_attrs``; ``device``: the GPUs of a CUDA run) and the plan's
-    ``run_fingerprint`` (``study.reuse``)."""
+    ``run_fingerprint`` (``study.existing_result``)."""
     attrs = global_attrs(plan.study, plan.params, plan.settings, command, tuple(a.name for a in plan.outer),
                          device=device)
-    attrs[reuse.FINGERPRINT_ATTR] = plan.fingerprint
+    attrs[existing_result.FINGERPRINT_ATTR] = plan.fingerprint
     return attrs
 
 
@@ -81,11 +81,11 @@ def produce(plan: Plan, store: PartStore, nc, command: str, *, extra_attrs=None,
     _name_others(store)
     done = store.valid(plan.n_chunks, plan.expected)
     todo = [k for k in range(plan.n_chunks) if k not in done]
-    runguard.announce(plan, len(todo))
+    run_notices.announce(plan, len(todo))
     line = ProgressLine(plan.n_chunks, plan.study.name, resumed=len(done), enabled=progress)
     gpu = plan.backend == "cuda"
     with cluster.open(gpu) as c:
-        link = fanout.dashboard(c) if todo and (cluster.remote or len(todo) >= runguard.ANNOUNCE_CHUNKS) else None
+        link = fanout.dashboard(c) if todo and (cluster.remote or len(todo) >= run_notices.ANNOUNCE_CHUNKS) else None
         if link:
             log.info("%s: dashboard of the cluster at %s", plan.study.name, link)
         stats = fanout.run(plan, store, todo, c, line, timeout=cluster.timeout)
@@ -119,15 +119,15 @@ def run_to_file(plan: Plan, out, command: str, cluster: Cluster, *, force: bool 
                 progress: bool = False) -> Outcome:
     """``study run`` and :func:`rimroll.run`: ``<out>/<name>.nc`` of ``plan``, by the fingerprint rule.
 
-    A file of this plan's fingerprint is reused (``study.reuse``); one of other inputs is a
+    A file of this plan's fingerprint is reused (``study.existing_result``); one of other inputs is a
     :class:`UserError` unless ``force``; an unreadable one is recomputed. Otherwise, holding the
     output's lock (``study.parts``; a second run into the same file is refused), the parts of an
     interrupted run of the same inputs are resumed and the rest computed (:func:`produce`).
     """
     out = pathlib.Path(out)
-    runguard.check_out(out)
-    runguard.check_targets(out, plan.study.name, plan.study.plot is not None)
-    runguard.check_estimate(plan)
+    run_notices.check_out(out)
+    run_notices.check_targets(out, plan.study.name, plan.study.plot is not None)
+    run_notices.check_estimate(plan)
     nc = out / f"{plan.study.name}.nc"
     request = file_attrs(plan, command)
     sizes = {a.name: a.values.size for a in plan.axes}
@@ -135,7 +135,7 @@ def run_to_file(plan: Plan, out, command: str, cluster: Cluster, *, force: bool 
     if not force and _reusable(plan, nc, request, sizes, store):
         _tidy(store)
         return Outcome(nc, None)
-    with runguard.saved_on_stop(store, plan), store.lock():  # a full disk already at the lock: one line
+    with run_notices.saved_on_stop(store, plan), store.lock():  # a full disk already at the lock: one line
         if not force and _reusable(plan, nc, request, sizes, store, quiet=True):
             return Outcome(nc, None)  # a run that held the lock just finished it
         stats = produce(plan, store, nc, command, progress=progress, cluster=cluster)
@@ -145,9 +145,9 @@ def run_to_file(plan: Plan, out, command: str, cluster: Cluster, *, force: bool 
 def _reusable(plan: Plan, nc: pathlib.Path, request: dict, sizes: dict, store: PartStore,
               quiet: bool = False) -> bool:
     """True if ``nc`` is this very run; False if it must be (re)computed; UserError if it holds
-    another run (the fingerprint rule of ``study.reuse``), saying so when chunks of this very run,
+    another run (the fingerprint rule of ``study.existing_result``), saying so when chunks of this very run,
     interrupted, wait in the parts folder (--force resumes them)."""
-    found = reuse.inspect(nc, plan.fingerprint, request, sizes)
+    found = existing_result.inspect(nc, plan.fingerprint, request, sizes)
     if found.state == "different":
         saved = store.count()
         resume = (f"; {saved} chunk{'' if saved == 1 else 's'} of this very run, interrupted, wait in {store.dir}: "

@@ -322,7 +322,7 @@ def run(plan: Plan, store: PartStore, todo: list[int], c, progress: ProgressLine
     from distributed.comm.core import CommClosedError
     from distributed.scheduler import KilledWorker
 
-    from rimroll.study import runguard
+    from rimroll.study import run_notices
 
     stats = RunStats(total=plan.n_chunks, resumed=plan.n_chunks - len(todo))
     if not todo:
@@ -356,7 +356,7 @@ def run(plan: Plan, store: PartStore, todo: list[int], c, progress: ProgressLine
     no_worker_since = None
     estimated = False
     seconds_of = []  # seconds of the chunks finished before the estimate, in the order they finished
-    quiet_since, beat = t0, runguard.next_heartbeat(0.0)  # a "working" notice is due when nothing finished for beat s
+    quiet_since, beat = t0, run_notices.next_heartbeat(0.0)  # a "working" notice is due when nothing ends for beat s
     try:
         while inflight:
             try:
@@ -397,12 +397,12 @@ def run(plan: Plan, store: PartStore, todo: list[int], c, progress: ProgressLine
                     seconds_of.append(seconds)
             now = time.perf_counter()
             if saved:
-                quiet_since, beat = now, runguard.next_heartbeat(0.0)
+                quiet_since, beat = now, run_notices.next_heartbeat(0.0)
                 no_worker_since = None
             elif now - quiet_since >= beat:
                 if not progress.shown:  # a progress line on a terminal says it already
-                    runguard.heartbeat(plan, stats.computed, len(todo), now - t0)
-                beat = runguard.next_heartbeat(now - quiet_since)
+                    run_notices.heartbeat(plan, stats.computed, len(todo), now - t0)
+                beat = run_notices.next_heartbeat(now - quiet_since)
             if not saved:
                 if liveness.threads(c):
                     no_worker_since = None
@@ -415,10 +415,10 @@ def run(plan: Plan, store: PartStore, todo: list[int], c, progress: ProgressLine
                 time.sleep(POLL)  # futures seen done and pending again: wait a moment before asking again
                 continue
             if not estimated:
-                per_chunk = runguard.seconds_per_chunk(seconds_of, threads, len(todo))
+                per_chunk = run_notices.seconds_per_chunk(seconds_of, threads, len(todo))
                 if per_chunk is not None:
                     estimated = True
-                    runguard.estimate(plan, per_chunk, len(todo) - stats.computed, threads)
+                    run_notices.estimate(plan, per_chunk, len(todo) - stats.computed, threads)
     except CommClosedError:
         raise lost("its connection closed", "scheduler") from None
     except BaseException:

@@ -134,7 +134,7 @@ def write_figure(fig, path, dpi: int = 120) -> pathlib.Path:
 
 TRACE_VARIABLES = ("beta", "omega1", "omega2", "omega3", "F2", "friction_use", "energy", "x", "y", "z",
                    "phase", "event_time", "event_kind")
-"""What a file of ``study trace`` holds (``study.trace.dataset``) and its figure draws."""
+"""What a file of ``study trace`` holds (``study.rim_trace.dataset``) and its figure draws."""
 SHOT_TRACE_VARIABLES = ("x", "y", "z", "phase", "impact_time", "impact_x", "impact_y", "impact_z", "impact_kind")
 """What a file of ``study trace --release`` (one shot, ``study.shot_trace``) holds."""
 

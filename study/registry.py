@@ -228,7 +228,7 @@ class Study:
     A variable with ``outer=True`` has the swept axes only, so the study's grid is one chunk.
     ``derive(dataset) -> {name: (dims, values, attrs)}``: variables computed once from the whole
     assembled grid (neighbours across chunks), added to the file before it is moved into place
-    (``study.derived``); ``derived_docs``: their rows in docs/studies.md, ``(name, units, meaning)``
+    (``study.derived_variables``); ``derived_docs``: their rows in docs/studies.md, ``(name, units, meaning)``
     (``name`` may be a tuple of names sharing a row).
     ``ignores``: physical parameters (of ``PHYSICAL_KEYS``) that do not change the result, each
     with the reason; ``--set`` of one is refused rather than recorded as if it mattered.

@@ -26,7 +26,7 @@ from matplotlib.patches import Circle, Patch
 
 from rimroll import solver
 from rimroll.solver.analysis import trace as tr
-from rimroll.study import cubeplots, io, keyvalue, settings
+from rimroll.study import cli_text, cubeplots, io, settings
 from rimroll.study import plotting as P
 from rimroll.study.dataset import params_of, provenance, setting_of
 from rimroll.study.registry import PHYSICAL_KEYS, UserError
@@ -110,9 +110,9 @@ def parse_name(text: str) -> str:
 
 
 def parse_sets(words: list[str]) -> dict:
-    """``--set KEY=VALUE`` words of physical parameters -> {key: float} (``study.keyvalue``)."""
+    """``--set KEY=VALUE`` words of physical parameters -> {key: float} (``study.cli_text``)."""
     out = {}
-    for key, value in keyvalue.parse(words, "--set", "KEY=VALUE", "--set mu=inf"):
+    for key, value in cli_text.parse(words, "--set", "KEY=VALUE", "--set mu=inf"):
         if key not in PHYSICAL_KEYS:
             raise UserError(f"--set {key}={value}: expected KEY=VALUE with KEY one of {' '.join(PHYSICAL_KEYS)}")
         try:
@@ -131,10 +131,10 @@ def _params(**values) -> solver.Params:
 
 def _parse_at(words) -> dict:
     """``--at DIM=VALUE,DIM=VALUE,...`` words (the option may be repeated) -> {dim: value text}
-    (``study.keyvalue``); a dimension given twice is a UserError."""
+    (``study.cli_text``); a dimension given twice is a UserError."""
     out = {}
     for text in [words] if isinstance(words, str) else words:
-        for key, value in keyvalue.split(text, "--at", "DIM=VALUE,DIM=VALUE,...",
+        for key, value in cli_text.split(text, "--at", "DIM=VALUE,DIM=VALUE,...",
                                          "--at omega1=2,beta=1.1,scene=slipping"):
             if key in out:
                 raise UserError(f"--at {key} is given twice ({out[key]} and {value}): one value per axis")

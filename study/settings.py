@@ -7,7 +7,7 @@
 allows: ``study.setting_table``, read by ``study.checks``); every problem is a one-line
 :class:`~rimroll.study.registry.UserError`.
 
-``--set`` words are split by ``study.keyvalue`` (``--set mu=0.5,1,2`` is one key with a list,
+``--set`` words are split by ``study.cli_text`` (``--set mu=0.5,1,2`` is one key with a list,
 ``--set mu=1,v_throw=2`` two keys). A value is ``KEY=0.5`` (a scalar, converted to the type of
 the setting's default), ``KEY=0.5,1,2`` (a list, in the order given) or ``KEY=start:stop:num``
 (``num >= 2`` points of an inclusive linspace). A list or range is allowed for the study's ``sweepable`` settings
@@ -25,7 +25,7 @@ import math
 import numpy as np
 
 from rimroll import solver
-from rimroll.study import checks, keyvalue
+from rimroll.study import checks, cli_text
 from rimroll.study.registry import PHYSICAL_KEYS, Axis, Study, UserError
 from rimroll.study.setting_table import lookup
 
@@ -194,7 +194,7 @@ def _apply(study: Study, quick: bool, sets) -> tuple[dict, list[str], dict]:
     order = [k for k in declared if isinstance(settings[k], (tuple, list))]
     grid_names = {a.name for a in grid_axes(study, base_settings(settings))}
     grid = {}
-    pairs = keyvalue.parse(sets, "--set", "KEY=VALUE", "--set mu=0.5")
+    pairs = cli_text.parse(sets, "--set", "KEY=VALUE", "--set mu=0.5")
     given = [key for key, _ in pairs]
     twice = sorted({key for key in given if given.count(key) > 1})
     if twice:  # the later one would silently win: say which value is meant

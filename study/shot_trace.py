@@ -22,7 +22,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Circle
 
 from rimroll.solver import Params, shots
-from rimroll.study import io, keyvalue, settings
+from rimroll.study import cli_text, io, settings
 from rimroll.study.dataset import provenance, setting_of
 from rimroll.study.registry import PHYSICAL_KEYS, UserError
 from rimroll.study.setting_table import lookup
@@ -46,7 +46,7 @@ def parse_release(text: str) -> dict:
     (speed [m/s], angles [degree], lengths [m], spins [1/s]), defaults filled; UserError naming a bad
     key or value and what is allowed."""
     given = {}
-    for key, value in keyvalue.split(text, "--release", "KEY=VALUE,...", "--release speed=7.2,angle=52"):
+    for key, value in cli_text.split(text, "--release", "KEY=VALUE,...", "--release speed=7.2,angle=52"):
         if key not in RELEASE_KEYS:
             raise UserError(f"--release {key}={value}: KEY must be one of {', '.join(RELEASE_KEYS)}")
         if key in given:
@@ -74,7 +74,7 @@ def parse_sets(words: list[str]) -> tuple[dict, dict]:
     """``--set KEY=VALUE`` of a shot -> (physical parameters, shot settings: contact, geometry, budgets),
     each checked by the setting table's rule of its name."""
     physical, shot = {}, {}
-    for key, value in keyvalue.parse(words, "--set", "KEY=VALUE", "--set e_rim=0.5"):
+    for key, value in cli_text.parse(words, "--set", "KEY=VALUE", "--set e_rim=0.5"):
         if key not in PHYSICAL_KEYS and key not in SHOT_KEYS or key in ("R", "a"):
             raise UserError(f"--set {key}={value}: KEY must be one of {' '.join(SHOT_KEYS)} or of "
                             f"{' '.join(k for k in PHYSICAL_KEYS if k not in ('R', 'a'))} (the ring is the "
@@ -109,7 +109,7 @@ def from_map(path, at_text, sets: tuple[dict, dict]) -> tuple[dict, dict, dict]:
         raise UserError(f"{path}: --release traces need a file of study shot; this one is {ds.attrs.get('study')!r}")
     at = {}
     for text in [at_text] if isinstance(at_text, str) else at_text:
-        at.update(keyvalue.split(text, "--at", "DIM=VALUE,...", "--at speed=7.2,angle=52"))
+        at.update(cli_text.split(text, "--at", "DIM=VALUE,...", "--at speed=7.2,angle=52"))
     point = {}
     for dim in ds["outcome"].dims:
         if dim not in at:
@@ -245,7 +245,7 @@ def figure(ds) -> Figure:
 
 def run(args, command: str) -> int:
     """``study trace --release`` or ``study trace FILE --at`` of a shot map: write ``.nc`` and ``.png``."""
-    from rimroll.study.trace import parse_name
+    from rimroll.study.rim_trace import parse_name
 
     name = parse_name(args.name)
     sets = parse_sets(args.sets)

@@ -26,7 +26,7 @@ import xarray as xr
 from rimroll.solver import Params, simulate
 from rimroll.solver.analysis import boundaries
 from rimroll.study.dataset import coords_of, global_attrs, params_of
-from rimroll.study.derived import derived_variables
+from rimroll.study.derived_variables import derived_variables
 from rimroll.study.plan import compute_chunk, make_plan
 from rimroll.study.registry import get
 

@@ -219,12 +219,12 @@ def test_an_adaptive_file_verifies_against_the_full_reference_at_its_simulated_c
 
 
 def test_the_cost_model_of_an_adaptive_map_is_a_fraction_of_the_full_one():
-    from rimroll.study import registry, runguard
+    from rimroll.study import registry, run_notices
     from rimroll.study.plan import make_plan
 
     for name in ("fig12", "outcome-cube", "continuation"):
         study = registry.get(name)
-        full = runguard.core_seconds(make_plan(study, True, ["adaptive=false"]))
+        full = run_notices.core_seconds(make_plan(study, True, ["adaptive=false"]))
         for coarse, factor in ((8, 3 / 8), (64, 3 / 64), (2, 1.0)):
             plan = make_plan(study, True, ["adaptive=true", f"adaptive_coarse={coarse}"])
-            assert runguard.core_seconds(plan) == pytest.approx(factor * full), (name, coarse)
+            assert run_notices.core_seconds(plan) == pytest.approx(factor * full), (name, coarse)

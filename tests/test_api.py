@@ -131,7 +131,7 @@ def test_run_names_a_bad_argument_and_raises_a_value_error(probe, tmp_path, kwar
 def test_an_interrupted_run_is_a_keyboard_interrupt_saying_what_was_saved(probe, tmp_path, monkeypatch):
     """Ctrl-C in a notebook stops rimroll.run as a KeyboardInterrupt (``except ValueError`` around the
     call does not swallow it), its message saying what was saved."""
-    from rimroll.study import fanout, runguard
+    from rimroll.study import fanout, run_notices
 
     def stopped(*args, **kwargs):
         raise KeyboardInterrupt
@@ -139,7 +139,7 @@ def test_an_interrupted_run_is_a_keyboard_interrupt_saying_what_was_saved(probe,
     monkeypatch.setattr(fanout, "run", stopped)
     with pytest.raises(KeyboardInterrupt, match="interrupted; 0 of .* chunks saved") as stop:
         rimroll.run("fanout-probe", out=tmp_path)
-    assert isinstance(stop.value, runguard.RunInterrupted) and not isinstance(stop.value, ValueError)
+    assert isinstance(stop.value, run_notices.RunInterrupted) and not isinstance(stop.value, ValueError)
     # without out= the chunks were in a temporary folder, deleted: it says so, not 'saved ... resume'
     with pytest.raises(KeyboardInterrupt, match="^interrupted; without out= nothing is kept") as stop:
         rimroll.run("fanout-probe")
@@ -175,7 +175,7 @@ def test_open_reads_a_result_lazily_or_loaded(tmp_path):
 NOTICE = ("import logging, rimroll\n"
           "{setup}\n"
           "logging.getLogger('rimroll.solver.engine.simulate').info('compiling the probe kernel')\n"
-          "logging.getLogger('rimroll.study.runguard').info('probe: 100 of 100 chunks to compute')\n")
+          "logging.getLogger('rimroll.study.run_notices').info('probe: 100 of 100 chunks to compute')\n")
 
 
 def test_notices_go_to_stderr_until_silenced_with_the_standard_logging_call():
@@ -189,7 +189,7 @@ def test_notices_go_to_stderr_until_silenced_with_the_standard_logging_call():
 def test_notices_go_through_the_applications_logging_once_it_is_configured():
     routed = _python(NOTICE.format(setup="logging.basicConfig(format='%(name)s|%(levelname)s|%(message)s')"))
     assert routed.stderr.splitlines() == ["rimroll.solver.engine.simulate|INFO|compiling the probe kernel",
-                                          "rimroll.study.runguard|INFO|probe: 100 of 100 chunks to compute"]
+                                          "rimroll.study.run_notices|INFO|probe: 100 of 100 chunks to compute"]
 
 
 def test_lanes_not_ok_are_a_warning_of_rimrolls_own_category(tmp_path):

@@ -86,7 +86,7 @@ def _study(*args, env=None, timeout=180):
 
 _HEARTBEAT = re.compile(r"study: [\w-]+: working, \d+ of \d+ chunks done after [\w .]+ "
                         r"\(Ctrl-C stops, a rerun resumes\)$")
-"""A line of ``study.runguard.heartbeat``: said when no chunk finished for 2 s, on a slow machine too."""
+"""A line of ``study.run_notices.heartbeat``: said when no chunk finished for 2 s, on a slow machine too."""
 
 
 def _errors(err: str) -> list[str]:
@@ -133,7 +133,7 @@ def test_a_worker_with_other_code_refuses_the_chunks(tmp_path):
         run = _study("run", "fig8", "--quick", "--out", str(tmp_path / "out"), "--no-progress",
                      "--scheduler-file", str(sfile), "--timeout", "30")
     # on a busy machine the run may say it is still working before the refusal comes: those notices
-    # (runguard.heartbeat) are set aside, every other line still counts
+    # (run_notices.heartbeat) are set aside, every other line still counts
     lines = [line for line in _errors(run.stderr) if not _HEARTBEAT.match(line)]
     assert run.returncode == 2 and len(lines) == 1, run.stderr
     assert lines[0].startswith("study: error: worker tcp://127.0.0.1:") and "refuses chunks of fig8" in lines[0]

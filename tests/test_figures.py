@@ -414,9 +414,9 @@ def test_a_swept_mu_may_hold_inf(tmp_path, capsys):
 
 
 def test_select_takes_several_pairs_in_one_word(tmp_path):
-    from rimroll.study import keyvalue
+    from rimroll.study import cli_text
 
-    assert keyvalue.split("j=0.5,mu=1", "--select") == [("j", "0.5"), ("mu", "1")]
+    assert cli_text.split("j=0.5,mu=1", "--select") == [("j", "0.5"), ("mu", "1")]
     _run(tmp_path, "realisable-cube", "mu=0.5,1", "v_throw=3,7", "j=0.5,0.6667", "n_beta0=24", "n_omega30=16")
     assert main(["plot", str(tmp_path / "realisable-cube.nc"), "--select", "j=0.5,mu=1"]) == 0
     assert (tmp_path / "realisable-cube_j=0.5_mu=1.png").is_file()

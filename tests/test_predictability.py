@@ -469,12 +469,12 @@ def test_eps_pairs_refined_equals_a_sample_of_every_point(tmp_path):
 
 
 def test_the_cost_model_knows_the_refined_eps_test_costs_more():
-    from rimroll.study import registry, runguard
+    from rimroll.study import registry, run_notices
     from rimroll.study.plan import make_plan
 
     study = registry.get("predictability")
-    sampled = runguard.core_seconds(make_plan(study, True, []))
-    refined = runguard.core_seconds(make_plan(study, True, ["eps_pairs=refined"]))
+    sampled = run_notices.core_seconds(make_plan(study, True, []))
+    refined = run_notices.core_seconds(make_plan(study, True, ["eps_pairs=refined"]))
     assert refined == pytest.approx(5 * sampled)
 
 
@@ -515,7 +515,7 @@ def test_negative_noise_level_is_a_user_error(tmp_path, capsys):
 def test_derive_may_add_a_dimension_with_its_coordinate_or_one_size_for_all_its_variables():
     import xarray as xr
 
-    from rimroll.study.derived import derived_variables
+    from rimroll.study.derived_variables import derived_variables
     from rimroll.study.registry import Study, Var
 
     ds = xr.Dataset({"x": (("a",), np.arange(3.0))})

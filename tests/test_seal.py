@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from rimroll.study import io, reuse
+from rimroll.study import existing_result, io
 from rimroll.study.cli import main
 from rimroll.study.io import CHECKSUM_ATTR
 from rimroll.study.registry import UserError
@@ -31,7 +31,7 @@ def sealed(tmp_path_factory):
     path = out / f"{STUDY}.nc"
     with netCDF4.Dataset(path) as nc:
         names = sorted(nc.variables)
-        fingerprint = nc.getncattr(reuse.FINGERPRINT_ATTR)
+        fingerprint = nc.getncattr(existing_result.FINGERPRINT_ATTR)
     return path, names, fingerprint
 
 
@@ -91,7 +91,7 @@ def _check(path, kind: str, name: str | None, fingerprint: str, edited_first: st
             _damage(nc, kind, name)
     with xr.open_dataset(path) as ds:
         attrs, sizes = dict(ds.attrs), dict(ds.sizes)
-    found = reuse.inspect(path, fingerprint, attrs, sizes)
+    found = existing_result.inspect(path, fingerprint, attrs, sizes)
     assert found.state != "same", (kind, name)
     if kind in ("emptied", "blank"):
         assert found.state == "different" and CHECKSUM_ATTR in found.detail
@@ -124,7 +124,7 @@ def test_the_sealed_file_itself_is_reused(sealed):
     path, _, fingerprint = sealed
     with xr.open_dataset(path) as ds:
         attrs, sizes = dict(ds.attrs), dict(ds.sizes)
-    assert reuse.inspect(path, fingerprint, attrs, sizes).state == "same"
+    assert existing_result.inspect(path, fingerprint, attrs, sizes).state == "same"
     assert io.read_all(path) is True
 
 

@@ -4,7 +4,7 @@
   allowed values), the physical parameters' taken from ``solver.physics.params.QUANTITIES``, which
   ``Params`` validates with; the checks before a run, ``study info`` and the docs read that table;
 - a study's run-time estimate and its reference slices are fields of its ``Study`` record;
-- ``study.keyvalue`` splits ``--set``, ``--select`` and ``--at`` words with one rule.
+- ``study.cli_text`` splits ``--set``, ``--select`` and ``--at`` words with one rule.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ import xarray as xr
 
 from rimroll import solver
 from rimroll.solver.physics import params as physical
-from rimroll.study import checks, describe, keyvalue, reference, registry, setting_table
+from rimroll.study import checks, cli_text, describe, reference, registry, setting_table
 from rimroll.study.cli import _selection, main
 from rimroll.study.registry import PHYSICAL_KEYS, Axis, ReferenceSpec, Study, UserError, Var
 from rimroll.study.setting_table import TABLE, lookup
@@ -216,15 +216,15 @@ def test_reference_slices_come_from_the_study_record(monkeypatch, tmp_path, caps
 
 # ================================================================ one KEY=VALUE parser
 def test_one_parser_serves_both_meanings_of_a_comma():
-    assert keyvalue.split("mu=0.5,1,2", "--set") == [("mu", "0.5,1,2")]  # one key, a list
-    assert keyvalue.split("omega1=0.5,beta=1.2", "--at") == [("omega1", "0.5"), ("beta", "1.2")]  # two pairs
-    assert keyvalue.split("mu=0.5,1, v_throw = 2", "--set") == [("mu", "0.5,1"), ("v_throw", "2")]
-    assert keyvalue.split("mu=0.5:2:5", "--set") == [("mu", "0.5:2:5")]
-    assert keyvalue.split("mu=0.5,,2", "--set") == [("mu", "0.5,,2")]  # an empty item: the caller says so
-    assert keyvalue.parse(["j=0.5", "mu=1,k_r=0"], "--select") == [("j", "0.5"), ("mu", "1"), ("k_r", "0")]
+    assert cli_text.split("mu=0.5,1,2", "--set") == [("mu", "0.5,1,2")]  # one key, a list
+    assert cli_text.split("omega1=0.5,beta=1.2", "--at") == [("omega1", "0.5"), ("beta", "1.2")]  # two pairs
+    assert cli_text.split("mu=0.5,1, v_throw = 2", "--set") == [("mu", "0.5,1"), ("v_throw", "2")]
+    assert cli_text.split("mu=0.5:2:5", "--set") == [("mu", "0.5:2:5")]
+    assert cli_text.split("mu=0.5,,2", "--set") == [("mu", "0.5,,2")]  # an empty item: the caller says so
+    assert cli_text.parse(["j=0.5", "mu=1,k_r=0"], "--select") == [("j", "0.5"), ("mu", "1"), ("k_r", "0")]
     for word in ("mu", "=1", "mu=", "0.5,mu=1", ""):
         with pytest.raises(UserError) as exc:
-            keyvalue.split(word, "--set", "KEY=VALUE", "--set mu=0.5")
+            cli_text.split(word, "--set", "KEY=VALUE", "--set mu=0.5")
         assert str(exc.value) == f"malformed --set {word!r}: expected KEY=VALUE, e.g. --set mu=0.5"
 
 
@@ -234,14 +234,14 @@ def test_every_key_value_option_uses_the_one_parser():
     assert _selection(["j=0.5", "mu=2"], ds) == {"j": 0.5, "mu": 2.0}
     with pytest.raises(UserError, match="malformed --select 'j'"):
         _selection(["j"], ds)
-    from rimroll.study import trace
+    from rimroll.study import rim_trace as trace
 
     assert trace.parse_sets(["mu=inf,j=0.5", "k_r=0.01"]) == {"mu": math.inf, "j": 0.5, "k_r": 0.01}
     at = trace._parse_at("omega1=0.5,beta=1.2,scene=slipping")
     assert at == {"omega1": "0.5", "beta": "1.2", "scene": "slipping"}
-    for path in ("settings.py", "cli.py", "trace.py"):
+    for path in ("settings.py", "cli.py", "rim_trace.py"):
         source = (ROOT / "study" / path).read_text()
-        assert ".partition(\"=\")" not in source and "keyvalue." in source, path
+        assert ".partition(\"=\")" not in source and "cli_text." in source, path
 
 
 def test_functions_of_the_solver_and_the_study_layer_are_short_and_take_few_parameters():

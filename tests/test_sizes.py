@@ -19,7 +19,7 @@ import rimroll
 from rimroll.solver import Params
 from rimroll.solver._arguments import check_size, memory_limit
 from rimroll.solver.analysis import predictability, trace
-from rimroll.study import checks, keyvalue, registry
+from rimroll.study import checks, cli_text, registry
 from rimroll.study.registry import UserError
 from rimroll.study.setting_table import SWEEP_KEYS
 
@@ -104,6 +104,6 @@ def test_splitting_a_long_list_is_linear():
     """--set KEY=v1,...,vN is read in time linear in N (it was quadratic: 1e5 values took ~100 s)."""
     word = "mu=" + ",".join(["0.5"] * 400_000)
     start = time.perf_counter()
-    (key, value), = keyvalue.split(word, "--set")
+    (key, value), = cli_text.split(word, "--set")
     assert time.perf_counter() - start < 10.0  # linear: ~0.3 s; quadratic: hours
     assert key == "mu" and value.count(",") == 399_999

@@ -13,7 +13,7 @@ import xarray as xr
 from rimroll import solver
 from rimroll.solver.analysis.trace import SLIPPING, trace
 from rimroll.solver.engine import outcomes
-from rimroll.study import trace as trace_module
+from rimroll.study import rim_trace as trace_module
 from rimroll.study.cli import main
 
 SCENES = {
@@ -140,7 +140,7 @@ def test_a_state_that_leaves_the_rim_at_once_is_a_trace_of_one_sample(state, tmp
 def test_a_failed_figure_leaves_no_file_behind(tmp_path, monkeypatch):
     """The .nc is moved into place after its figure is written: a plot that fails leaves neither
     file, and the rerun needs no --force."""
-    from rimroll.study import trace as study_trace
+    from rimroll.study import rim_trace as study_trace
 
     def broken(ds):
         raise RuntimeError("the figure failed")

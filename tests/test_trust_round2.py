@@ -265,24 +265,24 @@ def test_a_damaged_result_is_recomputed_not_reused(fig8_file, tmp_path, capsys, 
 def test_the_plan_of_a_long_run_is_said_up_front(name, sets, long):
     import io as _io
 
-    from rimroll.study import runguard
+    from rimroll.study import run_notices
     from rimroll.study.plan import make_plan
 
     plan = make_plan(registry.get(name), True, sets)
     stream = _io.StringIO()
-    runguard.announce(plan, plan.n_chunks, stream)
+    run_notices.announce(plan, plan.n_chunks, stream)
     text = stream.getvalue()
     assert ("of one core by the study's cost model" in text) == long, text
 
 
 def test_absurdly_large_runs_are_refused_with_the_bound(tmp_path, capsys):
-    from rimroll.study import runguard
+    from rimroll.study import run_notices
 
     out = tmp_path / "o"
     argv = ["run", "make-probability", "--set", "n_beta=20000", "--set", "n_omega1=20000",
             "--set", "n_samples=100000", "--out", str(out)]
     assert main(argv) == 2
-    _one_line_error(capsys.readouterr().err, "of one core", runguard._duration(runguard.MAX_CORE_SECONDS))
+    _one_line_error(capsys.readouterr().err, "of one core", run_notices._duration(run_notices.MAX_CORE_SECONDS))
     assert not (out / "make-probability.nc").exists() and not (out / ".parts").exists()
 
 
