@@ -1,12 +1,13 @@
 """rimroll's Python API for studies: ``run`` one, ``open`` a result, list the ``studies``.
 
 ``rimroll.run``, ``rimroll.open`` and ``rimroll.studies`` are these functions. ``run`` takes the
-path of ``study run``: the settings are resolved and checked by ``study.settings`` (the same
-``--set`` rules: a list or a ``"start:stop:num"`` range of a sweepable setting becomes an axis of
-the cube), the plan carries the run's fingerprint, and ``study.execute.run_to_file`` reuses a file
-of the same fingerprint, resumes the parts of an interrupted run and refuses to overwrite a file
-of other inputs. Notices go through ``logging`` (logger ``"rimroll"``), lanes that did not
-finish ok through ``warnings`` (``rimroll.LaneStatusWarning``).
+path of ``study run``: its keyword settings go as they are (Python values, no text) to
+``study.settings``, which resolves and checks them by the rules of ``--set`` (a list, tuple, range
+or numpy array of a sweepable setting becomes an axis of the cube); the plan carries the run's
+fingerprint, and ``study.execute.run_to_file`` reuses a file of the same fingerprint, resumes the
+parts of an interrupted run and refuses to overwrite a file of other inputs. Notices go through
+``logging`` (logger ``"rimroll"``), lanes that did not finish ok through ``warnings``
+(``rimroll.LaneStatusWarning``).
 """
 
 from __future__ import annotations
@@ -15,7 +16,6 @@ import os
 import pathlib
 import tempfile
 import warnings
-from collections.abc import Iterable
 from typing import Any
 
 import numpy as np
@@ -95,9 +95,11 @@ def run(name: str, quick: bool = False, out: str | os.PathLike | None = None, cl
     plot:
         with ``out``, also draw ``<out>/<name>.png`` as ``study run`` does.
     **settings:
-        the study's settings and physical parameters, as ``study run --set``: a number, a label,
-        a list (a sweep: an outer axis of the cube) or a ``"start:stop:num"`` string (a range),
-        e.g. ``run("outcome-cube", quick=True, mu=[0.5, 1, 2], k_r=0)``.
+        the study's settings and physical parameters, as ``study run --set`` gives them but as Python
+        values, handed on as they are: a number, a label, True/False, or several (a list, tuple,
+        ``range`` or numpy array, e.g. ``numpy.linspace(0.5, 2, 4)``: a sweep, an outer axis of the
+        cube), e.g. ``run("outcome-cube", quick=True, mu=[0.5, 1, 2], k_r=0)``,
+        ``run("shot", quick=True, geometry=("paper", "regulation"))``.
 
     Returns
     -------
@@ -128,7 +130,6 @@ def run(name: str, quick: bool = False, out: str | os.PathLike | None = None, cl
                         f"{type(scheduler).__name__} {scheduler!r}")
     if isinstance(timeout, (bool, np.bool_)) or not isinstance(timeout, (int, float, np.integer, np.floating)):
         raise UserError(f"timeout must be a number of seconds, > 0 and <= 86400; got {timeout!r}")
-    sets = [f"{key}={_word(key, value)}" for key, value in settings.items()]
     checks.check_workers(workers, "workers")
     if client is not None:
         _check_client(client)
@@ -138,7 +139,7 @@ def run(name: str, quick: bool = False, out: str | os.PathLike | None = None, cl
     if not (0 < timeout <= 86400):
         raise UserError(f"timeout must be > 0 and <= 86400 s; got {timeout}")
     fanout.check_address(scheduler)
-    plan = make_plan(study, quick, sets, local=not remote)
+    plan = make_plan(study, quick, settings, local=not remote)
     command = "rimroll.run(" + ", ".join([repr(name)] + (["quick=True"] if quick else [])
                                          + [f"{k}={v!r}" for k, v in settings.items()]) + ")"
     cluster = execute.Cluster(client, workers, scheduler, os.fspath(scheduler_file) if scheduler_file else None,
@@ -170,47 +171,6 @@ def _api_words(message: str) -> str:
     command line says ``--out`` and ``--force``."""
     return message.replace("another --out", "another out=").replace("use --force", "use force=True").replace(
         "--force resumes", "force=True resumes").replace("(with --force", "(with force=True")
-
-
-def _word(key: str, value: Any) -> str:
-    """A setting's value as the text of ``--set KEY=TEXT``."""
-    if isinstance(value, str):
-        return value
-    if isinstance(value, (bool, np.bool_)):
-        return "true" if value else "false"
-    if isinstance(value, (np.ndarray, list, tuple, range)) or (
-            isinstance(value, Iterable) and not isinstance(value, (bytes, dict))):
-        value = _bounded_list(key, value)  # read once (a generator), its size checked before any work
-        if any(not isinstance(v, str) and isinstance(v, Iterable) for v in value):
-            raise UserError(f"setting {key}={value!r}: a list of values must be flat (one axis), not nested")
-        items = [_word(key, v) for v in value]
-        if not items:
-            raise UserError(f"setting {key}=[]: an empty list; give one value or several")
-        if len(items) == 1:
-            return items[0]
-        return ",".join(items)
-    if isinstance(value, (int, np.integer)):
-        return str(int(value))
-    if isinstance(value, (float, np.floating)):
-        return repr(float(value))
-    raise UserError(f"setting {key}={value!r}: expected a number, a label, a list or a 'start:stop:num' range")
-
-
-def _bounded_list(key: str, value) -> list:
-    """The items of a list-like setting, read once (a generator or iterator is consumed here only) and at
-    most :data:`checks.MAX_AXIS` of them: UserError naming the size and the limit before anything else
-    is done with them."""
-    if isinstance(value, np.ndarray):
-        if value.size > checks.MAX_AXIS:
-            raise UserError(f"setting {key}: {value.size} values; at most {checks.MAX_AXIS} per swept setting")
-        return value.tolist() if value.ndim else [value.item()]
-    items = []
-    for item in value:
-        if len(items) == checks.MAX_AXIS:
-            raise UserError(f"setting {key}: more than {checks.MAX_AXIS} values; at most {checks.MAX_AXIS} per "
-                            "swept setting")
-        items.append(item)
-    return items
 
 
 def _warn_lanes(path: pathlib.Path, what: str) -> None:

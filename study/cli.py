@@ -24,7 +24,7 @@ import warnings
 import numpy as np
 
 from rimroll import _messages
-from rimroll.study import checks, cli_text, registry, settings, stopping
+from rimroll.study import checks, cli_text, registry, stopping
 from rimroll.study.checks import DEFAULT_TIMEOUT
 from rimroll.study.registry import UserError, natural_order
 from rimroll.study.setting_table import lookup
@@ -65,7 +65,7 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--backend", default=None, choices=lookup("backend").labels(),
                      help="where solver.simulate runs (same as --set backend=...; studies that simulate only): "
                           "cpu, cuda (one GPU per worker; extra rimroll[gpu]) or auto (the GPU when usable)")
-    run.add_argument("--workers", type=settings.integer, default=None, help="local threads (default: one per core)")
+    run.add_argument("--workers", type=cli_text.integer, default=None, help="local threads (default: one per core)")
     run.add_argument("--scheduler", default=None, metavar="ADDRESS",
                      help="run the chunks on an existing dask.distributed cluster, e.g. tcp://host:8786 "
                           "(tls://... with the TLS settings of the dask configuration)")
@@ -76,7 +76,7 @@ def _parser() -> argparse.ArgumentParser:
                      help="show chunks done/total on stderr (default: when stderr is a terminal)")
     run.add_argument("--force", action="store_true",
                      help="recompute and replace the file even if it holds this run or another one")
-    run.add_argument("--timeout", type=settings.number, default=DEFAULT_TIMEOUT, metavar="SECONDS",
+    run.add_argument("--timeout", type=cli_text.number, default=DEFAULT_TIMEOUT, metavar="SECONDS",
                      help="bound on waiting for a --scheduler (or its file) and for workers (default: %(default)g s)")
     plot = sub.add_parser("plot", help="re-draw the PNG of an existing results file")
     plot.add_argument("target", help="a study name (meaning <out>/NAME.nc) or a .nc file")
@@ -104,7 +104,7 @@ def _parser() -> argparse.ArgumentParser:
     ref.add_argument("--grid", action="append", default=[], choices=("default", "quick"),
                      help="build only the slice of this grid: a sub-grid of the default grid, or the whole "
                           "--quick grid (default: both)")
-    ref.add_argument("--workers", type=settings.integer, default=None, help="local threads (default: one per core)")
+    ref.add_argument("--workers", type=cli_text.integer, default=None, help="local threads (default: one per core)")
     ref.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None)
     p.set_defaults(run_parser=run)
     return p
@@ -127,12 +127,12 @@ def _trace_parser(sub) -> None:
                         "of FILE with more than one value, a swept mu, k_r, k_d, omega2 too, needs one)")
     t.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
                    help=f"a physical parameter ({' '.join(registry.PHYSICAL_KEYS)}); repeatable")
-    t.add_argument("--t-max", type=settings.number, default=None, help="end of the run [s] (default 20, or the map's)")
-    t.add_argument("--rtol", type=settings.number, default=1e-10, help="relative tolerance (default 1e-10)")
-    t.add_argument("--atol", type=settings.number, default=1e-12, help="absolute tolerance (default 1e-12)")
-    t.add_argument("--samples", type=settings.integer, default=2000,
+    t.add_argument("--t-max", type=cli_text.number, default=None, help="end of the run [s] (default 20, or the map's)")
+    t.add_argument("--rtol", type=cli_text.number, default=1e-10, help="relative tolerance (default 1e-10)")
+    t.add_argument("--atol", type=cli_text.number, default=1e-12, help="absolute tolerance (default 1e-12)")
+    t.add_argument("--samples", type=cli_text.integer, default=2000,
                    help="time samples (default 2000, plus phase ends)")
-    t.add_argument("--periods", type=settings.integer, default=0, metavar="N",
+    t.add_argument("--periods", type=cli_text.integer, default=0, metavar="N",
                    help="a periodic state: follow the orbit N more periods past the second omega1 zero that "
                         "decides it, to watch it repeat (default 0: end where simulate ends)")
     t.add_argument("--out", default="results", type=_folder, help="output directory (default: results)")
@@ -212,7 +212,7 @@ def _selection(words: list[str], ds) -> dict:
             raise UserError(f"--select {key}={value}: expected DIM=VALUE with DIM one of the file's swept axes "
                             f"({', '.join(swept) or 'none: the file is not a cube'})")
         try:
-            out[key] = settings.number(value)
+            out[key] = cli_text.number(value)
         except ValueError:
             raise UserError(f"--select {key}={value}: VALUE must be a number") from None
         if not math.isfinite(out[key]) and not (key in ds.coords and out[key] in ds[key].values):
@@ -249,11 +249,11 @@ def _cmd_run(args, command: str) -> int:
     from rimroll.study.plan import make_plan
 
     fanout.check_address(args.scheduler)
-    sets = list(args.sets) + ([f"backend={args.backend}"] if args.backend else [])
+    values = cli_text.setting_values(study, list(args.sets) + ([f"backend={args.backend}"] if args.backend else []))
     if args.backend and "backend" not in study.settings:
         raise UserError(f"--backend: study {study.name} does not run solver.simulate (no backend setting)")
     remote = bool(args.scheduler or args.scheduler_file)
-    plan = make_plan(study, args.quick, sets, local=not remote)
+    plan = make_plan(study, args.quick, values, local=not remote)
     progress = sys.stderr.isatty() if args.progress is None else args.progress
     cluster = execute.Cluster(None, args.workers, args.scheduler, args.scheduler_file, args.timeout)
     outcome = execute.run_to_file(plan, args.out, command, cluster, force=args.force, progress=progress)

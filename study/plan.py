@@ -119,7 +119,8 @@ class Plan:
         region = self.region(k)
         s = base_settings(self.settings)
         for a, sl in zip(self.outer, region):
-            s[a.name] = float(a.values[sl.start])
+            value = a.values[sl.start]
+            s[a.name] = str(value) if a.categorical else float(value)  # a swept label (geometry) or number
         params = params_from(s) if self.outer else self.params
         s.update(params.as_dict())
         return s, params
@@ -257,15 +258,17 @@ def resolve_backend(settings: dict, local: bool = True) -> str | None:
     return settings["backend"]
 
 
-def make_plan(study: Study, quick: bool = False, sets=(), local: bool = True) -> Plan:
-    """Resolve settings and ``--set`` sweeps (``study.settings``) into a validated :class:`Plan`
-    (UserError if bad).
+def make_plan(study: Study, quick: bool = False, values=None, local: bool = True) -> Plan:
+    """Resolve the settings ``values`` (``{key: value}``, Python values: a number, a label, a switch, or
+    a list, tuple, range or numpy array of several, a sweep; ``study.settings``) into a validated
+    :class:`Plan` (UserError if bad). The command line's ``--set`` text becomes such values once, in
+    ``study.cli_text.setting_values``.
 
     ``local``: the run computes on this machine (not on a ``--scheduler`` cluster); see
     :func:`resolve_backend`. With a GPU backend the numeric grid axes are not split: a chunk is a
     whole section (one launch), however the study chunks its grid for the CPU.
     """
-    r = resolve(study, quick, sets)
+    r = resolve(study, quick, values)
     backend = resolve_backend(r.settings, local)
     whole = any(v.outer for v in study.variables)
     chunks = study.chunks(base_settings(r.settings)) if callable(study.chunks) else study.chunks

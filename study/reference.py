@@ -39,7 +39,7 @@ import tempfile
 import numpy as np
 import xarray as xr
 
-from rimroll.study import execute, fanout, registry
+from rimroll.study import cli_text, execute, fanout, registry
 from rimroll.study.parts import PartStore
 from rimroll.study.plan import Plan, make_plan
 
@@ -65,25 +65,25 @@ def spec_of(name: str) -> registry.ReferenceSpec:
     return spec
 
 
-def sub_grid_sets(name: str) -> tuple:
-    """``--set AXIS=v1,v2,...`` of the default slice's sub-grid of study ``name`` (exact values of
-    the default axes: ``points`` values of each, ends included)."""
+def sub_grid(name: str) -> dict:
+    """``{axis: (v1, v2, ...)}``: the default slice's sub-grid of study ``name`` (exact values of the
+    default axes: ``points`` values of each, ends included)."""
     full = {a.name: a.values for a in make_plan(registry.get(name)).grid}
-    out = []
+    out = {}
     for axis, n in spec_of(name).points.items():
         idx = np.unique(np.round(np.linspace(0, full[axis].size - 1, n)).astype(int))
-        out.append(f"{axis}=" + ",".join(repr(float(v)) for v in full[axis][idx]))
-    return tuple(out)
+        out[axis] = tuple(float(v) for v in full[axis][idx])
+    return out
 
 
 def slice_plan(name: str, grid: str = "default", precise: bool = True) -> Plan:
     """The plan of the ``grid`` slice of study ``name`` (``precise``: the reference, at the spec's
     precision settings; else the study's own precision on the same grid)."""
     _check_grid(grid)
-    extra = spec_of(name).precise if precise else ()
+    extra = spec_of(name).precise if precise else {}
     if grid == "quick":
-        return make_plan(registry.get(name), quick=True, sets=extra)
-    return make_plan(registry.get(name), sets=[*sub_grid_sets(name), *spec_of(name).sets, *extra])
+        return make_plan(registry.get(name), True, extra)
+    return make_plan(registry.get(name), False, {**sub_grid(name), **spec_of(name).sets, **extra})
 
 
 def packaged_dir() -> pathlib.Path:
@@ -147,11 +147,12 @@ def recompute(name: str, precise: bool = False, workers: int = 2, grid: str = "d
 
 def _provenance(spec: registry.ReferenceSpec, grid: str, plan: Plan, command: str) -> dict:
     s = plan.settings
-    sets = shlex.join([*(f"--set={x}" for x in spec.precise)])
+    sets = shlex.join([*(f"--set={x}" for x in cli_text.words(spec.precise))])
     if grid == "quick":
         how = " ".join(filter(None, ["--quick", sets])) + " on the whole --quick grid"
     else:
-        how = " ".join(filter(None, [sets, shlex.join(f"--set={x}" for x in spec.sets)])) + " on the sub-grid " + \
+        held = shlex.join(f"--set={x}" for x in cli_text.words(spec.sets))
+        how = " ".join(filter(None, [sets, held])) + " on the sub-grid " + \
             ", ".join(f"{k}: {n} of the default values (ends included)" for k, n in spec.points.items())
     return {
         "reference_command": command,

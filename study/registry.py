@@ -203,16 +203,22 @@ class ReferenceSpec:
     """How the stored reference slices of a study are made (``study.reference``): the sub-grid of
     the default grid (``points``: grid axis -> number of values picked from the default axis, ends
     included; the other slice is the whole ``--quick`` grid), the reference's precision settings
-    (``precise``: ``--set`` items, e.g. ``("rtol=1e-12", "method=dop853")``; none: the study's own,
-    a regression reference), what the files record as ``reference_method`` when the study has no
-    ``method`` setting, and ``sets``: ``--set`` items of the default slice alone (a cube's slice on a
-    few of its settings, e.g. ``("mu=1,2", "k_d=0")``; a value held there is compared at that value
-    of a file that sweeps it)."""
+    (``precise``: settings as Python values, e.g. ``{"rtol": 1e-12, "method": "dop853"}``; none: the
+    study's own, a regression reference), what the files record as ``reference_method`` when the study
+    has no ``method`` setting, and ``sets``: settings of the default slice alone (a cube's slice on a
+    few of its settings, e.g. ``{"mu": (1, 2), "k_d": 0}``; a value held there is compared at that
+    value of a file that sweeps it). Both are handed to ``study.plan.make_plan`` as they are."""
 
     points: dict
-    precise: tuple = ()
+    precise: dict = dataclasses.field(default_factory=dict)
     method: str = "closed form (no integration)"
-    sets: tuple = ()
+    sets: dict = dataclasses.field(default_factory=dict)
+
+    def __post_init__(self):
+        for field in ("precise", "sets"):
+            if not isinstance(getattr(self, field), dict):
+                raise ValueError(f"ReferenceSpec {field} must be a dict of settings, e.g. {{'rtol': 1e-12}}; got "
+                                 f"{getattr(self, field)!r}")
 
 
 @dataclasses.dataclass(frozen=True)

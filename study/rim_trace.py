@@ -26,7 +26,7 @@ from matplotlib.patches import Circle, Patch
 
 from rimroll import solver
 from rimroll.solver.analysis import trace as tr
-from rimroll.study import cli_text, cubeplots, io, settings
+from rimroll.study import cli_text, cubeplots, io
 from rimroll.study import plotting as P
 from rimroll.study.dataset import params_of, provenance, setting_of
 from rimroll.study.registry import PHYSICAL_KEYS, UserError
@@ -86,7 +86,7 @@ def rim_words(numbers: dict) -> str:
 def parse_state(text: str) -> np.ndarray:
     """'BETA,OMEGA1,OMEGA2,OMEGA3' -> array (4,) [rad, 1/s, 1/s, 1/s]; UserError otherwise."""
     try:
-        x = np.array([settings.number(v) for v in text.split(",")])
+        x = np.array([cli_text.number(v) for v in text.split(",")])
     except ValueError:
         x = np.empty(0)
     if x.shape != (4,) or not np.all(np.isfinite(x)):
@@ -116,7 +116,7 @@ def parse_sets(words: list[str]) -> dict:
         if key not in PHYSICAL_KEYS:
             raise UserError(f"--set {key}={value}: expected KEY=VALUE with KEY one of {' '.join(PHYSICAL_KEYS)}")
         try:
-            out[key] = settings.number(value)
+            out[key] = cli_text.number(value)
         except ValueError:
             raise UserError(f"--set {key}={value}: VALUE must be a number (inf allowed for mu)") from None
     return out
@@ -158,7 +158,7 @@ def _index(ds, dim: str, value: str) -> int:
     coord = ds[dim].values
     if coord.dtype.kind in "fiu":
         try:
-            number = settings.number(value)
+            number = cli_text.number(value)
         except ValueError:
             number = None
             if dim == "scene" and value in P.SCENE_KEYS:

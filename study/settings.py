@@ -21,11 +21,12 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Iterable
 
 import numpy as np
 
 from rimroll import solver
-from rimroll.study import checks, cli_text
+from rimroll.study import checks
 from rimroll.study.registry import PHYSICAL_KEYS, Axis, Study, UserError
 from rimroll.study.setting_table import lookup
 
@@ -40,9 +41,10 @@ class Resolved:
     grid: tuple  # the study's grid axes, with the values given by --set AXIS=list|range
 
 
-def resolve(study: Study, quick: bool = False, sets=()) -> Resolved:
-    """Resolve and check the settings of ``study``: defaults < ``quick`` < ``--set`` items."""
-    settings, order, grid_values = _apply(study, quick, sets)
+def resolve(study: Study, quick: bool = False, values=None) -> Resolved:
+    """Resolve and check the settings of ``study``: defaults < ``quick`` < ``values`` (``{key: value}``:
+    a number, a label, a switch, or a list, tuple, range or numpy array of several: a sweep)."""
+    settings, order, grid_values = _apply(study, quick, values)
     base = base_settings(settings)
     checks.check_settings(study.name, settings)
     outer = _outer_axes(settings, order)
@@ -95,95 +97,79 @@ def grid_axes(study: Study, settings: dict) -> list[Axis]:
     return axes
 
 
-# ------------------------------------------------------------------ --set items
+# ------------------------------------------------------------------ values of a run
 
 
-def parse_values(key: str, text: str):
-    """A tuple of floats for a list or range, else ``None`` (the text is a scalar).
-
-    At most :data:`rimroll.study.checks.MAX_AXIS` values."""
-    if ":" in text:
-        parts = text.split(":")
-        if len(parts) != 3:
-            raise UserError(f"setting {key}={text}: a range is start:stop:num, e.g. {key}=0.4:0.6:5")
-        start, stop = _float(key, parts[0]), _float(key, parts[1])
-        try:
-            num = integer(parts[2])
-        except ValueError:
-            raise UserError(f"setting {key}={text}: num of start:stop:num must be an integer") from None
-        if num < 2:
-            raise UserError(f"setting {key}={text}: a range needs num >= 2 points (give one value as a scalar)")
-        if num > checks.MAX_AXIS:
-            raise UserError(f"setting {key}={text}: at most {checks.MAX_AXIS} values per swept setting; got {num}")
-        if not (math.isfinite(start) and math.isfinite(stop)) or start == stop:
-            raise UserError(f"setting {key}={text}: a range needs finite start != stop")
-        with np.errstate(over="ignore", invalid="ignore"):  # stop - start beyond the largest float
-            values = np.linspace(start, stop, num)
-        if not np.all(np.isfinite(values)):
-            raise UserError(f"setting {key}={text}: the range's points are not finite numbers (start and stop too far "
-                            "apart for a float)")
-        return tuple(float(v) for v in values)
-    if "," in text:
-        items = [t.strip() for t in text.split(",")]
-        if any(not t for t in items):
-            raise UserError(f"setting {key}={text}: empty item in the list")
-        if len(items) > checks.MAX_AXIS:
-            raise UserError(f"setting {key}: at most {checks.MAX_AXIS} values per swept setting; got {len(items)}")
-        return tuple(_float(key, t) for t in items)
-    return None
+def _items(key: str, value) -> list:
+    """The items of a list-like value (a list, tuple, range, numpy array, generator), read once (a
+    generator is consumed here only) and at most :data:`checks.MAX_AXIS` of them: UserError naming the
+    size and the limit before anything else is done with them."""
+    if isinstance(value, np.ndarray):
+        if value.size > checks.MAX_AXIS:
+            raise UserError(f"setting {key}: {value.size} values; at most {checks.MAX_AXIS} per swept setting")
+        return value.tolist() if value.ndim else [value.item()]
+    items = []
+    for item in value:
+        if len(items) == checks.MAX_AXIS:
+            raise UserError(f"setting {key}: more than {checks.MAX_AXIS} values; at most {checks.MAX_AXIS} per "
+                            "swept setting")
+        items.append(item)
+    return items
 
 
-def _plain(text: str) -> str:
-    """``text`` if it is written in plain ASCII without '_' (Python's float() and int() also read
-    full-width digits, '１', and digit groups, '1_0', which a setting should not take for 1 and 10);
-    else ValueError."""
-    if not text.isascii() or "_" in text:
-        raise ValueError(text)
-    return text
+def _shown(value) -> str:
+    """A value as an error message shows it: a list as ``a,b,c``, a number or label as itself."""
+    if isinstance(value, tuple):
+        return ",".join(_shown(v) for v in value)
+    return str(value).lower() if isinstance(value, (bool, np.bool_)) else str(value)
 
 
-def number(text: str) -> float:
-    """A number the user wrote (a setting, an option, a state): ``float`` of plain ASCII without '_'
-    ('inf', '1e-3', '-2' are numbers; '１' and '1_0' are not); ValueError otherwise. Its name is the
-    word argparse uses: "invalid number value"."""
-    return float(_plain(text))
+def _shape(key: str, value):
+    """A value given for ``key`` as a scalar (number, label, switch) or a tuple of them (a list, tuple,
+    range, numpy array or other iterable of several; one item is a scalar). UserError for an empty or
+    nested list or for what is neither."""
+    if isinstance(value, (str, bool, np.bool_, int, float, np.integer, np.floating)):
+        return value
+    if isinstance(value, (bytes, dict)) or not isinstance(value, Iterable):
+        raise UserError(f"setting {key}={value!r}: expected a number, a label, a list or a range")
+    items = _items(key, value)
+    if any(not isinstance(v, str) and isinstance(v, Iterable) for v in items):
+        raise UserError(f"setting {key}={items!r}: a list of values must be flat (one axis), not nested")
+    if not items:
+        raise UserError(f"setting {key}=[]: an empty list; give one value or several")
+    items = [_shape(key, v) for v in items]
+    return items[0] if len(items) == 1 else tuple(items)
 
 
-def integer(text: str) -> int:
-    """A whole number the user wrote, as :func:`number`: "invalid integer value" for argparse."""
-    return int(_plain(text))
+def _typed(key: str, value, default):
+    """A scalar ``value`` as the type of ``default``: a number (float; an int or a numpy number too), an
+    integer, a switch (True/False, or 1/0), a label (str); a one-line UserError otherwise."""
+    switch = isinstance(value, (bool, np.bool_))
+    numeric = isinstance(value, (int, float, np.integer, np.floating)) and not switch
+    if isinstance(default, bool):
+        if switch or (numeric and value in (0, 1)):
+            return bool(value)
+        kind = "true/false"
+    elif isinstance(default, int):
+        if isinstance(value, (int, np.integer)) and not switch:
+            return int(value)
+        kind = "an integer"
+    elif isinstance(default, str):
+        if isinstance(value, str):
+            return value
+        entry = lookup(key)
+        kind = f"one of {', '.join(entry.labels())}" if entry.choices is not None else "a label (text)"
+    else:
+        if numeric:
+            return float(value)
+        kind = "a number"
+    raise UserError(f"setting {key}={_shown(value)}: expected {kind}")
 
 
-def _float(key: str, text: str) -> float:
-    try:
-        return number(text)
-    except ValueError:
-        raise UserError(f"setting {key}={text}: expected a number") from None
-
-
-def _convert(key: str, text: str, default):
-    """``text`` as the type of ``default`` (physical keys are floats; 'inf' allowed)."""
-    try:
-        if isinstance(default, bool):
-            if text.lower() in ("1", "true", "yes", "on"):
-                return True
-            if text.lower() in ("0", "false", "no", "off"):
-                return False
-            raise ValueError
-        if isinstance(default, int):
-            return integer(text)
-        if isinstance(default, float):
-            return number(text)
-        return type(default)(text)
-    except ValueError:
-        kind = {bool: "true/false", int: "an integer", float: "a number"}.get(type(default), type(default).__name__)
-        raise UserError(f"setting {key}={text}: expected {kind}") from None
-
-
-def _apply(study: Study, quick: bool, sets) -> tuple[dict, list[str], dict]:
+def _apply(study: Study, quick: bool, values) -> tuple[dict, list[str], dict]:
     """(settings, swept keys in axis order, grid overrides ``{axis: values}``).
 
-    A swept key's setting holds its tuple of values. Defaults < ``quick`` < ``--set``.
+    A swept key's setting holds its tuple of values. Defaults < ``quick`` < ``values``.
     """
     settings = default_settings(study)
     for key in study.sweepable:
@@ -193,50 +179,47 @@ def _apply(study: Study, quick: bool, sets) -> tuple[dict, list[str], dict]:
     declared = dict.fromkeys([*study.settings, *(study.quick if quick else ())])
     order = [k for k in declared if isinstance(settings[k], (tuple, list))]
     grid_names = {a.name for a in grid_axes(study, base_settings(settings))}
+    values = dict(values or {})
+    if not all(isinstance(key, str) for key in values):
+        raise UserError(f"settings of {study.name!r}: every key must be a setting's name (str)")
     grid = {}
-    pairs = cli_text.parse(sets, "--set", "KEY=VALUE", "--set mu=0.5")
-    given = [key for key, _ in pairs]
-    twice = sorted({key for key in given if given.count(key) > 1})
-    if twice:  # the later one would silently win: say which value is meant
-        key = twice[0]
-        sweep = f" (a list sweeps it: --set {key}=A,B)" if key in study.sweepable else ""
-        also = " (--backend is --set backend=...)" if key == "backend" else ""
-        raise UserError(f"--set {key} is given {given.count(key)} times{also}; give each setting once{sweep}")
-    for key, text in pairs:
+    for key, value in values.items():
+        value = _shape(key, value)
         entry = lookup(key)
         switch = isinstance(settings.get(key), bool)
-        if (entry.choices is not None or switch) and ("," in text or ":" in text) and key not in study.sweepable:
+        if (entry.choices is not None or switch) and isinstance(value, tuple) and key not in study.sweepable:
             allowed = "true or false" if switch else f"one of {', '.join(entry.labels())}"
-            raise UserError(f"setting {key}={text}: {key} takes {allowed}, not a list or range (it cannot be swept "
-                            f"in study {study.name!r})")
-        if key in grid_names and f"n_{key}" in given:
-            raise UserError(f"setting {key}={text} and setting n_{key}: give the {key} axis either as values or as a "
-                            f"number of points, not both")
-        values = parse_values(key, text)
-        if values is not None and key in grid_names:
-            grid[key] = values
+            raise UserError(f"setting {key}={_shown(value)}: {key} takes {allowed}, not a list or range (it cannot be "
+                            f"swept in study {study.name!r})")
+        if key in grid_names and f"n_{key}" in values:
+            raise UserError(f"setting {key}={_shown(value)} and setting n_{key}: give the {key} axis either as values "
+                            f"or as a number of points, not both")
+        if isinstance(value, tuple) and key in grid_names:
+            grid[key] = tuple(_typed(key, v, 1.0) for v in value)
             continue
         if key in study.ignores:
-            raise UserError(f"setting {key}={text}: study {study.name!r} does not use {key!r} "
+            raise UserError(f"setting {key}={_shown(value)}: study {study.name!r} does not use {key!r} "
                             f"({study.ignores[key]})")
         if key not in settings:
             raise UserError(f"unknown setting {key!r} for study {study.name!r}; "
                             f"known: {', '.join(sorted(k for k in settings if k not in study.ignores))}")
-        if values is None:
-            default = settings[key]
-            default = 1.0 if lookup(key).sweep or isinstance(default, (tuple, list)) else default
-            settings[key] = _convert(key, text, default)
+        default = settings[key]
+        if default is None or isinstance(default, (tuple, list)) or (entry.sweep and entry.choices is None):
+            default = entry.labels()[0] if entry.choices is not None else 1.0  # a swept setting's kind
+        if not isinstance(value, tuple):
+            settings[key] = _typed(key, value, default)
             if key in order:
                 order.remove(key)
         elif key in study.sweepable:
-            settings[key] = values
+            settings[key] = tuple(_typed(key, v, default) for v in value)
             if key not in order:
                 order.append(key)
         else:
             sweepable = ", ".join(study.sweepable) or "none"
-            raise UserError(f"setting {key}={text}: {key!r} cannot be swept in study {study.name!r} "
+            raise UserError(f"setting {key}={_shown(value)}: {key!r} cannot be swept in study {study.name!r} "
                             f"(sweepable: {sweepable}; or a grid axis: {', '.join(sorted(grid_names))})")
-    settings = {k: (tuple(float(x) for x in v) if isinstance(v, (tuple, list)) else v) for k, v in settings.items()}
+    settings = {k: (tuple(x if isinstance(x, str) else float(x) for x in v) if isinstance(v, (tuple, list)) else v)
+                for k, v in settings.items()}
     return settings, order, grid
 
 

@@ -22,7 +22,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Circle
 
 from rimroll.solver import Params, shots
-from rimroll.study import cli_text, io, settings
+from rimroll.study import cli_text, io
 from rimroll.study.dataset import provenance, setting_of
 from rimroll.study.registry import PHYSICAL_KEYS, UserError
 from rimroll.study.setting_table import lookup
@@ -52,7 +52,7 @@ def parse_release(text: str) -> dict:
         if key in given:
             raise UserError(f"--release {key} is given twice; give each release key once")
         try:
-            given[key] = settings.number(value)
+            given[key] = cli_text.number(value)
         except ValueError:
             raise UserError(f"--release {key}={value}: VALUE must be a number [{RELEASE_UNITS[key]}]") from None
     missing = [k for k in ("speed", "angle") if k not in given]
@@ -81,7 +81,7 @@ def parse_sets(words: list[str]) -> tuple[dict, dict]:
                             "geometry's)")
         entry = lookup(key)
         try:
-            parsed = value if entry.choices is not None else settings.number(value)
+            parsed = value if entry.choices is not None else cli_text.number(value)
         except ValueError:
             raise UserError(f"--set {key}={value}: VALUE must be a number") from None
         if key == "max_impacts" and float(parsed).is_integer():
@@ -115,7 +115,7 @@ def from_map(path, at_text, sets: tuple[dict, dict]) -> tuple[dict, dict, dict]:
         if dim not in at:
             raise UserError(f"{path}: --at needs a value of {dim} (e.g. {dim}={ds[dim].values[0]:g})")
         try:
-            point[dim] = int(np.abs(ds[dim].values - settings.number(at.pop(dim))).argmin())
+            point[dim] = int(np.abs(ds[dim].values - cli_text.number(at.pop(dim))).argmin())
         except ValueError:
             raise UserError(f"--at {dim}: expected a number") from None
     if at:

@@ -27,14 +27,14 @@ import time
 
 
 def fanout_once(name, sets, workers, out, quick=True):
-    from rimroll.study import fanout, registry
+    from rimroll.study import cli_text, fanout, registry
     from rimroll.study.assemble import assemble
     from rimroll.study.dataset import global_attrs
     from rimroll.study.parts import PartStore
     from rimroll.study.plan import make_plan
     from rimroll.study.progress import ProgressLine
 
-    plan = make_plan(registry.get(name), quick, sets)
+    plan = make_plan(registry.get(name), quick, cli_text.setting_values(registry.get(name), sets))
     store = PartStore(out, name, plan.fingerprint)
     with fanout.client(workers) as c, store.lock():
         stats = fanout.run(plan, store, list(range(plan.n_chunks)), c, ProgressLine(1, name, enabled=False))

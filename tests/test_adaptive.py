@@ -118,7 +118,7 @@ def test_a_coarse_stride_not_a_power_of_two_is_a_user_error(name):
     from rimroll.study.registry import UserError
 
     with pytest.raises(UserError, match="power of 2"):
-        make_plan(registry.get(name), quick=True, sets=["adaptive=true", "adaptive_coarse=6"])
+        make_plan(registry.get(name), True, {"adaptive": True, "adaptive_coarse": 6})
 
 
 def test_adaptive_and_full_runs_never_share_a_fingerprint():
@@ -127,10 +127,10 @@ def test_adaptive_and_full_runs_never_share_a_fingerprint():
 
     study = registry.get("fig12")
     full = make_plan(study, quick=True)
-    adapt = make_plan(study, quick=True, sets=["adaptive=true"])
+    adapt = make_plan(study, True, {"adaptive": True})
     assert full.fingerprint != adapt.fingerprint
     assert adapt.block == (1, 24, 36) and full.block == (1, 24, 36)
-    big = make_plan(study, sets=["adaptive=true"])
+    big = make_plan(study, False, {"adaptive": True})
     assert big.block == (1, 240, 360) and make_plan(study).block == (1, 24, 360)
 
 
@@ -224,7 +224,7 @@ def test_the_cost_model_of_an_adaptive_map_is_a_fraction_of_the_full_one():
 
     for name in ("fig12", "outcome-cube", "continuation"):
         study = registry.get(name)
-        full = run_notices.core_seconds(make_plan(study, True, ["adaptive=false"]))
+        full = run_notices.core_seconds(make_plan(study, True, {"adaptive": False}))
         for coarse, factor in ((8, 3 / 8), (64, 3 / 64), (2, 1.0)):
-            plan = make_plan(study, True, ["adaptive=true", f"adaptive_coarse={coarse}"])
+            plan = make_plan(study, True, {"adaptive": True, "adaptive_coarse": coarse})
             assert run_notices.core_seconds(plan) == pytest.approx(factor * full), (name, coarse)

@@ -152,12 +152,28 @@ def test_open_names_a_path_that_is_not_one(path):
         rimroll.open(path)
 
 
-def test_settings_words_follow_the_set_rules():
-    from rimroll.study.api import _word
+def test_run_hands_its_settings_on_as_values_never_as_text(probe, monkeypatch):
+    """rimroll.run passes its keywords to make_plan as they are; the plan of those values is the plan of
+    the command line's words (read once by ``cli_text.setting_values``)."""
+    from rimroll.study import api, cli_text
+    from rimroll.study.plan import make_plan
 
-    assert _word("mu", [0.5, 1, 2]) == "0.5,1,2" and _word("mu", np.array([0.25, 1.0])) == "0.25,1.0"
-    assert _word("mu", float("inf")) == "inf" and _word("n_x", 8) == "8" and _word("flag", True) == "true"
-    assert _word("j", "0.4:0.6:5") == "0.4:0.6:5" and _word("mu", (3.0,)) == "3.0"
+    seen = {}
+
+    def capture(study, quick, values, local=True):
+        seen.update(values)
+        return make_plan(study, quick, values, local)
+
+    monkeypatch.setattr(api, "make_plan", capture)
+    mu = np.array([0.25, 1.0])
+    with pytest.raises(UserError, match="j=0.4:0.6:5: expected a number"):  # a range is values, not text
+        rimroll.run("fanout-probe", mu=mu, j="0.4:0.6:5")
+    assert seen["mu"] is mu and seen["j"] == "0.4:0.6:5"
+    values = {"mu": mu, "v_throw": range(1, 4), "n_x": 8, "j": np.linspace(0.4, 0.6, 5), "k_r": 0}
+    words = cli_text.setting_values(probe, ["mu=0.25,1.0", "v_throw=1:3:3", "n_x=8", "j=0.4:0.6:5", "k_r=0"])
+    assert words == {"mu": (0.25, 1.0), "v_throw": (1.0, 2.0, 3.0), "n_x": 8, "j": tuple(np.linspace(0.4, 0.6, 5)),
+                     "k_r": 0.0}
+    assert make_plan(probe, False, values).fingerprint == make_plan(probe, False, words).fingerprint
 
 
 def test_open_reads_a_result_lazily_or_loaded(tmp_path):

@@ -43,15 +43,14 @@ def test_a_reversed_or_equal_pair_is_refused_before_any_work(name, low, high, st
     if strict:
         cases["equal"] = (a, a)
     for what, (lo, hi) in cases.items():
-        sets = [f"{low}={lo!r}", f"{high}={hi!r}"]
         with pytest.raises(UserError, match=rf"{low}=.* and {high}=.* out of order") as info:
-            make_plan(registry.get(name), quick=True, sets=sets)
+            make_plan(registry.get(name), True, {low: lo, high: hi})
         assert "\n" not in str(info.value), what
         with pytest.raises(UserError, match="out of order"):
             rimroll.run(name, quick=True, **{low: lo, high: hi})
     if not strict:
         assert low[:-4] in MAY_BE_EQUAL
-        make_plan(registry.get(name), quick=True, sets=[f"{low}={a!r}", f"{high}={a!r}"])
+        make_plan(registry.get(name), True, {low: a, high: a})
 
 
 @pytest.mark.parametrize("allowed", [(1, -1), (True, False), ("cpu", "cuda")])

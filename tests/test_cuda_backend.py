@@ -208,8 +208,8 @@ def test_study_run_on_the_simulated_device_matches_the_cpu_run(tmp_path):
     from rimroll.study import registry
     from rimroll.study.plan import make_plan
 
-    grid = ["n_beta=30", "n_omega1=8"]
-    assert make_plan(registry.get("fig11"), True, [*grid, "backend=cuda"], local=False).nc_chunks == (1, 30, 8)
+    grid = {"n_beta": 30, "n_omega1": 8}
+    assert make_plan(registry.get("fig11"), True, {**grid, "backend": "cuda"}, local=False).nc_chunks == (1, 30, 8)
     assert make_plan(registry.get("fig11"), True, grid).nc_chunks == (1, 24, 8)  # the study's CPU chunking
     # the storage chunks do not follow the compute chunks (about a million values: here the whole cube)
     assert gpu["outcome"].encoding["chunksizes"] == cpu["outcome"].encoding["chunksizes"] == (4, 30, 8)

@@ -30,14 +30,13 @@ def test_a_strength_beyond_the_ball_is_refused_before_any_work(r, swept):
     study = registry.get("dissipation-models")
     bound = _bound(solver.Params(r=r))
     for k, ok in ((0.99 * bound, True), (1.01 * bound, False), (10.0, False)):
-        value = f"0,{k!r}" if swept else repr(k)
-        sets = [f"r={r!r}", f"k_equivalent={value}", "omega2=35"]
+        sets = {"r": r, "k_equivalent": (0.0, k) if swept else k, "omega2": 35}
         start = time.perf_counter()
         if ok:
-            make_plan(study, quick=True, sets=sets)
+            make_plan(study, True, sets)
             continue
         with pytest.raises(UserError, match=r"every model needs k_equivalent < ([0-9.]+) 1/s") as info:
-            make_plan(study, quick=True, sets=sets)
+            make_plan(study, True, sets)
         assert time.perf_counter() - start < 10.0  # before any simulation
         stated = float(str(info.value).split("k_equivalent < ")[1].split(" ")[0])
         assert stated == pytest.approx(bound, rel=1e-3)

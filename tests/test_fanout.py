@@ -75,7 +75,7 @@ def _parse_ids(lines):
 
 # ---------------------------------------------------------------- --set parsing
 def test_set_forms_make_axes(probe):
-    plan = make_plan(probe, sets=["mu=0.25,1,4", "v_throw=3", "j=0.4:0.6:5", "n_x=6"])
+    plan = make_plan(probe, False, {"mu": [0.25, 1, 4], "v_throw": 3, "j": np.linspace(0.4, 0.6, 5), "n_x": 6})
     assert [a.name for a in plan.outer] == ["mu", "j"]  # scalar v_throw is a setting again
     np.testing.assert_allclose(plan.outer[0].values, [0.25, 1.0, 4.0])
     np.testing.assert_allclose(plan.outer[1].values, [0.4, 0.45, 0.5, 0.55, 0.6])  # inclusive
@@ -85,7 +85,7 @@ def test_set_forms_make_axes(probe):
     s, p = plan.settings_at(plan.n_chunks - 1)
     assert (p.mu, p.j, s["mu"], s["j"]) == (4.0, 0.6, 4.0, 0.6)
     # rho_over_R keeps R and a and moves r; a grid axis takes new values
-    plan = make_plan(probe, sets=["rho_over_R=0.5,0.6", "x=0:2:3"])
+    plan = make_plan(probe, False, {"rho_over_R": [0.5, 0.6], "x": np.linspace(0, 2, 3)})
     _, p = plan.settings_at(plan.n_chunks - 1)
     assert p.R == 0.225 and p.a == 0.01 and p.rho == pytest.approx(0.6 * 0.225)
     np.testing.assert_allclose(plan.grid[0].values, [0.0, 1.0, 2.0])
@@ -164,7 +164,7 @@ def test_sigkill_then_resume_recomputes_nothing_finished(probe, tmp_path):
     cmd = [sys.executable, "-m", "rimroll.study", "run", "fanout-probe", "--out", str(out), "--workers", "1",
            "--no-progress", "--set", "delay=0.35", "--set", f"log={log}"]
     proc = subprocess.Popen(cmd, env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-    plan = make_plan(probe, sets=["delay=0.35", f"log={log}"])
+    plan = make_plan(probe, False, {"delay": 0.35, "log": str(log)})
     parts = PartStore(out, "fanout-probe", plan.fingerprint)
     deadline = time.monotonic() + 60
     while len(list(parts.dir.glob("chunk-*.npz"))) < 3:
@@ -199,20 +199,20 @@ def test_fingerprint_and_corrupt_parts(probe, tmp_path, monkeypatch):
     with pytest.raises(RuntimeError, match="probe asked to fail"):
         _run(out, *sets)
     monkeypatch.delenv("FANOUT_PROBE_FAIL_MU")
-    plan = make_plan(probe, sets=[f"log={log}"])
+    plan = make_plan(probe, False, {"log": str(log)})
     store = PartStore(out, "fanout-probe", plan.fingerprint)
     kept = sorted(int(p.stem.split("-")[1]) for p in store.dir.glob("chunk-*.npz"))
     assert 2 <= len(kept) < N_PROBE and not (out / "fanout-probe.nc").exists()
 
     # one changed value: a new fingerprint, a new parts folder, every chunk computed afresh
-    changed = make_plan(probe, sets=[f"log={log}", "v_throw=1,2.5"])
+    changed = make_plan(probe, False, {"log": str(log), "v_throw": [1, 2.5]})
     assert changed.fingerprint != plan.fingerprint
     other = tmp_path / "other"
     n0 = len(_log_lines(log))
     assert _run(other, *sets, "--set", "v_throw=1,2.5") == 0
     assert len(_log_lines(log)) - n0 == N_PROBE
     assert store.dir.is_dir() and sorted(int(p.stem.split("-")[1]) for p in store.dir.glob("chunk-*.npz")) == kept
-    assert make_plan(probe, sets=[f"log={log}", "k_r=0.001"]).fingerprint != plan.fingerprint
+    assert make_plan(probe, False, {"log": str(log), "k_r": 0.001}).fingerprint != plan.fingerprint
 
     # damage two kept parts: truncated, and a valid zip with a wrong checksum
     truncated, tampered = store.path(kept[0]), store.path(kept[1])

@@ -99,7 +99,7 @@ def test_a_cube_is_assembled_in_storage_blocks_with_the_same_numbers(monkeypatch
     sets = ["mu=0.5,1,2", "v_throw=1,2,3", "n_x=8"]
     assert main(["run", "fanout-probe", *(w for s in sets for w in ("--set", s)), "--out", str(tmp_path),
                  "--no-progress"]) == 0
-    plan = make_plan(registry.get("fanout-probe"), False, sets)
+    plan = make_plan(registry.get("fanout-probe"), False, {"mu": [0.5, 1, 2], "v_throw": [1, 2, 3], "n_x": 8})
     assert plan.storage == (1, 3, 8, 3) and plan.nc_chunks == (1, 1, 4, 3)  # 6 compute chunks per block
     with xr.open_dataset(tmp_path / "fanout-probe.nc") as ds:
         assert ds["f"].encoding["chunksizes"] == (1, 3, 8, 3)

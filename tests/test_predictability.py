@@ -473,8 +473,8 @@ def test_the_cost_model_knows_the_refined_eps_test_costs_more():
     from rimroll.study.plan import make_plan
 
     study = registry.get("predictability")
-    sampled = run_notices.core_seconds(make_plan(study, True, []))
-    refined = run_notices.core_seconds(make_plan(study, True, ["eps_pairs=refined"]))
+    sampled = run_notices.core_seconds(make_plan(study, True))
+    refined = run_notices.core_seconds(make_plan(study, True, {"eps_pairs": "refined"}))
     assert refined == pytest.approx(5 * sampled)
 
 

@@ -139,7 +139,7 @@ def test_study_info_and_run_help_show_the_tables_units_doc_and_range(monkeypatch
 def test_swept_axes_take_units_and_long_name_from_the_table(tmp_path):
     from rimroll.study.plan import make_plan
 
-    plan = make_plan(registry.get("make-probability"), quick=True, sets=["sigma=0.5,1", "mu=0.5,1"])
+    plan = make_plan(registry.get("make-probability"), True, {"sigma": [0.5, 1], "mu": [0.5, 1]})
     axes = {a.name: a for a in plan.outer}
     for name in ("sigma", "mu"):
         assert (axes[name].units, axes[name].long_name) == (TABLE[name].units, TABLE[name].axis_long_name)
@@ -198,7 +198,7 @@ def test_reference_slices_come_from_the_study_record(monkeypatch, tmp_path, caps
     assert list(reference.specs()) == registry.natural_order(reference.specs())
     toy = _toy(reference=ReferenceSpec({"x": 3}, method="twice x"))
     monkeypatch.setitem(registry._REGISTRY, toy.name, toy)
-    assert reference.sub_grid_sets(toy.name) == ("x=0.0,0.5,1.0",)
+    assert reference.sub_grid(toy.name) == {"x": (0.0, 0.5, 1.0)}
     out = tmp_path / "slices"
     argv = ["reference", "--build", "--only", toy.name, "--out", str(out), "--no-progress", "--workers", "1"]
     assert main(argv) == 0
@@ -239,9 +239,14 @@ def test_every_key_value_option_uses_the_one_parser():
     assert trace.parse_sets(["mu=inf,j=0.5", "k_r=0.01"]) == {"mu": math.inf, "j": 0.5, "k_r": 0.01}
     at = trace._parse_at("omega1=0.5,beta=1.2,scene=slipping")
     assert at == {"omega1": "0.5", "beta": "1.2", "scene": "slipping"}
-    for path in ("settings.py", "cli.py", "rim_trace.py"):
+    for path in ("cli.py", "rim_trace.py", "shot_trace.py"):
         source = (ROOT / "study" / path).read_text()
         assert ".partition(\"=\")" not in source and "cli_text." in source, path
+    for path in ("settings.py", "plan.py", "api.py"):  # past the command line's edge no setting is text
+        tree = ast.parse((ROOT / "study" / path).read_text())
+        imported = {f"{node.module}.{alias.name}" for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)
+                    for alias in node.names}
+        assert not any("cli_text" in name for name in imported), path
 
 
 def test_functions_of_the_solver_and_the_study_layer_are_short_and_take_few_parameters():

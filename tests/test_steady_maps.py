@@ -8,7 +8,7 @@ import xarray as xr
 
 from rimroll import solver
 from rimroll.solver.analysis import steady
-from rimroll.study import execute, registry
+from rimroll.study import cli_text, execute, registry
 from rimroll.study.dataset import params_of
 from rimroll.study.plan import make_plan
 
@@ -16,7 +16,7 @@ from rimroll.study.plan import make_plan
 def _run(name, *sets, quick=True):
     """(Dataset, Params) of one run, as ``study run NAME [--quick] --set ...`` makes it (plan,
     fan-out, parts, assembly), read back into memory."""
-    plan = make_plan(registry.get(name), quick, sets)
+    plan = make_plan(registry.get(name), quick, cli_text.setting_values(registry.get(name), sets))
     ds = execute.compute(plan, f"tests/test_steady_maps.py {name} {' '.join(sets)}", workers=2)
     assert params_of(ds) == plan.params  # the file is what its attributes say
     return ds, plan.params

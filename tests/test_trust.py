@@ -131,7 +131,7 @@ def test_truncated_result_is_recomputed(probe, tmp_path, capsys):
 def test_lock_covers_the_output_file_whatever_the_inputs(probe, tmp_path, capsys):
     import fcntl
 
-    other = make_plan(probe, sets=["v_throw=7"])  # a run of other inputs holds the output's lock
+    other = make_plan(probe, False, {"v_throw": 7})  # a run of other inputs holds the output's lock
     store = PartStore(tmp_path, "fanout-probe", other.fingerprint)
     store.root.mkdir(parents=True)
     with open(store.lock_path, "w") as held:
@@ -167,7 +167,7 @@ def _failed_run_with_parts(probe, out, log):
             _run(out, "--set", f"log={log}", "--workers", "1")
     finally:
         del os.environ["FANOUT_PROBE_FAIL_MU"]
-    plan = make_plan(probe, sets=[f"log={log}"])
+    plan = make_plan(probe, False, {"log": str(log)})
     store = PartStore(out, "fanout-probe", plan.fingerprint)
     kept = sorted(int(p.stem.split("-")[1]) for p in store.dir.glob("chunk-*.npz"))
     assert len(kept) >= 2
@@ -610,7 +610,7 @@ def test_a_run_that_reuses_its_file_keeps_the_parts_of_other_inputs(probe, tmp_p
 def test_an_interrupted_run_whose_file_another_run_wrote_is_told_that_force_resumes_it(probe, tmp_path, capsys):
     """A interrupted (its chunks saved), B of other settings writes NAME.nc, A again: refused as another
     run's file, and the line says A's chunks wait and --force resumes them; --force does."""
-    plan = make_plan(probe, sets=["v_throw=7"])
+    plan = make_plan(probe, False, {"v_throw": 7})
     store = PartStore(tmp_path, "fanout-probe", plan.fingerprint)  # as A's interrupted run left them
     arrays = {"f": np.zeros((1, 1, 4, 3)), "code": np.zeros((1, 1, 4, 3), dtype=np.int8)}
     store.save(0, arrays)

@@ -265,10 +265,10 @@ def test_a_damaged_result_is_recomputed_not_reused(fig8_file, tmp_path, capsys, 
 def test_the_plan_of_a_long_run_is_said_up_front(name, sets, long):
     import io as _io
 
-    from rimroll.study import run_notices
+    from rimroll.study import cli_text, run_notices
     from rimroll.study.plan import make_plan
 
-    plan = make_plan(registry.get(name), True, sets)
+    plan = make_plan(registry.get(name), True, cli_text.setting_values(registry.get(name), sets))
     stream = _io.StringIO()
     run_notices.announce(plan, plan.n_chunks, stream)
     text = stream.getvalue()

@@ -225,6 +225,6 @@ register(Study(
     # a 12 x 18 sub-grid of the full map (adaptive=false) at the paper's three sections, DOP853 at rtol 1e-12:
     # `study verify` of an adaptive file then checks its outcomes against simulated ones
     reference=ReferenceSpec({"beta": 12, "omega1": 18},
-                            precise=("rtol=1e-12", "atol=1e-14", "method=dop853", "adaptive=false"),
-                            sets=("omega2=35,65,105",)),
+                            precise={"rtol": 1e-12, "atol": 1e-14, "method": "dop853", "adaptive": False},
+                            sets={"omega2": (35, 65, 105)}),
 ))

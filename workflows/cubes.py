@@ -137,8 +137,8 @@ register(Study(
     # closed forms: the slices are exact; the default one holds mu = 0.5, 2 and v_throw = 3, 10 at the
     # standard ball, on a 121 x 80 sub-grid of (beta0, omega30)
     reference=ReferenceSpec({"beta0": 121, "omega30": 80},
-                            sets=("mu=0.5,2", "v_throw=3,10", "j=0.6666666666666666",
-                                  f"rho_over_R={STANDARD_RHO_OVER_R!r}")),
+                            sets={"mu": (0.5, 2), "v_throw": (3, 10), "j": 0.6666666666666666,
+                                  "rho_over_R": STANDARD_RHO_OVER_R}),
 ))
 
 
@@ -256,6 +256,6 @@ register(Study(
                    "refine_level >= 0; [outcome-studies.md](outcome-studies.md#adaptive-maps))"),),
     plot=_outcome_plot,
     # the default slice: mu = 1, 2 and k_r = 0, 0.02 at k_d = 0, omega2 = 65 1/s, on a 12 x 20 sub-grid
-    reference=ReferenceSpec({"beta": 12, "omega1": 20}, precise=("rtol=1e-12", "atol=1e-14", "method=dop853"),
-                            sets=("mu=1,2", "k_r=0,0.02", "k_d=0", "omega2=65")),
+    reference=ReferenceSpec({"beta": 12, "omega1": 20}, precise={"rtol": 1e-12, "atol": 1e-14, "method": "dop853"},
+                            sets={"mu": (1, 2), "k_r": (0, 0.02), "k_d": 0, "omega2": 65}),
 ))

@@ -354,5 +354,5 @@ register(Study(
     cost=1e-5, compiles=True,  # seconds per grid point on one core (only island states run), warm
     # a regression reference at the study's own settings: the fate of an island state near the edge
     # between in and out may change with the tolerance, which is the study's setting to choose
-    reference=ReferenceSpec({"beta": 24, "omega1": 36}, sets=("omega2=65", "k_equivalent=0,0.02")),
+    reference=ReferenceSpec({"beta": 24, "omega1": 36}, sets={"omega2": 65, "k_equivalent": (0, 0.02)}),
 ))

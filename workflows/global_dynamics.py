@@ -471,6 +471,6 @@ register(Study(
     plot=_inv_plot,
     chunks={"trajectory": 1},
     # scipy DOP853 at rtol 1e-12 against the default 1e-10, every 10th output time of the default grid
-    reference=ReferenceSpec({"trajectory": 6, "t": 41}, precise=("rtol=1e-12", "atol=1e-14"),
+    reference=ReferenceSpec({"trajectory": 6, "t": 41}, precise={"rtol": 1e-12, "atol": 1e-14},
                             method="scipy DOP853 (solver.analysis.trajectory)"),
 ))

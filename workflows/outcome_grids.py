@@ -420,7 +420,7 @@ DERIVED_DOCS = (
      "([outcome-studies.md](outcome-studies.md#outputs))"),
 )
 """The variables ``_derive`` adds, as docs/studies.md lists them."""
-REFERENCE = ReferenceSpec({"beta": 24, "omega1": 36}, precise=("rtol=1e-12", "atol=1e-14", "method=dop853"))
+REFERENCE = ReferenceSpec({"beta": 24, "omega1": 36}, precise={"rtol": 1e-12, "atol": 1e-14, "method": "dop853"})
 """The reference slices: a 24 x 36 sub-grid of each section in all four scenes, at the engine's
 tightest setting (DOP853, rtol 1e-12)."""
 
