@@ -109,8 +109,8 @@ def _value(key: str, text: str, default, labels: bool):
         if len(items) > MAX_AXIS:
             raise UserError(f"setting {key}: at most {MAX_AXIS} values per swept setting; got {len(items)}")
         return tuple(items) if labels else tuple(_float(key, t) for t in items)
-    if ":" in text:  # a range of a setting of labels: a tuple, refused as such by the settings' rules
-        return tuple(text.split(":"))
+    if labels and not isinstance(default, bool):
+        return text  # a label (checked against the setting's choices by study.checks)
     if default is None or isinstance(default, tuple) or (not isinstance(default, bool) and lookup(key).sweep):
         default = 1.0  # a swept setting held at one value: a number
     return _convert(key, text, default)

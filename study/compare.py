@@ -206,9 +206,9 @@ def declared(study: str) -> tuple[dict, set, set]:
             {v.name for v in variables if not v.compared}, {v.name for v in variables if not v.pointwise})
 
 
-def _scalar(ds: xr.Dataset, name: str) -> float | None:
+def _scalar(ds: xr.Dataset, name: str) -> float | str | None:
     """The one value of setting ``name`` in a file that does not sweep it: a 0-d coordinate, or its
-    ``setting_``/``param_`` attribute; None if the file says nothing (or nothing numeric)."""
+    ``setting_``/``param_`` attribute, a number or a label (``geometry``); None if the file says nothing."""
     if name in ds.coords and ds[name].ndim == 0:
         value = ds[name].values[()]
     else:
@@ -216,7 +216,7 @@ def _scalar(ds: xr.Dataset, name: str) -> float | None:
     try:
         return float(value)
     except (TypeError, ValueError):
-        return None
+        return str(value) if isinstance(value, str) and value else None
 
 
 def _align(ds: xr.Dataset, ref: xr.Dataset) -> tuple[xr.Dataset, xr.Dataset, str]:
@@ -236,9 +236,13 @@ def _cut(swept: xr.Dataset, held: xr.Dataset, name: str, other: str) -> tuple[xr
     """``swept`` at the value ``held`` holds of each axis only ``swept`` has, and "" (else why not)."""
     for d in [d for d in swept.dims if d not in held.dims]:
         value = _scalar(held, d)
-        index, _ = _match(swept[d].values, np.array([value])) if value is not None else (np.empty(0), None)
+        if isinstance(value, str):  # a label axis (geometry): matched by label
+            index = np.flatnonzero(swept[d].values.astype(str) == value)
+        else:
+            index, _ = _match(swept[d].values, np.array([value])) if value is not None else (np.empty(0), None)
         if not index.size:
-            says = f"holds {d} = {value:g}" if value is not None else f"has no {d}"
+            shown = value if isinstance(value, str) else f"{value:g}" if value is not None else ""
+            says = f"holds {d} = {shown}" if value is not None else f"has no {d}"
             return swept, f"dimensions differ: the {name} sweeps {d}, the {other} {says}"
         swept = swept.isel({d: int(index[0])}, drop=True)
     return swept, ""

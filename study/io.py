@@ -339,8 +339,8 @@ def problems(ds: xr.Dataset) -> str | None:
         if flag:
             return f"variable {var_name}: {flag}"
     for axis in str(ds.attrs.get("swept", "")).split():
-        if axis not in ds.dims or axis not in ds.coords or ds[axis].dtype.kind not in "iuf":
-            return f"its 'swept' attribute names {axis!r}, which is not a numeric axis of the file"
+        if axis not in ds.dims or axis not in ds.coords or ds[axis].dtype.kind not in "iufUSO":
+            return f"its 'swept' attribute names {axis!r}, which is not an axis of numbers or labels of the file"
     return None
 
 

@@ -223,7 +223,8 @@ _ENTRIES = (
     S("v_cap", "m s-1", "capture speed: a rim impact whose normal rebound speed is below it leaves the ball on the "
       "ring", _contact_range("v_cap"), sweep=True, long_name="capture speed v_cap"),
     S("geometry", "", "the ring: paper (Table 1: R = 0.225 m, a = 0.01 m) or regulation (FIBA: R = 0.234 m, "
-      "a = 0.009 m); the board is FIBA's for both", choices=tuple(shots.GEOMETRIES), what="geometries"),
+      "a = 0.009 m); the board is FIBA's for both", choices=tuple(shots.GEOMETRIES), what="geometries",
+      sweep=True, long_name="ring geometry"),
     S("t_max_shot", "s", "time budget of one shot from its release (status time budget beyond it)",
       Range(0.0, 1000.0, low_open=True)),
     S("max_impacts", "", "budget of impacts of one shot (status impact budget beyond it)", COUNT),

@@ -5,8 +5,9 @@ given distance from the hoop's axis and height below the rim plane, with backspi
 through free flight (air drag when rho_air > 0), impacts with the rim and the board (restitution
 and Coulomb friction), capture onto the rim and the engine's rolling, to a make, a miss or a
 budget. The grid is ``speed`` [m/s] x ``angle`` [degree]; the release, the contact coefficients
-and the ring (``geometry``) are settings, and the backspin, the distance, the height, e, mu and
-v_cap may be swept (``--set backspin=0,10,20``). Every output of the solver is a variable of the
+and the ring (``geometry``) are settings, and the backspin, the distance, the height, e, mu,
+v_cap and the ring may be swept (``--set backspin=0,10,20``, ``--set geometry=paper,regulation``: a label
+axis). Every output of the solver is a variable of the
 file; the figure shows the outcome map (swish, makes after the rim, the board or rolling, the
 misses) with the speed that reaches the hoop's centre.
 """
@@ -36,7 +37,7 @@ GRID = {"speed_min": 6.5, "speed_max": 7.9, "n_speed": 200,  # [m/s]
 SETTINGS = {**GRID, **RELEASE_SETTINGS, **CONTACT_SETTINGS,
             "geometry": "paper", "t_max_shot": 5.0, "max_impacts": 100}
 QUICK = {"n_speed": 24, "n_angle": 20}
-SWEEPABLE = ("backspin", "distance", "height", *CONTACT_SETTINGS)
+SWEEPABLE = ("backspin", "distance", "height", *CONTACT_SETTINGS, "geometry")
 RING_IGNORES = {k: "the ring is the geometry setting's (paper: Table 1; regulation: FIBA), recorded as the "
                    "variables ring_R and ring_a" for k in ("R", "a")}
 
@@ -117,10 +118,18 @@ def _axes(s: dict) -> list:
 
 
 def _derive(ds) -> dict:
-    """The ring the shots ran with (the geometry's R and a), as scalar variables."""
-    ring = shots.params_for(str(setting_of(ds, "geometry")))
-    return {"ring_R": ((), np.float64(ring.R), {"units": "m", "long_name": "major radius of the ring (torus)"}),
-            "ring_a": ((), np.float64(ring.a), {"units": "m", "long_name": "minor radius of the ring (tube)"})}
+    """The ring the shots ran with (the geometry's R and a): scalars, or along ``geometry`` when it is swept."""
+    swept = "geometry" in ds.dims
+    names = [str(g) for g in ds["geometry"].values] if swept else [str(setting_of(ds, "geometry"))]
+    rings = [shots.params_for(name) for name in names]
+    dims = ("geometry",) if swept else ()
+
+    def values(key):
+        out = np.array([getattr(ring, key) for ring in rings], dtype=np.float64)
+        return out if swept else out[0]
+
+    return {"ring_R": (dims, values("R"), {"units": "m", "long_name": "major radius of the ring (torus)"}),
+            "ring_a": (dims, values("a"), {"units": "m", "long_name": "minor radius of the ring (tube)"})}
 
 
 # ---------------------------------------------------------------- the figure
@@ -149,8 +158,13 @@ def _plane(ds):
     """The (speed, angle) plane to draw and a note on the point taken along swept axes."""
     extra = [d for d in ds["outcome"].dims if d not in ("speed", "angle")]
     sel = ds.isel({d: 0 for d in extra})
-    note = ", ".join(f"{d} = {float(ds[d].values[0]):g}" for d in extra)
+    note = ", ".join(f"{d} = {_first(ds[d].values)}" for d in extra)
     return sel, note
+
+
+def _first(values) -> str:
+    """The first value of a swept axis as the figure's note shows it: a number or a label."""
+    return str(values[0]) if values.dtype.kind in "USO" else f"{float(values[0]):g}"
 
 
 def _plot(ds) -> Figure:
