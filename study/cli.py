@@ -191,13 +191,18 @@ def _draw(study, nc: pathlib.Path, select: dict | None = None) -> pathlib.Path |
             from rimroll.study.cubeplots import select as at
 
             ds = at(ds, select)
-            png = nc.with_name(nc.stem + "".join(f"_{k}={float(ds[k]):g}" for k in select) + ".png")
+            png = nc.with_name(nc.stem + "".join(f"_{k}={_value_name(ds[k].item())}" for k in select) + ".png")
         try:
             fig = study.plot(ds)
         except (ValueError, ArithmeticError, LookupError) as exc:  # a figure these settings cannot make
             raise UserError(f"{nc} holds the result, but its figure cannot be drawn: "
                             f"{' '.join(str(exc).split()) or type(exc).__name__}") from None
     return io.write_figure(fig, png)
+
+
+def _value_name(value) -> str:
+    """A selected value as a file name shows it: a label, or a number with %g."""
+    return value if isinstance(value, str) else f"{float(value):g}"
 
 
 def _selection(words: list[str], ds) -> dict:
@@ -211,6 +216,13 @@ def _selection(words: list[str], ds) -> dict:
         if key not in swept:
             raise UserError(f"--select {key}={value}: expected DIM=VALUE with DIM one of the file's swept axes "
                             f"({', '.join(swept) or 'none: the file is not a cube'})")
+        if key in ds.coords and ds[key].dtype.kind in "USO":  # a label axis (geometry): one of its labels
+            labels = [str(v) for v in ds[key].values]
+            if value not in labels:
+                raise UserError(f"--select {key}={value}: VALUE must be one of the file's {key} labels: "
+                                f"{', '.join(labels)}")
+            out[key] = value
+            continue
         try:
             out[key] = cli_text.number(value)
         except ValueError:

@@ -44,9 +44,12 @@ SMALL_SHARE = 0.1
 
 def select(ds, values: dict):
     """``ds`` at the value of each swept axis nearest ``values`` ({dim: number}; inf picks mu = inf
-    exactly, and a finite value the nearest finite one)."""
+    exactly, and a finite value the nearest finite one; a label, {dim: str}, picks that label)."""
     pick = {}
     for dim, value in values.items():
+        if isinstance(value, str):
+            pick[dim] = int(np.flatnonzero(np.asarray(ds[dim].values).astype(str) == value)[0])
+            continue
         coord = np.asarray(ds[dim].values, dtype=float)
         exact = np.flatnonzero(coord == value)
         with np.errstate(invalid="ignore"):
@@ -246,8 +249,15 @@ def sweep_panels(axes, ds, series, ylabel: str, ylim=None) -> list:
     return handles
 
 
+def _first_text(values) -> str:
+    """The first value of a swept axis as ``--select`` takes it: a label, or a number ('inf' for inf)."""
+    if np.asarray(values).dtype.kind in "USO":
+        return str(values[0])
+    return value_text(float(values[0])).replace(chr(0x221e), "inf")
+
+
 def select_hint(ds) -> str:
     """How to draw one slice of this cube: a ``study plot --select`` example of its first values."""
     dims = swept(ds)
-    first = ",".join(f"{d}={value_text(float(ds[d].values[0])).replace(chr(0x221e), 'inf')}" for d in dims)
+    first = ",".join(f"{d}={_first_text(ds[d].values)}" for d in dims)
     return f"one slice as a map: study plot FILE --select {first}" if dims else ""

@@ -34,6 +34,9 @@ def test_a_geometry_sweep_is_a_label_axis_whose_slices_are_the_single_geometry_r
             ring = shots.params_for(name)  # the derived ring follows the label along the axis
             assert (float(cut["ring_R"]), float(cut["ring_a"])) == (ring.R, ring.a)
         fingerprint = cube.attrs["run_fingerprint"]
+    assert main(["plot", str(nc), "--select", "geometry=regulation"]) == 0  # a slice's figure, by its label
+    assert (tmp_path / "shot_geometry=regulation.png").is_file()
+    assert main(["plot", str(nc), "--select", "geometry=hoop"]) == 2
     written = nc.stat().st_mtime_ns
     again = rimroll.run("shot", quick=True, out=tmp_path, geometry=["paper", "regulation"], progress=False, **SMALL)
     assert again.attrs["run_fingerprint"] == fingerprint and nc.stat().st_mtime_ns == written  # reused, as words
