@@ -162,7 +162,8 @@ def _typed(key: str, value, default):
     else:
         if numeric:
             return float(value)
-        kind = "a number"
+        kind = "a number" + (" (a range is a list or numpy.linspace(start, stop, num), not text)"
+                             if isinstance(value, str) and ":" in value else "")
     raise UserError(f"setting {key}={_shown(value)}: expected {kind}")
 
 
