@@ -121,7 +121,12 @@ def _shown(value) -> str:
     """A value as an error message shows it: a list as ``a,b,c``, a number or label as itself."""
     if isinstance(value, tuple):
         return ",".join(_shown(v) for v in value)
-    return str(value).lower() if isinstance(value, (bool, np.bool_)) else str(value)
+    if isinstance(value, (bool, np.bool_)):
+        return str(bool(value)).lower()
+    if isinstance(value, (float, np.floating)) and np.isfinite(value):  # the shorter of 1e+12 and 1000000000000.0
+        science = np.format_float_scientific(value, unique=True, trim="-").replace("e+", "e")
+        return min(repr(float(value)), science, key=len)
+    return str(value)
 
 
 def _shape(key: str, value):
