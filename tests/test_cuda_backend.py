@@ -56,6 +56,15 @@ def simulated_loads(tmp_path_factory) -> dict:
     return _probe(tmp_path_factory.mktemp("sim"), 24, 0, ["coulomb_air"])
 
 
+@pytest.fixture(scope="module")
+def simulated_rolling(tmp_path_factory) -> dict:
+    """tests/cuda_sim_probe.py under the simulator: 9 states of the rolling-only scene (one kernel to
+    compile, a quarter of ``simulated_run``'s cost), and batches of 4."""
+    if not HAS_NUMBA_CUDA:
+        pytest.skip("numba-cuda is not installed (pip install 'rimroll[test]' or 'rimroll[gpu]')")
+    return _probe(tmp_path_factory.mktemp("sim"), 9, 4, ["rolling_only"])
+
+
 def _probe(tmp_path, n: int, max_batch: int, labels: list[str] | None) -> dict:
     """Run tests/cuda_sim_probe.py under the simulator (the scenes ``labels``, None: all); its saved arrays."""
     out = tmp_path / "sim.npz"
@@ -109,11 +118,13 @@ def test_simulator_gives_the_cpu_engines_results_under_coulomb_loads_and_air_dra
     _compare_scenes(simulated_loads, ["coulomb_air"], 2)  # in and out: the loads end every run
 
 
-def test_simulator_batches_equal_one_launch(simulated_run):
-    """Batches of 7 states on two alternating streams give the rows of one launch, in order."""
-    saved = simulated_run
+def test_simulator_batches_equal_one_launch(simulated_rolling):
+    """In the rolling-only scene the simulated device gives the CPU engine's results, and batches of 4
+    states on two alternating streams give the rows of one launch, in order."""
+    saved = simulated_rolling
     from rimroll.solver.engine.kernels import RF_T_END, RI_N_STEPS, RI_OUTCOME
 
+    _compare_scenes(saved, ["rolling_only"], 2)
     res_f, res_i = saved["batched/res_f"], saved["batched/res_i"]
     assert np.isfinite(res_f[:, RF_T_END]).all() and (res_i[:, RI_N_STEPS] >= 0).all()  # every row written
     np.testing.assert_array_equal(res_i[:, RI_OUTCOME], saved["rolling_only/cuda/outcome"])
