@@ -202,12 +202,13 @@ def test_study_run_without_device_exits_with_one_line(tmp_path):
 
 
 @needs_numba_cuda
+@pytest.mark.slow  # two subprocess runs whose simulator compiles four scene kernels (~120 s at load 4)
 def test_study_run_on_the_simulated_device_matches_the_cpu_run(tmp_path):
-    """``study run fig11 --backend cuda`` under the simulator: one chunk per section (a launch), the
-    CPU run's numbers, and the backend and device in the file's attributes."""
+    """``study run fig11 --backend cuda`` under the simulator: the CPU run's numbers, and the backend and
+    device in the file's attributes."""
     from rimroll.study import io
 
-    sets = ["--quick", "--set", "n_beta=30", "--set", "n_omega1=8", "--no-progress"]
+    sets = ["--quick", "--set", "n_beta=30", "--set", "n_omega1=8", "--set", "method=dp5", "--no-progress"]
     proc = _study("run", "fig11", *sets, "--backend", "cuda", "--out", str(tmp_path / "gpu"),
                   env={"NUMBA_ENABLE_CUDASIM": "1"})
     assert proc.returncode == 0, proc.stderr
@@ -216,16 +217,20 @@ def test_study_run_on_the_simulated_device_matches_the_cpu_run(tmp_path):
     gpu, cpu = io.open_result(tmp_path / "gpu" / "fig11.nc"), io.open_result(tmp_path / "cpu" / "fig11.nc")
     assert gpu.attrs["setting_backend"] == "cuda" and cpu.attrs["setting_backend"] == "cpu"
     assert gpu.attrs["source"].endswith(f"; backend cuda on {backends.SIMULATOR_NAME}")
+    # the storage chunks do not follow the compute chunks (about a million values: here the whole cube)
+    assert gpu["outcome"].encoding["chunksizes"] == cpu["outcome"].encoding["chunksizes"] == (4, 30, 8)
+    for name in ("outcome", "status", "t_end", "f2_min", "slip_time", "boundary_type"):
+        np.testing.assert_array_equal(gpu[name].values, cpu[name].values, err_msg=name)
+
+
+def test_a_device_run_computes_a_section_per_chunk():
+    """With the cuda backend a chunk is a whole section (one launch); on the CPU the study's own chunking."""
     from rimroll.study import registry
     from rimroll.study.plan import make_plan
 
     grid = ["n_beta=30", "n_omega1=8"]
     assert make_plan(registry.get("fig11"), True, [*grid, "backend=cuda"], local=False).nc_chunks == (1, 30, 8)
     assert make_plan(registry.get("fig11"), True, grid).nc_chunks == (1, 24, 8)  # the study's CPU chunking
-    # the storage chunks do not follow the compute chunks (about a million values: here the whole cube)
-    assert gpu["outcome"].encoding["chunksizes"] == cpu["outcome"].encoding["chunksizes"] == (4, 30, 8)
-    for name in ("outcome", "status", "t_end", "f2_min", "slip_time", "boundary_type"):
-        np.testing.assert_array_equal(gpu[name].values, cpu[name].values, err_msg=name)
 
 
 def test_auto_records_the_backend_in_the_file(tmp_path):
