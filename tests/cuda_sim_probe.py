@@ -57,7 +57,7 @@ def main(out: str, n: int, max_batch: int | None, labels: list[str] | None = Non
             continue
         params = solver.Params(**changes)
         for backend in ("cpu", "cuda"):
-            res = solver.simulate(states, params, t_max=t_max, backend=backend, workers=1)
+            res = solver.simulate(states, params, t_max=t_max, method="dp5", backend=backend, workers=1)
             for name in (o.name for o in OUTPUTS):
                 saved[f"{label}/{backend}/{name}"] = res[name]
     if max_batch:  # the batched path: several launches, both slots, against one launch

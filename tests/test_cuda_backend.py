@@ -56,6 +56,15 @@ def simulated_loads(tmp_path_factory) -> dict:
     return _probe(tmp_path_factory.mktemp("sim"), 24, 0, ["coulomb_air"])
 
 
+@pytest.fixture(scope="module")
+def simulated_rolling(tmp_path_factory) -> dict:
+    """tests/cuda_sim_probe.py under the simulator: 9 states of the rolling-only scene (one kernel to
+    compile, a quarter of ``simulated_run``'s cost), and batches of 4."""
+    if not HAS_NUMBA_CUDA:
+        pytest.skip("numba-cuda is not installed (pip install 'rimroll[test]' or 'rimroll[gpu]')")
+    return _probe(tmp_path_factory.mktemp("sim"), 9, 4, ["rolling_only"])
+
+
 def _probe(tmp_path, n: int, max_batch: int, labels: list[str] | None) -> dict:
     """Run tests/cuda_sim_probe.py under the simulator (the scenes ``labels``, None: all); its saved arrays."""
     out = tmp_path / "sim.npz"
@@ -109,11 +118,13 @@ def test_simulator_gives_the_cpu_engines_results_under_coulomb_loads_and_air_dra
     _compare_scenes(simulated_loads, ["coulomb_air"], 2)  # in and out: the loads end every run
 
 
-def test_simulator_batches_equal_one_launch(simulated_run):
-    """Batches of 7 states on two alternating streams give the rows of one launch, in order."""
-    saved = simulated_run
+def test_simulator_batches_equal_one_launch(simulated_rolling):
+    """In the rolling-only scene the simulated device gives the CPU engine's results, and batches of 4
+    states on two alternating streams give the rows of one launch, in order."""
+    saved = simulated_rolling
     from rimroll.solver.engine.kernels import RF_T_END, RI_N_STEPS, RI_OUTCOME
 
+    _compare_scenes(saved, ["rolling_only"], 2)
     res_f, res_i = saved["batched/res_f"], saved["batched/res_i"]
     assert np.isfinite(res_f[:, RF_T_END]).all() and (res_i[:, RI_N_STEPS] >= 0).all()  # every row written
     np.testing.assert_array_equal(res_i[:, RI_OUTCOME], saved["rolling_only/cuda/outcome"])
@@ -191,12 +202,13 @@ def test_study_run_without_device_exits_with_one_line(tmp_path):
 
 
 @needs_numba_cuda
+@pytest.mark.slow  # two subprocess runs whose simulator compiles four scene kernels (~120 s at load 4)
 def test_study_run_on_the_simulated_device_matches_the_cpu_run(tmp_path):
-    """``study run fig11 --backend cuda`` under the simulator: one chunk per section (a launch), the
-    CPU run's numbers, and the backend and device in the file's attributes."""
+    """``study run fig11 --backend cuda`` under the simulator: the CPU run's numbers, and the backend and
+    device in the file's attributes."""
     from rimroll.study import io
 
-    sets = ["--quick", "--set", "n_beta=30", "--set", "n_omega1=8", "--no-progress"]
+    sets = ["--quick", "--set", "n_beta=30", "--set", "n_omega1=8", "--set", "method=dp5", "--no-progress"]
     proc = _study("run", "fig11", *sets, "--backend", "cuda", "--out", str(tmp_path / "gpu"),
                   env={"NUMBA_ENABLE_CUDASIM": "1"})
     assert proc.returncode == 0, proc.stderr
@@ -205,16 +217,20 @@ def test_study_run_on_the_simulated_device_matches_the_cpu_run(tmp_path):
     gpu, cpu = io.open_result(tmp_path / "gpu" / "fig11.nc"), io.open_result(tmp_path / "cpu" / "fig11.nc")
     assert gpu.attrs["setting_backend"] == "cuda" and cpu.attrs["setting_backend"] == "cpu"
     assert gpu.attrs["source"].endswith(f"; backend cuda on {backends.SIMULATOR_NAME}")
+    # the storage chunks do not follow the compute chunks (about a million values: here the whole cube)
+    assert gpu["outcome"].encoding["chunksizes"] == cpu["outcome"].encoding["chunksizes"] == (4, 30, 8)
+    for name in ("outcome", "status", "t_end", "f2_min", "slip_time", "boundary_type"):
+        np.testing.assert_array_equal(gpu[name].values, cpu[name].values, err_msg=name)
+
+
+def test_a_device_run_computes_a_section_per_chunk():
+    """With the cuda backend a chunk is a whole section (one launch); on the CPU the study's own chunking."""
     from rimroll.study import registry
     from rimroll.study.plan import make_plan
 
     grid = {"n_beta": 30, "n_omega1": 8}
     assert make_plan(registry.get("fig11"), True, {**grid, "backend": "cuda"}, local=False).nc_chunks == (1, 30, 8)
     assert make_plan(registry.get("fig11"), True, grid).nc_chunks == (1, 24, 8)  # the study's CPU chunking
-    # the storage chunks do not follow the compute chunks (about a million values: here the whole cube)
-    assert gpu["outcome"].encoding["chunksizes"] == cpu["outcome"].encoding["chunksizes"] == (4, 30, 8)
-    for name in ("outcome", "status", "t_end", "f2_min", "slip_time", "boundary_type"):
-        np.testing.assert_array_equal(gpu[name].values, cpu[name].values, err_msg=name)
 
 
 def test_auto_records_the_backend_in_the_file(tmp_path):

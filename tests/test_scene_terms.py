@@ -66,9 +66,10 @@ def test_a_load_of_zero_strength_gives_the_scene_without_it_bit_for_bit():
             np.testing.assert_array_equal(with_load[name], without[name], err_msg=name)
 
 
-def test_the_scipy_reference_runs_the_same_term():
+@pytest.mark.parametrize("mu", [np.inf, pytest.param(1.0, marks=pytest.mark.slow)])  # mu = 1: the hybrid compile, ~100 s
+def test_the_scipy_reference_runs_the_same_term(mu):
     x = _states(8, seed=5)
-    p = solver.Params(mu=1.0)
+    p = solver.Params(mu=mu)
     ours = solver.simulate(x, p, t_max=3.0, rtol=1e-10, atol=1e-12, terms=("toy_drilling",))
     ref = reference(x, p, t_max=3.0, rtol=1e-10, atol=1e-12, terms=("toy_drilling",))
     assert (ours["outcome"] == ref["outcome"]).all()

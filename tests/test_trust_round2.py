@@ -368,9 +368,14 @@ def test_ctrl_c_during_start_up_is_one_line(tmp_path, delay):
     script = shutil.which("study", path=str(pathlib.Path(sys.executable).parent)) or shutil.which("study")
     if script is None:
         pytest.skip("the study console script is not installed")
+    # the delay counts from the end of the interpreter's own start (site, the .pth files of the venv):
+    # a Ctrl-C before that is Python's, before any of rimroll's code; measured now, as loaded as the run
+    start = time.perf_counter()
+    subprocess.run([sys.executable, "-c", "pass"], check=True)
+    python_starts = time.perf_counter() - start
     run = subprocess.Popen([script, "run", "fig8", "--quick", "--out", str(tmp_path / "o"), "--no-progress"],
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    time.sleep(delay)
+    time.sleep(python_starts + delay)
     run.send_signal(signal.SIGINT)
     out, err = run.communicate(timeout=120)
     assert "Traceback" not in err and run.returncode in (0, 130), (run.returncode, err)

@@ -26,15 +26,9 @@ docs/architecture.md.
 from __future__ import annotations
 
 import importlib
-from importlib.metadata import PackageNotFoundError, version
 from typing import TYPE_CHECKING
 
 from rimroll._messages import LaneStatusWarning, RimrollWarning, install
-
-try:
-    __version__ = version("rimroll")
-except PackageNotFoundError:  # a source tree that was never installed
-    __version__ = "0+unknown"
 
 install()  # notices at INFO on stderr until the application configures logging (rimroll._messages)
 
@@ -50,7 +44,10 @@ __all__ = ["__version__", "LaneStatusWarning", "RimrollWarning", "UserError", "r
 
 
 def __getattr__(name: str):
-    """``rimroll.solver``, ``rimroll.run`` and friends, imported on first use (``import rimroll`` stays cheap)."""
+    """``rimroll.solver``, ``rimroll.run`` and friends, imported on first use (``import rimroll`` stays cheap:
+    the ``study`` command's Ctrl-C handling starts after it, rimroll._command)."""
+    if name == "__version__":  # importlib.metadata is three quarters of this module's import time
+        return _installed_version()
     if name in _SUBPACKAGES:
         return importlib.import_module(f"rimroll.{name}")
     if name in _API:
@@ -58,6 +55,16 @@ def __getattr__(name: str):
     if name == "UserError":  # what run and open raise for bad input: one line, fixable by the user
         return importlib.import_module("rimroll.study.registry").UserError
     raise AttributeError(f"module 'rimroll' has no attribute {name!r}")
+
+
+def _installed_version() -> str:
+    """The installed distribution's version ("0+unknown" for a source tree that was never installed)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("rimroll")
+    except PackageNotFoundError:
+        return "0+unknown"
 
 
 def __dir__() -> list[str]:
