@@ -1,6 +1,6 @@
 """Benchmark of adaptive outcome maps (not a test): the 12 panels of Figs. 11-13, full against adaptive.
 
-    python tests/benchmark_adaptive.py [--quick] [--repeat 2] [--workers 2] [--out DIR]
+    python benchmarks/adaptive_maps.py [--quick] [--repeat 2] [--workers 2] [--out DIR]
 
 For each of fig11, fig12, fig13 runs ``study run NAME`` and ``study run NAME --set adaptive=true``
 (alternating, ``--repeat`` times each, ``--force``), and prints per study: the wall time of each

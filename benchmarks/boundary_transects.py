@@ -7,7 +7,7 @@ segment from the boundary (and t_end, F2_min of the falling states beyond it). A
 boundary shows a half period growing without bound (like log(1/distance)) with F2_min staying
 positive; a deadlock boundary shows F2_min falling to 0 with a finite half period.
 
-    python docs/boundary_transects.py [--out docs/img]
+    python benchmarks/boundary_transects.py [--out docs/img]
 
 writes ``transects_fig12.png`` and prints a table. Takes about a minute on one core.
 """

@@ -1,6 +1,6 @@
 """Benchmark of the refined boundary types (not a test): what ``boundary_type`` adds to an outcome study.
 
-    python tests/benchmark_boundaries.py [--full] [--study fig12]
+    python benchmarks/boundary_types.py [--full] [--study fig12]
 
 Measures, in one run on the same grid (the study's settings; ``--quick`` grid unless ``--full``):
 
@@ -46,7 +46,7 @@ def _dataset(name: str, full: bool) -> tuple[xr.Dataset, float]:
     seconds = time.perf_counter() - t0
     dims = [a.name for a in plan.axes]
     data = {v.name: (dims, arrays[v.name], v.attrs) for v in study.variables}
-    attrs = global_attrs(study, plan.params, plan.settings, "tests/benchmark_boundaries.py")
+    attrs = global_attrs(study, plan.params, plan.settings, "benchmarks/boundary_types.py")
     return xr.Dataset(data, coords=coords_of(plan.axes), attrs=attrs), seconds
 
 

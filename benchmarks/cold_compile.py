@@ -1,6 +1,6 @@
 """Cold compile and warm start of the engine (not a test: it times things).
 
-    python tests/benchmark_compile.py [--repeats 2]
+    python benchmarks/cold_compile.py [--repeats 2]
 
 Each measurement runs in a fresh process with an empty kernel cache (``RIMROLL_CACHE_DIR`` set to a
 new temporary folder), so it is what a new user meets:

@@ -6,7 +6,7 @@ islands of a ``dissipation-models`` file (the README's numbers: the full run) wi
 the Coulomb rolling + drilling pair at k_eq = 0.02 1/s, and both, with slipping (mu = 1) to 60 s,
 and prints the percent that falls in / out / is still on the rim.
 
-    python docs/dissipation_real_air.py results/dissipation-models.nc      # about 30 s on 2 cores
+    python benchmarks/dissipation_real_air.py results/dissipation-models.nc      # about 30 s on 2 cores
 """
 
 import sys

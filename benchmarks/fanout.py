@@ -1,6 +1,6 @@
 """Benchmark of the fan-out (not a test): speed-up of 2 workers over 1, dask overhead, peak memory.
 
-    python tests/benchmark_fanout.py [--quick]
+    python benchmarks/fanout.py [--quick]
 
 1. Speed-up and overhead: ``outcome-cube --quick`` on a finer section (compute-heavy, numba
    kernels release the GIL), run with 1 and with 2 local workers. Overhead = wall time of the

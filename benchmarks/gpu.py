@@ -2,7 +2,7 @@
 
 Run on a machine with a CUDA device and numba-cuda (``rimroll[gpu]``), from the repository root::
 
-    PYTHONPATH=. python tests/benchmark_gpu.py [--repeat 20] [--big 100] [--out bench_gpu.json]
+    PYTHONPATH=. python benchmarks/gpu.py [--repeat 20] [--big 100] [--out bench_gpu.json]
         [--max-registers 0,128,96] [--block 128,64,256] [--skip-cpu]
 
 It needs only numpy, numba and numba-cuda (no xarray or dask). What it measures, on the Fig. 11

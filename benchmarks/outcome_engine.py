@@ -1,6 +1,6 @@
 """Benchmark of the outcome engine on the Fig. 11 section (86,400 states; not a test).
 
-    python tests/benchmark_engine.py [--repeat N]
+    python benchmarks/outcome_engine.py [--repeat N]
 
 Times ``solver.simulate`` rolling only at rtol 1e-6 and 1e-8 and with slipping (mu = 1) at
 1e-8 (atol = rtol / 100), after a warm-up call that loads or compiles the kernels (the compile

@@ -1,6 +1,6 @@
 """Benchmark of the slipping scene (not a test): its cost against rolling only, and what bounds it.
 
-    python tests/benchmark_slipping.py [--quick] [--sample N] [--omega2 35|65]
+    python benchmarks/slipping_cost.py [--quick] [--sample N] [--omega2 35|65]
 
 The slipping scene (mu = 1) was asked to cost at most 3x (issue 3), then 4x (Fig. 11 section,
 omega2 = 35 1/s) and 6x (Fig. 12 section, omega2 = 65 1/s) the rolling-only time (omega3 = 10 1/s,

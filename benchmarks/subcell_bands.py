@@ -14,7 +14,7 @@ island, together with what the grid sees at its own points (240 values of beta i
 ``solver.analysis.boundaries.refine_pairs`` types each boundary pair as the outcome studies do; its type
 is printed in each panel next to the grid-only ``classify`` label.
 
-    python docs/subcell_bands.py [--out docs/img]
+    python benchmarks/subcell_bands.py [--out docs/img]
 
 writes ``subcell_bands.png`` and prints the numbers. Takes about ten seconds.
 """

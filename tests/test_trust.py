@@ -1,6 +1,6 @@
 """Runs you can trust (issue 11): no stale or mixed result, no hang, every failure one line.
 
-Most checks use the test-only ``fanout-probe`` study (``tests/fanout_probe.py``, loaded through
+Most checks use the test-only ``fanout-probe`` study (``tests/helpers/fanout_probe.py``, loaded through
 ``RIMROLL_STUDY_MODULES``). The hang checks use a short ``--timeout`` against listeners on
 127.0.0.1 and a dask scheduler without workers; no test contacts any other address.
 """
@@ -26,8 +26,9 @@ from rimroll.study.cli import main, natural_order
 from rimroll.study.parts import PartStore
 from rimroll.study.plan import make_plan
 from rimroll.study.registry import PLUGIN_ENV
+from tests.helpers.paths import HELPERS, ROOT
 
-PROBE = str(pathlib.Path(__file__).with_name("fanout_probe.py"))
+PROBE = str(HELPERS / "fanout_probe.py")
 N_PROBE = 12  # chunks of the probe at its defaults: mu (3) x v_throw (2) x x (2 chunks)
 
 
@@ -253,7 +254,7 @@ def test_slices_are_package_data_found_with_importlib(monkeypatch):
     assert reference.reference_dir() == packaged
     assert {p.stem for p in packaged.glob("*.nc")} == set(reference.specs())
     assert {p.stem for p in (packaged / "quick").glob("*.nc")} == set(reference.specs())
-    root = pathlib.Path(__file__).resolve().parent.parent
+    root = ROOT
     config = tomllib.loads((root / "pyproject.toml").read_text())
     for pattern in ("reference_slices/*.nc", "reference_slices/quick/*.nc"):
         assert pattern in config["tool"]["setuptools"]["package-data"]["rimroll.study"]
@@ -276,7 +277,7 @@ def test_verify_after_pip_install(tmp_path):
     a fig8 result from another directory with the packaged slices."""
     import sysconfig
 
-    root = pathlib.Path(__file__).resolve().parent.parent
+    root = ROOT
     src = tmp_path / "src"
     files = subprocess.run(["git", "ls-files", "-co", "--exclude-standard"], cwd=root, capture_output=True,
                            text=True, check=True).stdout.split()

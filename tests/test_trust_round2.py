@@ -17,6 +17,7 @@ from rimroll.study import registry
 from rimroll.study.cli import main
 from rimroll.study.registry import PHYSICAL_KEYS
 from rimroll.study.setting_table import MAX_MAGNITUDE, ORDERED, lookup
+from tests.helpers.paths import HELPERS
 
 
 def _one_line_error(err: str, *needles):
@@ -288,7 +289,7 @@ def test_absurdly_large_runs_are_refused_with_the_bound(tmp_path, capsys):
 
 def test_a_chunk_that_takes_long_is_not_silent(tmp_path, capsys, monkeypatch):
     """One worker, chunks of 2.5 s: a "working" notice within the first chunk, the run ends fine."""
-    probe = str(pathlib.Path(__file__).with_name("fanout_probe.py"))
+    probe = str(HELPERS / "fanout_probe.py")
     monkeypatch.setenv(registry.PLUGIN_ENV, probe)
     argv = ["run", "fanout-probe", "--set", "mu=1", "--set", "v_throw=1", "--set", "delay=2.5",
             "--workers", "1", "--no-progress", "--out", str(tmp_path)]
@@ -300,7 +301,7 @@ def test_a_chunk_that_takes_long_is_not_silent(tmp_path, capsys, monkeypatch):
 # ================================================================ 5. faults around a run
 @pytest.fixture
 def probe(monkeypatch):
-    monkeypatch.setenv(registry.PLUGIN_ENV, str(pathlib.Path(__file__).with_name("fanout_probe.py")))
+    monkeypatch.setenv(registry.PLUGIN_ENV, str(HELPERS / "fanout_probe.py"))
     monkeypatch.delenv("FANOUT_PROBE_FAIL_MU", raising=False)
     return registry.get("fanout-probe")
 
@@ -502,7 +503,7 @@ def test_scheduler_killed_mid_run_is_one_line_then_resumed(tmp_path):
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
     address = f"tcp://127.0.0.1:{port}"
-    env = {**os.environ, registry.PLUGIN_ENV: str(pathlib.Path(__file__).with_name("fanout_probe.py"))}
+    env = {**os.environ, registry.PLUGIN_ENV: str(HELPERS / "fanout_probe.py")}
     dask = [sys.executable, "-m"]
     scheduler = subprocess.Popen([*dask, "distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port", str(port),
                                   "--no-dashboard"], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)

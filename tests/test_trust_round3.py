@@ -2,7 +2,7 @@
 at any point of a run, SIGTERM (once or twice) at any moment of a run, a cluster that loses its
 only worker, client-side TLS mistakes.
 
-The runs use the test-only ``fanout-probe`` study (tests/fanout_probe.py): cheap chunks, so that a
+The runs use the test-only ``fanout-probe`` study (tests/helpers/fanout_probe.py): cheap chunks, so that a
 case is a second or two.
 """
 
@@ -23,8 +23,9 @@ import numpy as np
 import pytest
 
 from rimroll.study.registry import PLUGIN_ENV, UserError
+from tests.helpers.paths import HELPERS
 
-HERE = pathlib.Path(__file__).parent
+HERE = HELPERS
 PROBE = str(HERE / "fanout_probe.py")
 # the modules as imported (a plain install's site-packages or a source checkout), not the checkout's paths
 WATCHED = {str(pathlib.Path(importlib.import_module(f"rimroll.study.{name}").__file__).resolve())

@@ -10,8 +10,8 @@ import re
 import pytest
 
 from rimroll.study import registry
+from tests.helpers.paths import ROOT
 
-ROOT = pathlib.Path(__file__).resolve().parent.parent
 USER_FACING = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md")), *sorted((ROOT / "docs").rglob("*.part")),
                *sorted((ROOT / "study").glob("*.py")),
                *sorted((ROOT / "workflows").glob("*.py"))]

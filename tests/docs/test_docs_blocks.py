@@ -4,8 +4,8 @@ Each page's bash and Python blocks run in order in an empty directory (bash with
 Python in one namespace), after a short set-up that makes the result files the page reads. A block
 that needs a cluster, a GPU or an install is marked in the page, just before it, with an HTML comment
 ``<!-- skip: REASON -->`` (invisible on the site) and is skipped with that reason. The pages whose
-blocks run for minutes are marked slow (``pytest -m slow tests/test_docs_blocks.py``). "Your first
-hour" and "Where rimroll reads the paper" are run, with what they print, by tests/test_readme.py.
+blocks run for minutes are marked slow (``pytest -m slow tests/docs/test_docs_blocks.py``). "Your first
+hour" and "Where rimroll reads the paper" are run, with what they print, by tests/docs/test_readme.py.
 """
 
 from __future__ import annotations
@@ -18,9 +18,10 @@ import re
 import subprocess
 
 import pytest
-from conftest import user_shell
 
-ROOT = pathlib.Path(__file__).resolve().parent.parent
+from tests.helpers.paths import ROOT
+from tests.helpers.shell import user_shell
+
 DOCS = ROOT / "docs"
 FENCE = re.compile(r"(?:<!-- skip: (?P<reason>[^>]+?) -->\s*\n)?^```(?P<lang>\w*)\n(?P<code>.*?)^```", re.M | re.S)
 RUN_LANGUAGES = ("bash", "python")
@@ -36,7 +37,7 @@ class Page:
     slow: bool = False
 
 
-# every page with a block to run; tests/test_readme.py runs these two, with what they print
+# every page with a block to run; tests/docs/test_readme.py runs these two, with what they print
 RUN_ELSEWHERE = {"tutorials/first-hour.md", "explanation/paper-readings.md"}
 PAGES = {
     "README.md": Page(),

@@ -12,7 +12,8 @@ import sys
 
 import pytest
 
-ROOT = pathlib.Path(__file__).resolve().parent.parent
+from tests.helpers.paths import ROOT
+
 HOW_TO = ["sweep-and-resume", "cluster", "gpu", "verify", "trace", "adaptive-maps", "continuation", "benchmark"]
 API = {  # page: ids of objects it must render
     "study": ["rimroll.study.api.run", "rimroll.study.api.open", "rimroll.study.api.studies"],

@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-import pathlib
-
 import pytest
 
-ROOT = pathlib.Path(__file__).resolve().parent.parent
+from tests.helpers.paths import ROOT
+
 NOTEBOOK = ROOT / "docs" / "notebook.ipynb"
 
 

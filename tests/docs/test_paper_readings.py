@@ -4,20 +4,28 @@ throw that the steady motion of Fig. 13 needs."""
 
 from __future__ import annotations
 
-import pathlib
 import re
 
 import numpy as np
 import pytest
-from dissipation_readings import DISSIPATIONS, FIGURES, ISLANDS, READINGS, all_counts, dissipative_params, table
 from scipy.optimize import brentq
 
 from rimroll import solver
 from rimroll.solver.analysis import steady, trajectory
 from rimroll.solver.physics import rolling
 from rimroll.solver.physics.params import moment_normalised
+from tests.helpers.dissipation_readings import (
+    DISSIPATIONS,
+    FIGURES,
+    ISLANDS,
+    READINGS,
+    all_counts,
+    dissipative_params,
+    table,
+)
+from tests.helpers.paths import ROOT
 
-PAGE = (pathlib.Path(__file__).resolve().parent.parent / "docs" / "explanation" / "paper-readings.md").read_text()
+PAGE = (ROOT / "docs" / "explanation" / "paper-readings.md").read_text()
 P_ROLL = solver.Params(mu=float("inf"))
 
 

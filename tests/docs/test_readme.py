@@ -3,14 +3,14 @@ explanation "Where rimroll reads the paper" run and print what they say."""
 
 from __future__ import annotations
 
-import pathlib
 import re
 import subprocess
 
 import numpy as np
-from conftest import user_shell
 
-ROOT = pathlib.Path(__file__).resolve().parent.parent
+from tests.helpers.paths import ROOT
+from tests.helpers.shell import user_shell
+
 README = (ROOT / "README.md").read_text()
 FIRST_HOUR = ROOT / "docs" / "tutorials" / "first-hour.md"
 PAPER_READINGS = ROOT / "docs" / "explanation" / "paper-readings.md"

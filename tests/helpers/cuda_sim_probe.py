@@ -1,14 +1,14 @@
 """Run states of the four outcome scenes on the CPU engine and on the CUDA backend; save both.
 
 Run in a process of its own with ``NUMBA_ENABLE_CUDASIM=1`` (numba-cuda's simulator is chosen
-when ``numba.cuda`` is first imported): ``python tests/cuda_sim_probe.py OUT.npz N_PER_SCENE
+when ``numba.cuda`` is first imported): ``python tests/helpers/cuda_sim_probe.py OUT.npz N_PER_SCENE
 [MAX_BATCH [SCENE,SCENE,...]]`` (MAX_BATCH 0: no batched run; default: every scene of ``SCENES``).
-``tests/test_cuda_backend.py`` compares the two.
+``tests/solver/engine/test_cuda_backend.py`` compares the two.
 
 What costs is not the states but the compiles: under the simulator each (scene, method) compiles the
 engine's trajectory kernel once more for the CPU (its call from Python), once into the kernel cache;
 the coulomb_air scene (a generated scene module) compiles it again in every run, about 5 min at load 12
-(tests/test_cuda_backend.py runs it with -m slow).
+(tests/solver/engine/test_cuda_backend.py runs it with -m slow).
 """
 
 from __future__ import annotations

@@ -14,10 +14,10 @@ rates of the rolling equations) and under the alternative one (``solver.physics.
 the moment (82) with C = k j m R^2, giving (1+j) in the rolling components and r for R), and
 the outcomes are counted.
 
-    python tests/dissipation_readings.py [--n-beta 240 --n-omega1 360]
+    python tests/helpers/dissipation_readings.py [--n-beta 240 --n-omega1 360]
 
 prints the table of the README (the default 240 x 360 grids of Figs. 11-13 take about 2.5
-min on 2 cores); ``tests/test_paper_readings.py`` checks it.
+min on 2 cores); ``tests/docs/test_paper_readings.py`` checks it.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
-"""A dask worker preload (``dask worker --preload tests/other_code_preload.py``): the worker runs as if
+"""A dask worker preload (``dask worker --preload tests/helpers/other_code_preload.py``): the worker runs as if
 its rimroll were another checkout's, its code digest (``study.plan.code_digest``) differing from the
-client's. Used by tests/test_cluster.py to check that such a worker refuses every chunk."""
+client's. Used by tests/study/test_cluster.py to check that such a worker refuses every chunk."""
 
 from rimroll.study import plan
 

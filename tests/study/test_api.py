@@ -1,7 +1,7 @@
 """The Python API (issue 25): rimroll.run / open / studies on the path of `study run`, notices through
 logging, lane summaries through warnings, a progress display that works in a notebook.
 
-Most runs use the test-only ``fanout-probe`` study (``tests/fanout_probe.py``) and fig8 --quick.
+Most runs use the test-only ``fanout-probe`` study (``tests/helpers/fanout_probe.py``) and fig8 --quick.
 """
 
 from __future__ import annotations
@@ -20,8 +20,9 @@ import rimroll
 from rimroll.study import registry
 from rimroll.study.cli import main
 from rimroll.study.registry import PLUGIN_ENV, UserError
+from tests.helpers.paths import HELPERS
 
-PROBE = str(pathlib.Path(__file__).with_name("fanout_probe.py"))
+PROBE = str(HELPERS / "fanout_probe.py")
 
 
 @pytest.fixture

@@ -1,7 +1,7 @@
 """Both CF checkers pass every study's ``--quick`` file (issue 25): the IOOS compliance-checker
 (``cf:1.8``) and the CF Checker (cfchecker, ``cfchecks``), as the files declare ``Conventions =
 "CF-1.8"`` (the newest version cfchecker knows). Slow (every study runs, about 2 min warm):
-``python -m pytest -m slow tests/test_cf_checkers.py``; needs the extra ``rimroll[cf]`` and the
+``python -m pytest -m slow tests/study/test_cf_checkers.py``; needs the extra ``rimroll[cf]`` and the
 UDUNITS-2 library that cfchecker loads (Debian: ``apt install libudunits2-0``), else skipped with
 the reason. No network: the standard-name table is compliance-checker's copy; the area-type and
 region tables (no rimroll file uses them) are minimal ones written here.

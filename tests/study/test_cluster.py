@@ -2,7 +2,7 @@
 a scheduler file, a TLS scheduler with dask's Security, GPU workers on device 0 of what they see.
 
 Every scheduler and worker here is a subprocess on 127.0.0.1, started with bounded waits and
-stopped by the fixture; the runs use the test-only ``fanout-probe`` study (tests/fanout_probe.py).
+stopped by the fixture; the runs use the test-only ``fanout-probe`` study (tests/helpers/fanout_probe.py).
 """
 
 from __future__ import annotations
@@ -22,8 +22,9 @@ import pytest
 import xarray as xr
 
 from rimroll.study.registry import PLUGIN_ENV
+from tests.helpers.paths import HELPERS
 
-HERE = pathlib.Path(__file__).parent
+HERE = HELPERS
 PROBE = str(HERE / "fanout_probe.py")
 PRELOAD = str(HERE / "other_code_preload.py")
 START_S = 60  # bound on a scheduler or worker coming up

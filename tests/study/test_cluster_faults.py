@@ -7,7 +7,7 @@ client-side TLS mistakes (generated from the settings a client can get wrong) ar
 client's, not as "not a dask scheduler"; a ``scheduler_file`` that is no path is one error.
 
 Schedulers and workers are subprocesses on 127.0.0.1; the runs use the test-only ``fanout-probe``
-study (tests/fanout_probe.py).
+study (tests/helpers/fanout_probe.py).
 """
 
 from __future__ import annotations
@@ -26,8 +26,9 @@ import time
 import pytest
 
 from rimroll.study.registry import PLUGIN_ENV, UserError
+from tests.helpers.paths import HELPERS
 
-HERE = pathlib.Path(__file__).parent
+HERE = HELPERS
 PROBE = str(HERE / "fanout_probe.py")
 START_S = 90  # bound on a scheduler or a worker coming up, on a busy machine
 TIMEOUT = 6  # the runs' --timeout [s]

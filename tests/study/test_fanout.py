@@ -1,14 +1,13 @@
 """Fan-out of studies into cubes: --set sweeps, parts on disk, resume after SIGKILL, fingerprints,
 the run lock, a real dask.distributed cluster, lazy reading.
 
-The slow, killable study is ``tests/fanout_probe.py`` (loaded through ``RIMROLL_STUDY_MODULES``).
+The slow, killable study is ``tests/helpers/fanout_probe.py`` (loaded through ``RIMROLL_STUDY_MODULES``).
 """
 
 from __future__ import annotations
 
 import fcntl
 import os
-import pathlib
 import signal
 import subprocess
 import sys
@@ -24,8 +23,9 @@ from rimroll.study.cli import main
 from rimroll.study.parts import PartStore
 from rimroll.study.plan import make_plan
 from rimroll.study.registry import PLUGIN_ENV
+from tests.helpers.paths import HELPERS
 
-PROBE = str(pathlib.Path(__file__).with_name("fanout_probe.py"))
+PROBE = str(HELPERS / "fanout_probe.py")
 N_PROBE = 3 * 2 * 2  # mu x v_throw x (8 x points in chunks of 4)
 
 

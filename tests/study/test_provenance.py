@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import pathlib
 import shutil
 import subprocess
 import sys
@@ -12,8 +11,7 @@ import xarray as xr
 
 from rimroll.study import dataset
 from rimroll.study.cli import main
-
-ROOT = pathlib.Path(__file__).resolve().parent.parent
+from tests.helpers.paths import ROOT
 
 
 def _git_head() -> str | None:

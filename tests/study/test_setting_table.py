@@ -12,7 +12,6 @@ from __future__ import annotations
 import ast
 import dataclasses
 import math
-import pathlib
 import re
 
 import numpy as np
@@ -25,8 +24,8 @@ from rimroll.study import checks, describe, keyvalue, reference, registry, setti
 from rimroll.study.cli import _selection, main
 from rimroll.study.registry import PHYSICAL_KEYS, Axis, ReferenceSpec, Study, UserError, Var
 from rimroll.study.setting_table import TABLE, lookup
+from tests.helpers.paths import ROOT
 
-ROOT = pathlib.Path(__file__).resolve().parent.parent
 PROBES = (-1e13, -1.0, -1, 0, 0.0, 1e-15, 0.5, 1, 2, 3.5, 1e5, 100001, 1e13, math.inf, -math.inf, math.nan)
 
 
@@ -126,7 +125,7 @@ def test_study_info_and_run_help_show_the_tables_units_doc_and_range(monkeypatch
     assert re.search(rf"rtol\s+1e-08\s+\[1\]\s+{re.escape(entry.doc)} \(1e-14 <= rtol <= 0\.01\)", out)
     assert re.search(r"method\s+dp5\s+.*\(methods dop853, dp5\)", out)
     # what the table says is what info says: change an entry, and the line changes (of the study described
-    # from its module; the catalogue's cards are made that way, tests/test_cli_info.py)
+    # from its module; the catalogue's cards are made that way, tests/study/test_cli_info.py)
     from rimroll.study import catalogue
 
     monkeypatch.setattr(catalogue, "stored", dict)

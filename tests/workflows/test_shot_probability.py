@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 from scipy import stats
 from scipy.integrate import simpson
-from test_shot_checks import FREE_THROW, PAPER_RING, is_swish, speed_through_centre, swish_window
 
 from rimroll import solver
 from rimroll.solver import shots
 from rimroll.workflows import shot_probability as sp
+from tests.solver.test_shot_checks import FREE_THROW, PAPER_RING, is_swish, speed_through_centre, swish_window
 
 MAKE_CODES = [list(shots.OUTCOME_MEANINGS).index(n) for n in ("swish", "make_rim", "make_board", "make_roll")]
 

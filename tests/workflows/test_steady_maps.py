@@ -17,7 +17,7 @@ def _run(name, *sets, quick=True):
     """(Dataset, Params) of one run, as ``study run NAME [--quick] --set ...`` makes it (plan,
     fan-out, parts, assembly), read back into memory."""
     plan = make_plan(registry.get(name), quick, sets)
-    ds = execute.compute(plan, f"tests/test_steady_maps.py {name} {' '.join(sets)}", workers=2)
+    ds = execute.compute(plan, f"tests/workflows/test_steady_maps.py {name} {' '.join(sets)}", workers=2)
     assert params_of(ds) == plan.params  # the file is what its attributes say
     return ds, plan.params
 

@@ -2,7 +2,7 @@
 
 Without a device (CI):
 
-* under numba-cuda's simulator, in a process of its own (``tests/cuda_sim_probe.py``), states of
+* under numba-cuda's simulator, in a process of its own (``tests/helpers/cuda_sim_probe.py``), states of
   the four outcome scenes give the same results as the CPU engine, through one launch and through
   several batches; those of the generated scene of Coulomb loads and air drag with ``-m slow`` (in
   a cold cache it compiles a CPU scene kernel and the engine once more for the simulator: more than
@@ -29,19 +29,20 @@ import pytest
 
 from rimroll import solver
 from rimroll.solver.engine import backends
+from tests.helpers.paths import HELPERS
 
-HERE = pathlib.Path(__file__).resolve().parent
+HERE = HELPERS
 HAS_NUMBA_CUDA = importlib.util.find_spec("numba_cuda") is not None
 needs_numba_cuda = pytest.mark.skipif(not HAS_NUMBA_CUDA, reason="numba-cuda is not installed (pip install "
                                                                     "'rimroll[test]' or 'rimroll[gpu]')")
 STATE = np.array([[1.2, 1.0, 35.0, 10.0], [0.9, -5.0, 35.0, 10.0]])
 OUTCOME_SCENES = ["drilling", "rolling_only", "rolling_resistance", "slipping"]
-"""The scenes of the Figs. 11-13 sections (tests/cuda_sim_probe.py SCENES)."""
+"""The scenes of the Figs. 11-13 sections (tests/helpers/cuda_sim_probe.py SCENES)."""
 
 
 @pytest.fixture(scope="module")
 def simulated_run(tmp_path_factory) -> dict:
-    """tests/cuda_sim_probe.py under the simulator: 24 states of each of the four outcome scenes (the two
+    """tests/helpers/cuda_sim_probe.py under the simulator: 24 states of each of the four outcome scenes (the two
     kernels a study's simulated run compiles too), and batches of 7."""
     if not HAS_NUMBA_CUDA:
         pytest.skip("numba-cuda is not installed (pip install 'rimroll[test]' or 'rimroll[gpu]')")
@@ -50,14 +51,14 @@ def simulated_run(tmp_path_factory) -> dict:
 
 @pytest.fixture(scope="module")
 def simulated_loads(tmp_path_factory) -> dict:
-    """tests/cuda_sim_probe.py under the simulator: 24 states of the scene of Coulomb loads and air drag."""
+    """tests/helpers/cuda_sim_probe.py under the simulator: 24 states of the scene of Coulomb loads and air drag."""
     if not HAS_NUMBA_CUDA:
         pytest.skip("numba-cuda is not installed (pip install 'rimroll[test]' or 'rimroll[gpu]')")
     return _probe(tmp_path_factory.mktemp("sim"), 24, 0, ["coulomb_air"])
 
 
 def _probe(tmp_path, n: int, max_batch: int, labels: list[str] | None) -> dict:
-    """Run tests/cuda_sim_probe.py under the simulator (the scenes ``labels``, None: all); its saved arrays."""
+    """Run tests/helpers/cuda_sim_probe.py under the simulator (the scenes ``labels``, None: all); its saved arrays."""
     out = tmp_path / "sim.npz"
     env = dict(os.environ, NUMBA_ENABLE_CUDASIM="1")
     scenes = [",".join(labels)] if labels else []
@@ -365,7 +366,7 @@ def test_full_section_matches_the_cpu_engine(figure):
     within 1e-9 relative where the outcomes agree. (solver only: runs without the study layer's
     dependencies.)"""
     _device_or_skip()
-    from cuda_sim_probe import OMEGA3, SCENES
+    from tests.helpers.cuda_sim_probe import OMEGA3, SCENES
 
     beta, omega1 = np.linspace(0.8, 1.8, 240), np.linspace(-20.0, 20.0, 360)
     B, W1 = np.meshgrid(beta, omega1, indexing="ij")

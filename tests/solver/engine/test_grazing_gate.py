@@ -6,11 +6,11 @@ import math
 
 import numpy as np
 import pytest
-from oscillator import exact, pad, values
-from oscillator import one_step as _one_step
 
 from rimroll.solver.engine import events, stepper
 from rimroll.solver.engine.tableaus import TABLEAUS
+from tests.helpers.oscillator import exact, pad, values
+from tests.helpers.oscillator import one_step as _one_step
 
 
 def _step(tab, t0, h):

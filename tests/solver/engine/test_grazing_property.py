@@ -86,7 +86,7 @@ def test_constructed_dips_narrower_than_a_tenth_of_the_step(depth):
         assert _dip_width(p, x, depth) < 0.1 * mean_step
 
 
-# A near-deadlock orbit of Fig. 12 (tests/test_simulate.py): F2 dips just below zero early on.
+# A near-deadlock orbit of Fig. 12 (tests/solver/engine/test_simulate.py): F2 dips just below zero early on.
 _X_DIP = np.array([0.92222377, 10.59047305, 65.0, 10.0])
 
 

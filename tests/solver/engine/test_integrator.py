@@ -1,6 +1,6 @@
 """The generic embedded RK stepper, its tableaus, dense output and event location.
 
-Driven on the oscillator test system of ``tests/oscillator.py`` (x' = v, v' = -x, q' = x;
+Driven on the oscillator test system of ``tests/helpers/oscillator.py`` (x' = v, v' = -x, q' = x;
 exact solution x = cos(t + t0) ...), handed to the very same compiled stepper and locator as
 the physics systems.
 """
@@ -10,12 +10,12 @@ from typing import NamedTuple
 
 import numpy as np
 import pytest
-from oscillator import AUX, N_EVENTS, N, P, exact, pad, rhs, values
-from oscillator import events as osc_events
-from oscillator import one_step as _one_step
 
 from rimroll.solver.engine import events, stepper
 from rimroll.solver.engine.tableaus import TABLEAUS
+from tests.helpers.oscillator import AUX, N_EVENTS, N, P, exact, pad, rhs, values
+from tests.helpers.oscillator import events as osc_events
+from tests.helpers.oscillator import one_step as _one_step
 
 METHODS = sorted(TABLEAUS)
 

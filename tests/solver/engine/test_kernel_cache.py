@@ -69,7 +69,7 @@ def test_result_fingerprints_cover_every_room_of_the_solver(monkeypatch):
 
 
 def test_a_compile_is_announced_with_the_time_measured_on_this_machine(monkeypatch, caplog, tmp_path):
-    """A notice at INFO under the logger 'rimroll' (tests/test_api.py: on stderr until the application
+    """A notice at INFO under the logger 'rimroll' (tests/study/test_api.py: on stderr until the application
     configures logging, silenced by logging.getLogger('rimroll').setLevel(logging.WARNING)) for each kernel
     and signature numba must compile (here: a stand-in for the check and the child process), with no estimate
     until a compile of that kernel was measured on this machine, then that time."""

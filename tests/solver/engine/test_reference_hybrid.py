@@ -7,7 +7,7 @@ slip velocities, return where ``try_return`` first allows it. Scenes: slipping (
 slipping + drilling resistance (k_d = 0.02), slipping + rolling resistance (k_r = 0.02), on
 random states of the three Fig. 11-13 sections.
 
-Criteria (issue 3), as in ``tests/test_simulate.py`` for the rolling-only scenes:
+Criteria (issue 3), as in ``tests/solver/engine/test_simulate.py`` for the rolling-only scenes:
 
 * outcomes identical on >= 99.5 % of states, leaving out boundary states (the reference's
   outcome differs between rtol 1e-9 and 1e-11);
@@ -22,13 +22,13 @@ Criteria (issue 3), as in ``tests/test_simulate.py`` for the rolling-only scenes
 
 import numpy as np
 import pytest
-from scipy_agreement import compare_with_scipy
 
 from rimroll.solver.analysis.reference import reference, reference_hybrid, reference_one
 from rimroll.solver.engine.outcomes import ON_RIM_AT_T_MAX, PERIODIC_ROLLING
 from rimroll.solver.engine.simulate import simulate
 from rimroll.solver.physics import rolling
 from rimroll.solver.physics.params import Params
+from tests.helpers.scipy_agreement import compare_with_scipy
 
 SCENES = {
     "slipping": dict(mu=1.0),
@@ -164,7 +164,7 @@ def test_each_hybrid_scene_kernel_runs_its_own_code():
 
 
 def test_reference_counts_the_steps_of_each_phase():
-    """steps_rolling / steps_slipping (used by tests/benchmark_slipping.py) count solve_ivp's own steps.
+    """steps_rolling / steps_slipping (used by benchmarks/slipping_cost.py) count solve_ivp's own steps.
 
     A Fig. 11 state that slips once and falls while slipping: its rolling phase is a plain
     solve_ivp run up to the slip onset (39), whose step count is computed here independently.

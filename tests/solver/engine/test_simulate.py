@@ -4,7 +4,6 @@ import math
 
 import numpy as np
 import pytest
-from scipy_agreement import compare_with_scipy
 
 from rimroll import solver
 from rimroll.solver.analysis.reference import reference
@@ -13,6 +12,7 @@ from rimroll.solver.engine.outcomes import FALL_IN, FALL_OUT, ON_RIM_AT_T_MAX
 from rimroll.solver.engine.simulate import simulate
 from rimroll.solver.physics import flight, rolling
 from rimroll.solver.physics.params import Params
+from tests.helpers.scipy_agreement import compare_with_scipy
 
 INF = float("inf")
 FIELDS = {

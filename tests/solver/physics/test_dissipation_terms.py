@@ -11,12 +11,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
-from test_equations import gradient
 
 from rimroll import solver
 from rimroll.solver.analysis.reference import reference
 from rimroll.solver.engine import outcomes, scenes
 from rimroll.solver.physics import air, flight, kinematics, loads, resistance, rolling, slipping
+from tests.solver.physics.test_equations import gradient
 
 RNG = np.random.default_rng(20261125)
 TERMS = {  # term name: (its load function, Params that switch it on at a strength of note)
