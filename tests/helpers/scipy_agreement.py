@@ -1,4 +1,4 @@
-"""The issue-3 agreement check of solver.simulate with the scipy reference (same rules), shared by tests."""
+"""The agreement check of solver.simulate with the scipy reference (same rules), shared by tests."""
 
 import numpy as np
 

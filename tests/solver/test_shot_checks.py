@@ -122,8 +122,8 @@ def test_exact_window_agrees_with_a_sampled_path(degrees):
     assert exact[0] < speed_through_centre(theta, *FREE_THROW) < exact[1]
 
 
-def test_the_issues_window_at_52_degrees():
-    """The issue: at a 52 deg free throw the clean window is ~0.03 m/s wide with the paper's ring
+def test_the_clean_window_at_52_degrees():
+    """The question: at a 52 deg free throw the clean window is ~0.03 m/s wide with the paper's ring
     (inner diameter 0.43 m) and ~0.04 m/s with a regulation ring (0.45 m), narrower than a player's
     release-speed spread of 0.05-0.13 m/s (Slegers, Lee and Wong 2021). Found: 0.0305 m/s (paper);
     0.044-0.046 m/s for a 450 mm ring with a 16-20 mm rod, 0.050 m/s at 459 mm and 20 mm."""

@@ -1,4 +1,4 @@
-"""The Python API (issue 25): rimroll.run / open / studies on the path of `study run`, notices through
+"""The Python API: rimroll.run / open / studies on the path of `study run`, notices through
 logging, lane summaries through warnings, a progress display that works in a notebook.
 
 Most runs use the test-only ``fanout-probe`` study (``tests/helpers/fanout_probe.py``) and fig8 --quick.

@@ -1,4 +1,4 @@
-"""Both CF checkers pass every study's ``--quick`` file (issue 25): the IOOS compliance-checker
+"""Both CF checkers pass every study's ``--quick`` file: the IOOS compliance-checker
 (``cf:1.8``) and the CF Checker (cfchecker, ``cfchecks``), as the files declare ``Conventions =
 "CF-1.8"`` (the newest version cfchecker knows). Slow (every study runs, about 2 min warm):
 ``python -m pytest -m slow tests/study/test_cf_checkers.py``; needs the extra ``rimroll[cf]`` and the

@@ -1,4 +1,4 @@
-"""Runs on a cluster (issue 25): workers are checked (a worker with other code refuses the chunks),
+"""Runs on a cluster: workers are checked (a worker with other code refuses the chunks),
 a scheduler file, a TLS scheduler with dask's Security, GPU workers on device 0 of what they see.
 
 Every scheduler and worker here is a subprocess on 127.0.0.1, started with bounded waits and

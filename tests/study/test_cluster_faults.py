@@ -1,4 +1,4 @@
-"""A cluster that fails a run (issue 42, "Cluster"): every wait has a bound and a one-line message.
+"""A cluster that fails a run: every wait has a bound and a one-line message.
 
 Generated cases: the only worker of a ``--scheduler`` run killed (SIGKILL, with or without its
 nanny) or frozen (SIGSTOP), before or after its first chunk, or the scheduler frozen; each run stops
@@ -19,14 +19,18 @@ import os
 import pathlib
 import random
 import signal
+import socket
 import subprocess
 import sys
+import threading
 import time
 
 import pytest
 
+from rimroll.study import registry
 from rimroll.study.registry import PLUGIN_ENV, UserError
 from tests.helpers.paths import HELPERS
+from tests.helpers.study_runs import cli, error_after_notices, parts_of, probe_env, run_probe
 
 HERE = HELPERS
 PROBE = str(HERE / "fanout_probe.py")
@@ -200,3 +204,137 @@ def test_a_scheduler_file_or_address_that_is_no_path_is_one_error(tmp_path, valu
     if not isinstance(value, str):
         with pytest.raises(UserError, match=r"^scheduler must be an address"):
             rimroll.run("fanout-probe", out=tmp_path, scheduler=value)
+
+
+@pytest.fixture
+def listener():
+    """A TCP listener on 127.0.0.1: 'silent' accepts and never answers; 'http' answers like a web server."""
+    servers = []
+
+    def start(kind):
+        s = socket.socket()
+        s.bind(("127.0.0.1", 0))
+        s.listen(8)
+        servers.append(s)
+        conns = []
+
+        def serve():
+            while True:
+                try:
+                    c, _ = s.accept()
+                except OSError:
+                    return
+                conns.append(c)
+                if kind == "http":
+                    try:
+                        c.recv(100)
+                        c.sendall(b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n" * 200)
+                    except OSError:
+                        pass
+
+        threading.Thread(target=serve, daemon=True).start()
+        return f"tcp://127.0.0.1:{s.getsockname()[1]}"
+
+    yield start
+    for s in servers:
+        s.close()
+
+
+@pytest.mark.parametrize("kind, expect", [("silent", "within 2 s"), ("http", "is not a dask scheduler")])
+def test_scheduler_that_is_not_dask_is_one_line(probe, tmp_path, listener, kind, expect):
+    address = listener(kind)
+    t0 = time.monotonic()
+    run = cli("run", "fanout-probe", "--out", str(tmp_path), "--no-progress", "--scheduler", address,
+              "--timeout", "2", timeout=60)
+    assert run.returncode == 2 and time.monotonic() - t0 < 60
+    error_after_notices(run.stderr, expect)
+    assert not (tmp_path / ".parts").exists()
+
+
+def test_scheduler_address_is_checked_without_connecting(probe, tmp_path, capsys):
+    for bad in ("tcp://10.255.255.1:99999", "not an address", "http://127.0.0.1:80"):
+        assert run_probe(tmp_path, "--scheduler", bad) == 2
+        error_after_notices(capsys.readouterr().err, "--scheduler")
+
+
+def test_scheduler_without_workers(probe, tmp_path, capsys):
+    from distributed import LocalCluster
+
+    with LocalCluster(n_workers=0, dashboard_address=None) as cluster:
+        assert run_probe(tmp_path, "--scheduler", cluster.scheduler_address, "--timeout", "2") == 2
+    error_after_notices(capsys.readouterr().err, f"no workers at {cluster.scheduler_address} after 2 s")
+
+
+def test_last_worker_lost_mid_run(tmp_path):
+    from distributed import Client, LocalCluster
+
+    out = tmp_path / "out"
+    with LocalCluster(n_workers=0, dashboard_address=None) as cluster:
+        worker = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker", cluster.scheduler_address,
+                                   "--no-nanny", "--nthreads", "1", "--no-dashboard"], env=probe_env(),
+                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        try:
+            with Client(cluster) as c:
+                c.wait_for_workers(1, timeout=60)
+            run = subprocess.Popen([sys.executable, "-m", "rimroll.study", "run", "fanout-probe", "--out", str(out),
+                                    "--no-progress", "--scheduler", cluster.scheduler_address, "--timeout", "3",
+                                    "--set", "delay=0.3"], env=probe_env(), stdout=subprocess.PIPE,
+                                   stderr=subprocess.PIPE, text=True)
+            deadline = time.monotonic() + 60
+            while len(parts_of(out)) < 2:
+                assert run.poll() is None and time.monotonic() < deadline, run.communicate()
+                time.sleep(0.05)
+            worker.send_signal(signal.SIGKILL)
+            worker.wait(timeout=10)
+            _, err = run.communicate(timeout=90)
+        finally:
+            worker.kill()
+    assert run.returncode == 2
+    error_after_notices(err, "worker lost", "chunks saved", "rerun")
+    assert len(parts_of(out)) >= 2 and not list((out / ".parts").glob("*.lock"))
+
+
+def test_scheduler_killed_mid_run_is_one_line_then_resumed(tmp_path):
+    import os
+    import signal
+    import socket
+    import subprocess
+    import sys
+    import time
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    address = f"tcp://127.0.0.1:{port}"
+    env = {**os.environ, registry.PLUGIN_ENV: str(HELPERS / "fanout_probe.py")}
+    dask = [sys.executable, "-m"]
+    scheduler = subprocess.Popen([*dask, "distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port", str(port),
+                                  "--no-dashboard"], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    worker = None
+    out = tmp_path / "out"
+    try:
+        worker = subprocess.Popen([*dask, "distributed.cli.dask_worker", address, "--no-nanny", "--nthreads", "1",
+                                   "--no-dashboard"], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        run = subprocess.Popen([sys.executable, "-m", "rimroll.study", "run", "fanout-probe", "--out", str(out),
+                                "--no-progress", "--scheduler", address, "--timeout", "20", "--set", "delay=0.3"],
+                               env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        deadline = time.monotonic() + 90
+        while len(list(out.glob(".parts/*/chunk-*.npz"))) < 2:
+            assert run.poll() is None and time.monotonic() < deadline, run.communicate()
+            time.sleep(0.05)
+        scheduler.send_signal(signal.SIGKILL)
+        t0 = time.monotonic()
+        _, err = run.communicate(timeout=60)
+        assert time.monotonic() - t0 < 20  # within the --timeout
+    finally:
+        for p in (scheduler, worker):
+            if p is not None:
+                p.kill()
+                p.wait(timeout=10)
+    lines = [line for line in err.strip().splitlines() if line.startswith("study: error:") or "Trace" in line]
+    assert run.returncode == 2 and len(lines) == 1, err  # notices (dashboard, working) may come before
+    assert "scheduler lost" in lines[0] and "chunks saved" in lines[0] and "Traceback" not in err
+    rerun = subprocess.run([sys.executable, "-m", "rimroll.study", "run", "fanout-probe", "--out", str(out),
+                            "--no-progress", "--set", "delay=0.3"], env=env, capture_output=True, text=True,
+                           timeout=120)  # the same inputs, locally: the saved chunks are resumed
+    assert rerun.returncode == 0 and "chunks resumed" in rerun.stdout, rerun.stderr

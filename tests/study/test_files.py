@@ -1,4 +1,4 @@
-"""Files that combine (issue 25): scalar settings as scalar coordinates, CF ``coordinates`` and
+"""Files that combine: scalar settings as scalar coordinates, CF ``coordinates`` and
 ``ancillary_variables`` on each variable, label axes as CF character arrays, storage chunks of
 about a million values whatever the compute chunks, and the stored reference slices (the layout
 before these changes) still compared alike.
@@ -17,6 +17,7 @@ import rimroll
 from rimroll.study import registry
 from rimroll.study.cli import main
 from rimroll.study.plan import STORAGE_VALUES, make_plan, storage_chunks
+from tests.helpers.study_runs import run_probe
 
 
 @pytest.fixture(scope="module")
@@ -124,3 +125,12 @@ def test_stored_reference_slices_in_the_old_layout_still_verify(tmp_path, capsys
     assert main(["verify", str(tmp_path / "fig8.nc")]) == 0
     assert "result: within tolerance" in capsys.readouterr().out
     assert main(["info", str(old[-1])]) == 0 and main(["info", str(tmp_path / "fig8.nc")]) == 0
+
+
+def test_realisable_cube_with_every_swept_setting_scalar(tmp_path):
+    sets = ["--quick", "--set", "mu=1", "--set", "v_throw=5", "--set", "j=0.5", "--set", "rho_over_R=0.5",
+            "--set", "n_beta0=24", "--set", "n_omega30=16"]
+    assert run_probe(tmp_path, *sets, name="realisable-cube") == 0
+    with xr.open_dataset(tmp_path / "realisable-cube.nc") as ds:
+        assert ds.area_A.shape == () and ds.region.dims == ("beta0", "omega30")
+        assert float(ds.area_A) > 0 and int((ds.region == 1).sum()) > 0

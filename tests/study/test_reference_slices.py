@@ -10,12 +10,21 @@ must agree within the tolerances below at those points.
 
 from __future__ import annotations
 
+import os
+import pathlib
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 import xarray as xr
 
 from rimroll.study import compare, reference, registry
+from rimroll.study.cli import main, natural_order
 from rimroll.study.io import open_result
+from rimroll.study.plan import make_plan
+from tests.helpers.paths import ROOT
+from tests.helpers.study_runs import error_after_notices
 
 # (atol, rtol) per continuous variable, |x - x_ref| <= atol + rtol |x_ref|, and why:
 OUTCOME_TOLERANCES = {
@@ -104,7 +113,6 @@ def test_every_study_has_a_small_slice_with_provenance():
 def test_the_quick_slice_is_the_whole_quick_grid():
     """What ``study run NAME --quick`` computes, every point of it (so verify covers all of it)."""
     from rimroll.study import registry
-    from rimroll.study.plan import make_plan
 
     for name in reference.specs():
         with xr.open_dataset(reference.reference_path(name, grid="quick")) as ref:
@@ -148,3 +156,79 @@ def test_a_perturbed_slice_fails():
     bad["t_end"].values[0, 0, 0] += 10 * (2e-4 + 2e-4 * float(ref["t_end"].values[0, 0, 0]))
     report = compare.compare(bad, ref, OUTCOME_TOLERANCES)
     assert not report.ok and [v.name for v in report.variables if not v.ok] == ["t_end"]
+
+
+def test_slices_are_package_data_found_with_importlib(monkeypatch):
+    import importlib.resources
+
+    import tomllib
+
+    from rimroll.study import reference
+
+    monkeypatch.delenv(reference.ENV_DIR, raising=False)
+    packaged = pathlib.Path(str(importlib.resources.files("rimroll.study") / "reference_slices"))
+    assert reference.reference_dir() == packaged
+    assert {p.stem for p in packaged.glob("*.nc")} == set(reference.specs())
+    assert {p.stem for p in (packaged / "quick").glob("*.nc")} == set(reference.specs())
+    root = ROOT
+    config = tomllib.loads((root / "pyproject.toml").read_text())
+    for pattern in ("reference_slices/*.nc", "reference_slices/quick/*.nc"):
+        assert pattern in config["tool"]["setuptools"]["package-data"]["rimroll.study"]
+
+
+def test_reference_build_never_writes_an_installed_package(monkeypatch, tmp_path, capsys):
+    from rimroll.study import reference
+
+    monkeypatch.setattr(reference, "checkout_dir", lambda: None)  # as after pip install
+    monkeypatch.delenv(reference.ENV_DIR, raising=False)
+    before = {p: p.stat().st_mtime_ns for p in reference.packaged_dir().glob("**/*.nc")}
+    assert main(["reference", "--build", "--only", "fig9", "--no-progress"]) == 2
+    error_after_notices(capsys.readouterr().err, "needs --out DIR")
+    assert {p: p.stat().st_mtime_ns for p in reference.packaged_dir().glob("**/*.nc")} == before
+
+
+@pytest.mark.slow
+def test_verify_after_pip_install(tmp_path):
+    """pip install . into a throwaway venv (dependencies from the running interpreter), then verify
+    a fig8 result from another directory with the packaged slices."""
+    import sysconfig
+
+    root = ROOT
+    src = tmp_path / "src"
+    files = subprocess.run(["git", "ls-files", "-co", "--exclude-standard"], cwd=root, capture_output=True,
+                           text=True, check=True).stdout.split()
+    for f in files:
+        if (root / f).is_file():
+            (src / f).parent.mkdir(parents=True, exist_ok=True)
+            (src / f).write_bytes((root / f).read_bytes())
+    venv = tmp_path / "venv"
+    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True)
+    purelib = "import sysconfig; print(sysconfig.get_paths()['purelib'])"
+    site = subprocess.run([str(venv / "bin" / "python"), "-c", purelib],
+                          capture_output=True, text=True, check=True).stdout.strip()
+    pathlib.Path(site, "zz_deps.pth").write_text(sysconfig.get_paths()["purelib"] + "\n")
+    install = subprocess.run([str(venv / "bin" / "pip"), "install", "-q", "--no-deps", str(src)],
+                             capture_output=True, text=True, timeout=600)
+    if install.returncode != 0:
+        pytest.skip(f"pip install . impossible here: {install.stderr.strip().splitlines()[-1:]}")
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "RIMROLL_REFERENCE_DIR")}
+    study = str(venv / "bin" / "study")
+    run = subprocess.run([study, "run", "fig8", "--out", str(tmp_path / "res"), "--no-progress"], cwd=tmp_path,
+                         env=env, capture_output=True, text=True, timeout=600)
+    assert run.returncode == 0, run.stderr
+    verify = subprocess.run([study, "verify", str(tmp_path / "res" / "fig8.nc")], cwd=tmp_path, env=env,
+                            capture_output=True, text=True, timeout=600)
+    assert verify.returncode == 0 and "site-packages/rimroll/study/reference_slices/fig8.nc" in verify.stdout, verify
+    build = subprocess.run([study, "reference", "--build", "--only", "fig9"], cwd=tmp_path, env=env,
+                           capture_output=True, text=True, timeout=600)
+    assert build.returncode == 2 and "needs --out" in build.stderr
+    # the studies come from the installed entry points; a --quick run verifies against the quick slice
+    listed = subprocess.run([study, "list"], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
+    assert [line.split()[0] for line in listed.stdout.splitlines()] == natural_order(registry.names())
+    quick = subprocess.run([study, "run", "fig8", "--quick", "--out", str(tmp_path / "quick"), "--no-progress"],
+                           cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
+    assert quick.returncode == 0, quick.stderr
+    verify = subprocess.run([study, "verify", str(tmp_path / "quick" / "fig8.nc")], cwd=tmp_path, env=env,
+                            capture_output=True, text=True, timeout=600)
+    shipped = "site-packages/rimroll/study/reference_slices/quick/fig8.nc"
+    assert verify.returncode == 0 and shipped in verify.stdout, verify

@@ -20,8 +20,10 @@ from rimroll.solver import Params
 from rimroll.solver._arguments import check_size, memory_limit
 from rimroll.solver.analysis import predictability, trace
 from rimroll.study import checks, keyvalue, registry
+from rimroll.study.cli import main
 from rimroll.study.registry import UserError
 from rimroll.study.setting_table import SWEEP_KEYS
+from tests.helpers.study_runs import error_after_notices, one_line_error, run_probe
 
 STATE = [1.2, 0.0, 65.0, 10.0]
 
@@ -107,3 +109,27 @@ def test_splitting_a_long_list_is_linear():
     (key, value), = keyvalue.split(word, "--set")
     assert time.perf_counter() - start < 10.0  # linear: ~0.3 s; quadratic: hours
     assert key == "mu" and value.count(",") == 399_999
+
+
+def test_absurd_sizes_are_refused_at_once(probe, tmp_path, capsys):
+    cases = [(["--workers", "1000000000000"], "--workers must be between 1 and"),
+             (["--set", "mu=0.1:10:10000000"], "at most 100000 values"),
+             (["--set", "mu=0.1:10:1000", "--set", "v_throw=1:2:1000"], "chunks"),
+             (["--set", "n_x=1000000000"], "n_x")]
+    for extra, expect in cases:
+        t0 = time.monotonic()
+        assert run_probe(tmp_path, *extra) == 2
+        error_after_notices(capsys.readouterr().err, expect)
+        assert time.monotonic() - t0 < 30, extra
+    assert not list(tmp_path.iterdir())
+
+
+def test_absurdly_large_runs_are_refused_with_the_bound(tmp_path, capsys):
+    from rimroll.study import runguard
+
+    out = tmp_path / "o"
+    argv = ["run", "make-probability", "--set", "n_beta=20000", "--set", "n_omega1=20000",
+            "--set", "n_samples=100000", "--out", str(out)]
+    assert main(argv) == 2
+    one_line_error(capsys.readouterr().err, "of one core", runguard._duration(runguard.MAX_CORE_SECONDS))
+    assert not (out / "make-probability.nc").exists() and not (out / ".parts").exists()

@@ -9,6 +9,7 @@ import xarray as xr
 from rimroll.study import reference
 from rimroll.study.cli import main
 from rimroll.study.io import CHECKSUM_ATTR
+from tests.helpers.study_runs import error_after_notices
 
 
 @pytest.fixture(scope="module")
@@ -201,7 +202,7 @@ def test_timings_are_named_and_not_compared(tmp_path, capsys):
 
 
 def test_the_quick_slices_show_what_the_quick_runs_should(capsys):
-    """What issue-level promises the --quick runs keep, read from their stored slices: several types of
+    """What the --quick runs promise, read from their stored slices: several types of
     Theorem 1, a misclassification row that is not all zeros on enough states, box entropies with no
     blank strip."""
     with xr.open_dataset(reference.reference_path("solution-types", grid="quick")) as ds:
@@ -224,3 +225,36 @@ def test_edited_file_that_keeps_its_checksums_is_damaged(good_fig12, tmp_path, c
     assert main(["verify", str(tmp_path / "fig12.nc")]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "the values of t_end do not match the checksums" in err
+
+
+@pytest.fixture(scope="module")
+def fig8_full(tmp_path_factory):
+    """fig8 on the reference's sub-grid at default settings (every slice point, cheap)."""
+    from rimroll.study import reference
+
+    path = tmp_path_factory.mktemp("verify8") / "fig8.nc"
+    reference.recompute("fig8", workers=1).to_netcdf(path)
+    return path
+
+
+@pytest.mark.parametrize("drop", [["region"], ["region", "omega20"]])
+def test_verify_fails_when_a_variable_is_missing(fig8_full, tmp_path, capsys, drop):
+    with xr.open_dataset(fig8_full) as ds:
+        ds.load().drop_vars(drop).to_netcdf(tmp_path / "fig8.nc")
+    # not a result of fig8 at all (one reader validates first): one line, exit 2, not a comparison
+    assert main(["verify", str(tmp_path / "fig8.nc")]) == 2
+    error_after_notices(capsys.readouterr().err, f"lacks the variable(s) {', '.join(drop)} of study fig8")
+
+
+def test_verify_states_coverage_and_fails_below_minimum(fig8_full, quick_results, tmp_path, capsys):
+    from rimroll.study import reference
+    from rimroll.study.compare import MIN_COVERAGE
+
+    assert main(["verify", str(fig8_full)]) == 0
+    assert "coverage: 9680 of the reference's 9680 points compared (100.0%" in capsys.readouterr().out
+    default_only = tmp_path / "default-slice"  # without the quick slice, a quick grid shares 2 corners
+    default_only.mkdir()
+    (default_only / "fig8.nc").write_bytes(reference.reference_path("fig8").read_bytes())
+    assert main(["verify", str(quick_results / "fig8.nc"), "--reference", str(default_only)]) == 1
+    out = capsys.readouterr().out
+    assert "FAIL coverage: 2 of the reference's 9680 points" in out and f"needed {100 * MIN_COVERAGE:.0f}%" in out

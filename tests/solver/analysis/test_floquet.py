@@ -7,6 +7,7 @@ from scipy.integrate import solve_ivp
 from rimroll import solver
 from rimroll.solver.analysis import floquet
 from rimroll.solver.physics.rolling import rolling_rhs
+from tests.helpers.bounded_runs import P
 
 X_STD = 0.13 / 0.225  # Table 1: rho/R
 J_STD = 2.0 / 3.0
@@ -154,3 +155,24 @@ def test_invalid_inputs(x, j, name):
         floquet.multipliers(x, j)
     with pytest.raises(ValueError, match=name):
         floquet.monodromy(np.array([0.3, x]), j)
+
+
+def test_monodromy_of_the_most_unstable_ball_on_the_fig9_range():
+    """max |tr M| over Fig. 9's default 200 x 200 grid; there det M = 1 and mu1 mu2 = 1."""
+    n = 200
+    x_max = 1.0 - P.a / P.R
+    x = (np.arange(n) + 0.5) / n * x_max
+    j = (np.arange(n) + 1.0) / n * (2.0 / 3.0)
+    X, J = np.meshgrid(x, j, indexing="ij")
+    tr = floquet.trace(X, J)
+    assert np.all(np.isfinite(tr))
+    k = np.unravel_index(np.argmax(np.abs(tr)), tr.shape)
+    xs, js = float(X[k]), float(J[k])
+    M = floquet.monodromy(xs, js)
+    assert abs(np.trace(M) - tr[k]) <= 1e-9 * abs(tr[k])
+    assert abs(np.linalg.det(M) - 1.0) <= 1e-9 * np.abs(M).max() ** 2
+    mu = floquet.multipliers(xs, js)
+    assert abs(mu[0] * mu[1] - 1.0) < 1e-9
+    assert abs(mu[1]) > 1.0 > abs(mu[0])  # unstable (region U)
+    eig = np.sort(np.abs(np.linalg.eigvals(M)))
+    assert eig[1] == pytest.approx(abs(mu[1]), rel=1e-9)

@@ -14,8 +14,10 @@ import numpy as np
 import pytest
 
 from rimroll.solver import Params, simulate
+from rimroll.solver.analysis import boundaries
 from rimroll.solver.analysis.reference import reference
 from rimroll.solver.engine import outcomes
+from tests.helpers.bounded_runs import ROLL, assert_finite, sim
 
 T_MAX = 5.0
 FALLS = (outcomes.FALL_IN, outcomes.FALL_OUT)
@@ -151,3 +153,43 @@ def _dip_width(p, x, depth):
     left = brentq(F2, tmin - span, tmin)
     right = brentq(F2, tmin, tmin + span)
     return right - left
+
+
+DEADLOCK_DISTANCES = (1e-5, 1e-4, 1e-3)  # [rad] >> every tolerance below
+
+
+def _deadlock_outcomes(beta_star, method):
+    states = [[beta_star + s * d, 0.05, 105.0, 10.0] for d in DEADLOCK_DISTANCES for s in (-1, 1)]
+    out = {}
+    for rtol in (1e-8, 1e-10, 1e-12):
+        r = sim(states, ROLL, t_max=20.0, rtol=rtol, atol=rtol * 1e-2, method=method, max_steps=200_000)
+        assert (r["status"] == outcomes.OK).all()
+        assert_finite(r)
+        out[rtol] = r
+    return out
+
+
+def _check_deadlock(out):
+    expected = np.tile([outcomes.PERIODIC_ROLLING, outcomes.FALL_OUT], len(DEADLOCK_DISTANCES))
+    for rtol, r in out.items():
+        periodic = r["outcome"] == outcomes.PERIODIC_ROLLING
+        assert (r["f2_min"][periodic] >= 0).all(), (rtol, r["f2_min"])  # periodic needs F2 > 0 throughout
+        assert (r["outcome"] == expected).all(), (rtol, r["outcome"], r["f2_min"])
+
+
+@pytest.fixture(scope="module")
+def deadlock_beta():
+    """beta* of the deadlock boundary on top of Fig. 13's upper periodic region (omega1 = 0.05,
+    rolling only): bisection with dp5 at rtol 1e-12 to ~1e-14 rad."""
+    ref = boundaries.refine([1.613, 0.05, 105.0, 10.0], [1.633, 0.05, 105.0, 10.0], ROLL, n_bisect=45,
+                            rtol=1e-12, atol=1e-14)
+    assert ref["type"] == boundaries.DEADLOCK
+    return 0.5 * (ref["periodic"][0] + ref["other"][0])
+
+
+def test_grazing_fall_at_a_deadlock_is_found_consistently_dp5(deadlock_beta):
+    _check_deadlock(_deadlock_outcomes(deadlock_beta, "dp5"))
+
+
+def test_grazing_fall_at_a_deadlock_is_found_consistently_dop853(deadlock_beta):
+    _check_deadlock(_deadlock_outcomes(deadlock_beta, "dop853"))

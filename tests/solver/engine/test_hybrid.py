@@ -5,10 +5,12 @@ import pytest
 from scipy.optimize import brentq
 
 from rimroll.solver.analysis import steady
+from rimroll.solver.engine import outcomes
 from rimroll.solver.engine.outcomes import PERIODIC_ROLLING
 from rimroll.solver.engine.simulate import simulate
 from rimroll.solver.physics import rolling, slipping, switching
 from rimroll.solver.physics.params import Params
+from tests.helpers.bounded_runs import P, assert_finite, sim
 
 INF = float("inf")
 
@@ -154,3 +156,27 @@ def test_return_along_phi2_extrapolates_the_remaining_time():
     assert switching.try_return(y2, a, sw, 1.0, out) == -1.0
     y3 = np.array([*x, u * np.cos(phi2 + 0.5), u * np.sin(phi2 + 0.5), 0.7])
     assert switching.try_return(y3, a, sw, 1.0, out) == -1.0
+
+
+@pytest.mark.parametrize("factor", [1 - 1e-9, 1.0, 1 + 1e-9])
+def test_slip_roll_switching_on_the_friction_cone_does_not_hang(factor):
+    """A steady motion whose required friction (56) equals mu to 1e-9, nudged: at most a bounded
+    number of switches, status ok or too_many_switches, no NaN, within the step budget."""
+    b0, w30 = 1.0, 10.0
+    mu = float(steady.required_friction(b0, w30, P)) * factor
+    p = P.replace(mu=mu)
+    x = steady.steady_state(b0, w30, p)
+    states = np.array([x, x + [0, 1e-6, 0, 0], x + [1e-6, 0, 0, 0]])
+    r = sim(states, p, t_max=5.0, max_steps=200_000, max_switches=2000)
+    assert np.isin(r["status"], (outcomes.OK, outcomes.TOO_MANY_SWITCHES)).all(), r["status"]
+    assert_finite(r)
+    assert (r["slip_phases"] <= 2000).all()
+
+
+def test_chattering_state_of_the_fig12_slipping_scene_ends():
+    """States of Fig. 12's slipping scene that slip again and again (~70 slip phases in 20 s)."""
+    states = [[1.1672, 0.05, 65.0, 10.0], [1.1712, -0.5, 65.0, 10.0]]
+    r = sim(states, P, t_max=20.0, max_steps=500_000, max_switches=10_000)
+    assert np.isin(r["status"], (outcomes.OK, outcomes.TOO_MANY_SWITCHES)).all()
+    assert_finite(r)
+    assert (r["n_steps"] < 500_000).all()

@@ -5,11 +5,13 @@ import math
 import numpy as np
 import pytest
 
-from rimroll.solver.analysis import steady
+from rimroll.solver.analysis import boundaries, steady
+from rimroll.solver.engine import outcomes
 from rimroll.solver.engine.outcomes import FALL_OUT, PERIODIC_ROLLING
 from rimroll.solver.engine.simulate import simulate
 from rimroll.solver.physics import rolling
 from rimroll.solver.physics.params import Params
+from tests.helpers.bounded_runs import WEIGHT, assert_finite, mechanical_energy, sim
 
 INF = float("inf")
 ROLL = Params(mu=INF)
@@ -119,3 +121,62 @@ def test_vanishing_dissipation_approaches_the_conservative_outcomes():
         dis = simulate(x, Params(mu=INF, **k), t_max=10.0)
         np.testing.assert_array_equal(dis["outcome"][falls], cons["outcome"][falls])
         np.testing.assert_allclose(dis["t_end"][falls], cons["t_end"][falls], rtol=1e-4)
+
+
+@pytest.fixture(scope="module")
+def separatrix():
+    """omega1* of the separatrix boundary of Fig. 11's periodic region at beta = 1.0601
+    (rolling only), bracketed by bisection to ~1e-14 1/s."""
+    ref = boundaries.refine([1.0601, 2.773, 35.0, 10.0], [1.0601, 2.975, 35.0, 10.0], ROLL, n_bisect=45)
+    assert ref["type"] == boundaries.SEPARATRIX
+    return ref["periodic"][1], ref["other"][1]
+
+
+def test_next_to_a_separatrix_runs_end_in_bounded_work(separatrix):
+    """Approaching the separatrix the half period grows like -ln(distance)/lambda (a saddle's
+    homoclinic orbit); the runs end (periodic inside, a fall outside) without crawling."""
+    w_in, w_out = separatrix
+    d = np.array([1e-4, 1e-7, 1e-10, 1e-13])
+    inside = np.stack([np.full(4, 1.0601), w_in - d, np.full(4, 35.0), np.full(4, 10.0)], -1)
+    outside = inside.copy()
+    outside[:, 1] = w_out + d
+    r_in = sim(inside, ROLL, t_max=20.0, max_steps=20_000)
+    r_out = sim(outside, ROLL, t_max=20.0, max_steps=20_000)
+    for r in (r_in, r_out):
+        assert (r["status"] == outcomes.OK).all()
+        assert_finite(r)
+        assert (r["n_steps"] < 1000).all(), r["n_steps"]  # ~100-200 steps; a crawl would be >> 1e3
+    assert (r_in["outcome"] == outcomes.PERIODIC_ROLLING).all()
+    assert np.isin(r_out["outcome"], (outcomes.FALL_IN, outcomes.FALL_OUT)).all()
+    hp = r_in["half_period"]
+    steps = np.diff(hp)  # one step per 1e3 in distance
+    assert (steps > 0).all()
+    assert np.ptp(steps) < 0.1 * steps.mean()  # logarithmic growth: equal increments per decade
+    assert (r_in["f2_min"] > 0.5 * WEIGHT).all()  # F2_min does not go to 0: separatrix, not deadlock
+
+
+@pytest.mark.parametrize("k", [{"k_r": 0.02}, {"k_d": 0.02}])
+def test_long_dissipative_run_loses_energy_monotonically(k):
+    """t_max = 600 s with rolling or drilling resistance from Fig. 11's stable steady motion
+    (rolling only; k = 0.02 1/s makes it fall after ~10-20 s): the energy at t_end never
+    increases with t_max, ends below E0, and the 600 s run ends by the rules (status ok)."""
+    from rimroll.workflows.outcome_grids import steady_beta0
+
+    p = ROLL.replace(**k)
+    b0 = steady_beta0(35.0, 10.0, p, 0.8, 1.8)
+    x0 = np.array([b0, 0.1, 35.0, 10.0])
+    t_max = np.array([2.5, 5.0, 7.5, 600.0])
+    energies, t_end = [], []
+    for t in t_max:
+        r = sim(x0, p, t_max=float(t), max_steps=2_000_000)
+        assert r["status"][0] == outcomes.OK
+        assert_finite(r)
+        energies.append(mechanical_energy(r["beta_end"][0], r["omega1_end"][0], r["omega2_end"][0], r["omega3_end"][0],
+                                          p))
+        t_end.append(r["t_end"][0])
+    e0 = mechanical_energy(*x0, p)
+    energies = np.array(energies)
+    assert (np.diff(energies) <= 1e-9 * e0).all(), energies
+    assert energies[-1] < e0 and energies[2] < energies[0] < e0
+    assert t_end[:3] == pytest.approx(t_max[:3])  # still on the rim at the short t_max
+    assert 7.5 < t_end[3] <= 600.0

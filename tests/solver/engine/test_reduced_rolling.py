@@ -1,4 +1,4 @@
-"""The exact reduced solver of conservative rolling (issue 40) against independent computations.
+"""The exact reduced solver of conservative rolling against independent computations.
 
 * its tables of Phi against ``solver.analysis.floquet.fundamental`` (another integration of (62));
 * its results against the scipy reference (DOP853 at rtol 1e-12, ``solver.analysis.reference``) on

@@ -1,4 +1,4 @@
-"""solver.simulate against the scipy reference in the hybrid scenes (finite mu): issue 3's agreement test.
+"""solver.simulate against the scipy reference in the hybrid scenes (finite mu): the agreement test.
 
 The reference (``solver.analysis.reference``) integrates each phase with scipy ``solve_ivp`` DOP853 and
 applies the engine's switching rules with the engine's own maps (``solver.physics.switching``): slip
@@ -7,7 +7,7 @@ slip velocities, return where ``try_return`` first allows it. Scenes: slipping (
 slipping + drilling resistance (k_d = 0.02), slipping + rolling resistance (k_r = 0.02), on
 random states of the three Fig. 11-13 sections.
 
-Criteria (issue 3), as in ``tests/solver/engine/test_simulate.py`` for the rolling-only scenes:
+Criteria, as in ``tests/solver/engine/test_simulate.py`` for the rolling-only scenes:
 
 * outcomes identical on >= 99.5 % of states, leaving out boundary states (the reference's
   outcome differs between rtol 1e-9 and 1e-11);
@@ -47,7 +47,7 @@ def section_states(n, seed):
 
 
 def _compare_hybrid(x, p, t_max, t_end_fraction=1.0):
-    """The issue-3 comparison, plus equal slip-phase counts on most kept states."""
+    """``compare_with_scipy``, plus equal slip-phase counts on most kept states."""
     ours, ref, keep = compare_with_scipy(x, p, t_max, t_end_fraction=t_end_fraction)
     same_slips = ours["slip_phases"] == ref["slip_phases"]
     assert same_slips[keep].mean() >= SLIP_PHASES_AGREEMENT, np.flatnonzero(~same_slips & keep)

@@ -10,6 +10,7 @@ from rimroll.solver import Params, simulate
 from rimroll.solver.analysis import solution_types, steady
 from rimroll.solver.analysis.reference import reference_one
 from rimroll.solver.engine import outcomes, rules
+from tests.helpers.bounded_runs import P, assert_finite, sim
 
 INF = float("inf")
 ROLL = Params(mu=INF)
@@ -123,3 +124,61 @@ def test_work_falls_as_the_tolerance_loosens_in_the_slipping_scene():
         assert (r["slip_phases"] > 0).sum() >= 10
         work.append(int(r["n_steps"].sum()))
     assert all(b <= a for a, b in zip(work, work[1:])), work
+
+
+SINGULAR = [  # (beta0 [rad], omega30 [1/s]): omega20 of (48) is ~1e4 1/s at each
+    (np.pi / 2 - 1e-3, 10.0), (np.pi / 2 - 1e-3, -10.0), (-np.pi / 2 + 1e-3, 10.0),
+    (1.0, 1e-2), (1.0, -1e-2), (0.5, 1e-2),
+]
+
+
+@pytest.mark.parametrize("mu", [float("inf"), 1.0])
+@pytest.mark.parametrize("beta0,omega30", SINGULAR)
+def test_steady_motion_near_singular_lines_stays_or_falls_at_once(beta0, omega30, mu):
+    """A steady motion (47) next to beta0 = +-pi/2 or omega30 = 0 (|omega20| ~ 1e4 1/s): if it
+    stays on the rim (F2 > 0 and, with finite mu, inside the friction cone) it is reported as
+    ``steady_motion`` at t = 0 with its h of (54), else it must leave at once; never NaN,
+    status ok."""
+    p = P.replace(mu=mu)
+    x = steady.steady_state(beta0, omega30, p)
+    assert abs(x[2]) > 5e3
+    r = sim(x, p, t_max=1.0, max_steps=100_000)
+    assert r["status"][0] == outcomes.OK
+    assert_finite(r)
+    on_rim = bool(steady.stays_on_rim(beta0, omega30, p)) and (
+        np.isinf(mu) or bool(steady.rolls_without_slipping(beta0, omega30, p, mu)))
+    if on_rim:
+        assert r["outcome"][0] == outcomes.STEADY_MOTION
+        end = np.array([r[k][0] for k in ("beta_end", "omega1_end", "omega2_end", "omega3_end")])
+        np.testing.assert_array_equal(end, x)
+        assert r["t_end"][0] == 0.0 and r["slip_phases"][0] == 0 and r["n_steps"][0] == 0
+        assert r["steady_h"][0] == pytest.approx(float(steady.stability(beta0, omega30, p)), rel=1e-12)
+    else:
+        assert r["outcome"][0] in (outcomes.FALL_IN, outcomes.FALL_OUT)
+        assert r["t_end"][0] < 0.2
+
+
+def test_exact_steady_motion_is_a_steady_motion_not_a_periodic_orbit():
+    x = steady.steady_state(np.pi / 2 - 1e-3, 10.0, ROLL)
+    for t_max in (1.0, 5.0):
+        r = sim(x, ROLL, t_max=t_max)
+        assert r["outcome"][0] == outcomes.STEADY_MOTION and np.isnan(r["half_period"][0])
+
+
+def test_nearly_tangential_omega1_crossings_give_a_continuous_half_period():
+    """Small orbits round Fig. 11's stable steady motion: omega1 starts at 0 (a crossing at t = 0),
+    or at 1e-12..1e-6 (a crossing almost at once); the half period must not jump, and must be the
+    linearised one pi / sqrt(-h) of (54) for small amplitude."""
+    from rimroll.workflows.outcome_grids import steady_beta0
+
+    b0 = steady_beta0(35.0, 10.0, ROLL, 0.8, 1.8)
+    w1 = np.array([0.0, 1e-12, -1e-12, 1e-9, -1e-9, 1e-6, -1e-6])
+    states = np.stack([np.full_like(w1, b0 + 1e-4), w1, np.full_like(w1, 35.0), np.full_like(w1, 10.0)], -1)
+    r = sim(states, ROLL, t_max=20.0, rtol=1e-10, atol=1e-12)
+    assert (r["status"] == outcomes.OK).all()
+    assert (r["outcome"] == outcomes.PERIODIC_ROLLING).all(), r["outcome"]
+    hp = r["half_period"]
+    assert np.ptp(hp) < 1e-6 * hp.mean(), hp
+    h = float(steady.stability(b0, 10.0, ROLL))
+    assert h < 0
+    assert hp.mean() == pytest.approx(np.pi / np.sqrt(-h), rel=1e-3)

@@ -7,11 +7,12 @@ import pytest
 
 from rimroll import solver
 from rimroll.solver.analysis.reference import reference
-from rimroll.solver.engine import rules
+from rimroll.solver.engine import outcomes, rules
 from rimroll.solver.engine.outcomes import FALL_IN, FALL_OUT, ON_RIM_AT_T_MAX
 from rimroll.solver.engine.simulate import simulate
 from rimroll.solver.physics import flight, rolling
 from rimroll.solver.physics.params import Params
+from tests.helpers.bounded_runs import P, assert_finite, sim
 from tests.helpers.scipy_agreement import compare_with_scipy
 
 INF = float("inf")
@@ -213,3 +214,17 @@ def test_threads_deal_states_in_turn_and_every_state_gets_its_own_result():
     many = solver.simulate(x, p, t_max=2.0, workers=3)
     for name in ("outcome", "status", "n_steps", "t_end", "f2_min", "slip_phases"):
         np.testing.assert_array_equal(many[name], one[name], err_msg=name)
+
+
+@pytest.mark.parametrize("mu", [float("inf"), 1.0])
+def test_very_large_omega2(mu):
+    """omega2 = 1000 1/s (stiff-ish fast rotation): no NaN, within budget, and the conservative
+    rolling energy drift stays at the tolerance level."""
+    p = P.replace(mu=mu)
+    w1 = np.array([0.0, 1.0, 5.0, -5.0])
+    states = np.stack([np.full(4, 1.0), w1, np.full(4, 1000.0), np.full(4, 10.0)], -1)
+    r = sim(states, p, t_max=2.0, max_steps=500_000)
+    assert (r["status"] == outcomes.OK).all(), r["status"]
+    assert_finite(r)
+    rolled = r["slip_phases"] == 0
+    assert (r["energy_drift"][rolled] < 1e-6).all(), r["energy_drift"]

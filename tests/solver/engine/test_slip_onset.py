@@ -26,7 +26,7 @@ from rimroll.solver.analysis.reference import integrate
 from rimroll.solver.engine import outcomes
 from rimroll.solver.physics import rolling
 
-ISSUE_CELLS = np.array([[1.18912, 1.83844, 65.0, 10.0], [1.21004, 2.50696, 65.0, 10.0],
+HARD_ONSET_CELLS = np.array([[1.18912, 1.83844, 65.0, 10.0], [1.21004, 2.50696, 65.0, 10.0],
                         [1.21423, 2.61838, 65.0, 10.0], [1.21004, -2.50697, 65.0, 10.0]])
 RTOLS = (1e-6, 1e-8, 1e-10, 1e-12)
 
@@ -37,37 +37,37 @@ def _reference_switch_times(x, p, n):
 
 
 @pytest.fixture(scope="module")
-def issue_reference():
+def onset_reference():
     p = Params(mu=1.0)
-    return np.array([_reference_switch_times(x, p, 4) for x in ISSUE_CELLS])
+    return np.array([_reference_switch_times(x, p, 4) for x in HARD_ONSET_CELLS])
 
 
 @pytest.mark.parametrize("method", ["dp5", "dop853"])
 @pytest.mark.parametrize("rtol", RTOLS)
-def test_issue_cells_first_slip_onset(issue_reference, method, rtol):
+def test_hard_onset_cells_first_slip_onset(onset_reference, method, rtol):
     """max_switches=0 stops a run at its first switch (status too_many_switches): the slip onset."""
-    ours = simulate(ISSUE_CELLS, Params(mu=1.0), t_max=20.0, rtol=rtol, atol=rtol * 1e-2, method=method,
+    ours = simulate(HARD_ONSET_CELLS, Params(mu=1.0), t_max=20.0, rtol=rtol, atol=rtol * 1e-2, method=method,
                     max_switches=0)
     assert np.all(ours["status"] == outcomes.TOO_MANY_SWITCHES), ours["status"]
     tol = {1e-6: 2e-4, 1e-8: 1e-6}.get(rtol, 1e-7)
-    np.testing.assert_allclose(ours["t_end"], issue_reference[:, 0], rtol=0.0, atol=tol)
+    np.testing.assert_allclose(ours["t_end"], onset_reference[:, 0], rtol=0.0, atol=tol)
 
 
 @pytest.mark.parametrize("method", ["dp5", "dop853"])
 @pytest.mark.parametrize("rtol", [1e-8, 1e-10, 1e-12])
-def test_issue_cells_first_switches(issue_reference, method, rtol):
+def test_hard_onset_cells_first_switches(onset_reference, method, rtol):
     """Onset, return, second onset and second return, each at the reference's time."""
     for k in range(4):
-        ours = simulate(ISSUE_CELLS, Params(mu=1.0), t_max=20.0, rtol=rtol, atol=rtol * 1e-2, method=method,
+        ours = simulate(HARD_ONSET_CELLS, Params(mu=1.0), t_max=20.0, rtol=rtol, atol=rtol * 1e-2, method=method,
                         max_switches=k)
         assert np.all(ours["status"] == outcomes.TOO_MANY_SWITCHES)
-        np.testing.assert_allclose(ours["t_end"], issue_reference[:, k], rtol=0.0, atol=1e-4 if rtol > 1e-10 else 1e-6)
+        np.testing.assert_allclose(ours["t_end"], onset_reference[:, k], rtol=0.0, atol=1e-4 if rtol > 1e-10 else 1e-6)
 
 
 @pytest.mark.parametrize("method", ["dp5", "dop853"])
-def test_issue_cells_slip_and_roll_to_the_end(method):
+def test_hard_onset_cells_slip_and_roll_to_the_end(method):
     """The three cells once reported as periodic rolling: still on the rim at 20 s after many slips."""
-    ours = simulate(ISSUE_CELLS[:3], Params(mu=1.0), t_max=20.0, rtol=1e-10, atol=1e-12, method=method)
+    ours = simulate(HARD_ONSET_CELLS[:3], Params(mu=1.0), t_max=20.0, rtol=1e-10, atol=1e-12, method=method)
     assert np.all(ours["status"] == outcomes.OK)
     assert np.all(ours["outcome"] == outcomes.ON_RIM_AT_T_MAX)
     assert np.all(ours["slip_phases"] >= 10), ours["slip_phases"]

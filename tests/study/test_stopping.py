@@ -1,14 +1,9 @@
-"""Faults of issue 42 (third round) whose cases are generated, not listed: the parts folder removed
-at any point of a run, SIGTERM (once or twice) at any moment of a run, a cluster that loses its
-only worker, client-side TLS mistakes.
-
-The runs use the test-only ``fanout-probe`` study (tests/helpers/fanout_probe.py): cheap chunks, so that a
-case is a second or two.
+"""Ctrl-C and SIGTERM to the ``study`` command (``study.stopping``): one stop, one line, what was saved,
+at any moment of a run.
 """
 
 from __future__ import annotations
 
-import importlib
 import os
 import pathlib
 import random
@@ -19,17 +14,68 @@ import sys
 import threading
 import time
 
-import numpy as np
 import pytest
 
-from rimroll.study.registry import PLUGIN_ENV, UserError
-from tests.helpers.paths import HELPERS
+from rimroll.study import registry
+from rimroll.study.registry import PLUGIN_ENV
+from tests.helpers.study_runs import PROBE, cli, parts_of, probe_env, run_probe
 
-HERE = HELPERS
-PROBE = str(HERE / "fanout_probe.py")
-# the modules as imported (a plain install's site-packages or a source checkout), not the checkout's paths
-WATCHED = {str(pathlib.Path(importlib.import_module(f"rimroll.study.{name}").__file__).resolve())
-           for name in ("parts", "assemble", "io", "execute", "fanout")}
+
+@pytest.mark.parametrize("sig, status, word", [(signal.SIGINT, 130, "study: interrupted;"),
+                                               (signal.SIGTERM, 143, "study: terminated (SIGTERM);")])
+def test_ctrl_c_says_what_was_saved(tmp_path, sig, status, word):
+    """Ctrl-C, and SIGTERM as ``timeout`` or a batch system sends it (it killed the run with no word and
+    left the lock file), stop a run in one line saying what was saved; the rerun resumes."""
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, "-m", "rimroll.study", "run", "fanout-probe", "--out", str(out),
+                             "--no-progress", "--workers", "1", "--set", "delay=0.3"], env=probe_env(),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    while len(parts_of(out)) < 2:
+        assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
+        time.sleep(0.02)
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == status, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(word) and "chunks saved" in lines[0] and "Traceback" not in err
+    assert not list((out / ".parts").glob("*.lock"))
+    rerun = cli("run", "fanout-probe", "--out", str(out), "--no-progress", "--workers", "1", "--set", "delay=0.3")
+    assert rerun.returncode == 0 and "chunks resumed" in rerun.stdout, rerun.stderr
+
+
+def test_ctrl_c_while_the_figure_is_drawn_says_the_result_is_complete(probe, tmp_path, capsys, monkeypatch):
+    """The .nc is written when the figure is drawn: a Ctrl-C there said only 'interrupted'."""
+    from rimroll.study import cli
+
+    def drawing(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "_draw", drawing)
+    assert run_probe(tmp_path) == 130
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("study: interrupted while drawing the figure;") and "\n" not in err
+    assert f"{tmp_path / 'fanout-probe.nc'} is complete" in err and (tmp_path / "fanout-probe.nc").is_file()
+
+
+@pytest.mark.parametrize("delay", [0.2, 0.5, 0.9, 1.4])
+def test_ctrl_c_during_start_up_is_one_line(tmp_path, delay):
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    script = shutil.which("study", path=str(pathlib.Path(sys.executable).parent)) or shutil.which("study")
+    if script is None:
+        pytest.skip("the study console script is not installed")
+    run = subprocess.Popen([script, "run", "fig8", "--quick", "--out", str(tmp_path / "o"), "--no-progress"],
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(delay)
+    run.send_signal(signal.SIGINT)
+    out, err = run.communicate(timeout=120)
+    assert "Traceback" not in err and run.returncode in (0, 130), (run.returncode, err)
+    if run.returncode == 130:
+        assert len(err.strip().splitlines()) == 1 and "interrupted" in err, err
 
 
 def _env(**extra):
@@ -37,101 +83,6 @@ def _env(**extra):
     env.pop("FANOUT_PROBE_FAIL_MU", None)
     return env
 
-
-# ---------------------------------------------------------------- the parts folder removed mid-run
-
-def _calls_into_the_run_files(action, fire_at=None, doomed=None):
-    """Run ``action()`` counting the Python calls made in the main thread into the files that write
-    and read a run's parts and result (:data:`WATCHED`); at call number ``fire_at`` remove the folder
-    ``doomed``. Returns the number of calls."""
-    count = 0
-    resolved = {}
-
-    def watched(code) -> bool:
-        name = code.co_filename
-        if name not in resolved:
-            resolved[name] = str(pathlib.Path(name).resolve()) in WATCHED
-        return resolved[name]
-
-    def profile(frame, event, arg):
-        nonlocal count
-        if event == "call" and watched(frame.f_code):
-            if count == fire_at:
-                shutil.rmtree(doomed, ignore_errors=True)
-            count += 1
-
-    sys.setprofile(profile)
-    try:
-        action()
-    finally:
-        sys.setprofile(None)
-    return count
-
-
-def _probe_values(ds) -> np.ndarray:
-    return np.asarray(ds["f"].values)
-
-
-def test_the_parts_folder_removed_at_any_point_of_a_run_is_one_error_and_the_rerun_is_whole(tmp_path, probe_study):
-    """Every point of a run where the parts folder can vanish (each call into the files that write the
-    parts and the result, a seeded sample of them): the run either completes with the right numbers
-    or stops with one UserError saying the parts folder vanished and how many chunks are saved; never
-    another exception (was FileNotFoundError); the rerun of the same call gives the clean run's
-    numbers."""
-    import rimroll
-
-    settings = {"mu": [0.5, 1.0], "v_throw": 1.0, "n_x": 16, "workers": 1, "progress": False}
-    reference = _probe_values(rimroll.run("fanout-probe", **settings))
-    clean = tmp_path / "clean"
-    n_calls = _calls_into_the_run_files(lambda: rimroll.run("fanout-probe", out=clean, **settings))
-    assert n_calls > 20  # parts written, read back, assembled
-    rng = random.Random(42)
-    cases = sorted(rng.sample(range(n_calls), min(12, n_calls)))
-    stopped = 0
-    for i in cases:
-        out = tmp_path / f"case{i}"
-        outcome = {}
-
-        def action(out=out, outcome=outcome):
-            try:
-                rimroll.run("fanout-probe", out=out, **settings)
-            except UserError as exc:
-                outcome["error"] = str(exc)
-
-        _calls_into_the_run_files(action, fire_at=i, doomed=out / ".parts")
-        if "error" in outcome:
-            stopped += 1
-            message = outcome["error"]
-            assert "\n" not in message and "vanished" in message and "chunks saved" in message, (i, message)
-            assert "rerun the same command" in message
-        values = _probe_values(rimroll.run("fanout-probe", out=out, **settings))
-        np.testing.assert_array_equal(values, reference, err_msg=f"call {i}")
-        assert not (out / ".parts").exists() or not any((out / ".parts").iterdir())
-    assert stopped, "no sampled point stopped the run: the sample missed the run itself"
-
-
-def test_the_parts_folder_removed_while_the_command_runs_is_one_line(tmp_path):
-    """The command line: the folder removed while chunks are computed gives one line, exit 2, and
-    the rerun completes."""
-    out = tmp_path / "out"
-    cmd = [sys.executable, "-m", "rimroll.study", "run", "fanout-probe", "--out", str(out), "--workers", "1",
-           "--set", "delay=0.2", "--set", "n_x=16", "--no-progress"]
-    p = subprocess.Popen(cmd, stderr=subprocess.PIPE, text=True, env=_env())
-    deadline = time.monotonic() + 120
-    while not list(out.glob(".parts/*/chunk-*.npz")):
-        assert p.poll() is None and time.monotonic() < deadline, p.communicate(timeout=30)
-        time.sleep(0.05)
-    shutil.rmtree(out / ".parts")
-    err = p.communicate(timeout=120)[1]
-    lines = err.strip().splitlines()
-    assert p.returncode == 2 and "Traceback" not in err and len(lines) == 1, err
-    assert lines[0].startswith("study: error: ") and "vanished" in lines[0] and "chunks saved" in lines[0]
-    again = subprocess.run(cmd, capture_output=True, text=True, env=_env(), timeout=180)
-    assert again.returncode == 0, again.stderr
-    assert (out / "fanout-probe.nc").is_file()
-
-
-# ---------------------------------------------------------------- SIGTERM, once or twice, at any moment
 
 def _wait_for_a_sigterm_handler(p: subprocess.Popen) -> None:
     """Wait until process ``p`` catches SIGTERM (Linux: its bit in ``SigCgt`` of /proc/PID/status):
@@ -208,7 +159,7 @@ def test_one_or_two_sigterms_at_any_moment_are_one_line_and_exit_143(tmp_path, s
 def test_a_sigterm_inside_an_import_is_delivered_after_it(monkeypatch):
     """The handler does not raise inside an import (numba's compiled extensions print the interrupt and
     turn it into ImportError): it sends SIGTERM again a moment later, and raises outside the import."""
-    from rimroll.study import registry, stopping
+    from rimroll.study import stopping
 
     previous = stopping.install()
     assert previous is not None
