@@ -38,3 +38,19 @@ def probe_study(monkeypatch):
     yield registry.get("fanout-probe")
     registry._REGISTRY.pop("fanout-probe", None)
     sys.modules.pop("rimroll_plugin_" + re.sub(r"\W", "_", os.path.abspath(PROBE)), None)
+
+
+@pytest.fixture
+def probe(probe_study):
+    """``probe_study`` under its short name."""
+    return probe_study
+
+
+@pytest.fixture(scope="module")
+def fig8_file(tmp_path_factory):
+    """A ``fig8 --quick`` result, made once per test module (tests copy it before they damage it)."""
+    from rimroll.study.cli import main
+
+    out = tmp_path_factory.mktemp("fig8")
+    assert main(["run", "fig8", "--quick", "--out", str(out), "--no-progress"]) == 0
+    return out / "fig8.nc"

@@ -27,6 +27,13 @@ def probe_env(**extra):
     return {**os.environ, PLUGIN_ENV: PROBE, **extra}
 
 
+def clean_probe_env(**extra):
+    """``probe_env`` without ``FANOUT_PROBE_FAIL_MU``, whatever this process or ``extra`` set it to."""
+    env = probe_env(**extra)
+    env.pop("FANOUT_PROBE_FAIL_MU", None)
+    return env
+
+
 def run_probe(out, *extra, name="fanout-probe"):
     """``study run NAME --out OUT --no-progress EXTRA...`` in this process; its exit status."""
     return main(["run", name, "--out", str(out), "--no-progress", *extra])

@@ -24,10 +24,10 @@ import xarray as xr
 from rimroll.study.cli import main
 from rimroll.study.parts import PartStore
 from rimroll.study.plan import make_plan
-from rimroll.study.registry import PLUGIN_ENV, UserError
+from rimroll.study.registry import UserError
 from tests.helpers.study_runs import (
     N_PROBE,
-    PROBE,
+    clean_probe_env,
     data_of,
     error_after_notices,
     one_line_error,
@@ -231,12 +231,6 @@ WATCHED = {str(pathlib.Path(importlib.import_module(f"rimroll.study.{name}").__f
            for name in ("parts", "assemble", "io", "execute", "fanout")}
 
 
-def _env(**extra):
-    env = {**os.environ, PLUGIN_ENV: PROBE, **extra}
-    env.pop("FANOUT_PROBE_FAIL_MU", None)
-    return env
-
-
 def _calls_into_the_run_files(action, fire_at=None, doomed=None):
     """Run ``action()`` counting the Python calls made in the main thread into the files that write
     and read a run's parts and result (:data:`WATCHED`); at call number ``fire_at`` remove the folder
@@ -313,7 +307,7 @@ def test_the_parts_folder_removed_while_the_command_runs_is_one_line(tmp_path):
     out = tmp_path / "out"
     cmd = [sys.executable, "-m", "rimroll.study", "run", "fanout-probe", "--out", str(out), "--workers", "1",
            "--set", "delay=0.2", "--set", "n_x=16", "--no-progress"]
-    p = subprocess.Popen(cmd, stderr=subprocess.PIPE, text=True, env=_env())
+    p = subprocess.Popen(cmd, stderr=subprocess.PIPE, text=True, env=clean_probe_env())
     deadline = time.monotonic() + 120
     while not list(out.glob(".parts/*/chunk-*.npz")):
         assert p.poll() is None and time.monotonic() < deadline, p.communicate(timeout=30)
@@ -323,6 +317,6 @@ def test_the_parts_folder_removed_while_the_command_runs_is_one_line(tmp_path):
     lines = err.strip().splitlines()
     assert p.returncode == 2 and "Traceback" not in err and len(lines) == 1, err
     assert lines[0].startswith("study: error: ") and "vanished" in lines[0] and "chunks saved" in lines[0]
-    again = subprocess.run(cmd, capture_output=True, text=True, env=_env(), timeout=180)
+    again = subprocess.run(cmd, capture_output=True, text=True, env=clean_probe_env(), timeout=180)
     assert again.returncode == 0, again.stderr
     assert (out / "fanout-probe.nc").is_file()

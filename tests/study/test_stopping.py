@@ -17,8 +17,7 @@ import time
 import pytest
 
 from rimroll.study import registry
-from rimroll.study.registry import PLUGIN_ENV
-from tests.helpers.study_runs import PROBE, cli, parts_of, probe_env, run_probe
+from tests.helpers.study_runs import clean_probe_env, cli, parts_of, probe_env, run_probe
 
 
 @pytest.mark.parametrize("sig, status, word", [(signal.SIGINT, 130, "study: interrupted;"),
@@ -78,12 +77,6 @@ def test_ctrl_c_during_start_up_is_one_line(tmp_path, delay):
         assert len(err.strip().splitlines()) == 1 and "interrupted" in err, err
 
 
-def _env(**extra):
-    env = {**os.environ, PLUGIN_ENV: PROBE, **extra}
-    env.pop("FANOUT_PROBE_FAIL_MU", None)
-    return env
-
-
 def _wait_for_a_sigterm_handler(p: subprocess.Popen) -> None:
     """Wait until process ``p`` catches SIGTERM (Linux: its bit in ``SigCgt`` of /proc/PID/status):
     before that the interpreter is still starting, and SIGTERM has its default action there, as for
@@ -109,7 +102,7 @@ def _sigterm_case(out: pathlib.Path, rng: random.Random, n_signals: int, after_c
     log = out.with_suffix(".log")
     cmd = [sys.executable, "-m", "rimroll.study", "run", "fanout-probe", "--out", str(out), "--workers", "2",
            "--set", "delay=0.1", "--set", "n_x=40", "--set", f"log={log}", "--no-progress"]
-    p = subprocess.Popen(cmd, stderr=subprocess.PIPE, text=True, env=_env())
+    p = subprocess.Popen(cmd, stderr=subprocess.PIPE, text=True, env=clean_probe_env())
     try:
         if after_chunks:
             deadline = time.monotonic() + 120
@@ -152,7 +145,7 @@ def test_one_or_two_sigterms_at_any_moment_are_one_line_and_exit_143(tmp_path, s
     again = subprocess.run([sys.executable, "-m", "rimroll.study", "run", "fanout-probe", "--out", str(out),
                             "--workers", "2", "--set", "delay=0.1", "--set", "n_x=40",
                             "--set", f"log={out.with_suffix('.log')}", "--no-progress"],
-                           capture_output=True, text=True, env=_env(), timeout=300)
+                           capture_output=True, text=True, env=clean_probe_env(), timeout=300)
     assert again.returncode == 0, again.stderr
 
 
