@@ -6,7 +6,7 @@ The paper launches a slip with "a small positive number" delta; the model's answ
 delta -> 0. This script runs, for delta = 1e-4 .. 1e-8 m/s (u_stop = delta, u_floor = delta / 100,
 as the study setting ``delta`` does), at one tight tolerance (default rtol 1e-10, atol 1e-12, DP5):
 
-* the hard set of ``tests/test_stiff_slips.py``: a 1-slip, a 7-slip state, two cycling cells of
+* the hard set of ``tests/solver/engine/test_stiff_slips.py``: a 1-slip, a 7-slip state, two cycling cells of
   Fig. 12 (their 60th switch, 30 slips), the large-mu state [0.3288, 12, 35, 10] at mu = 1e3, 1e7;
 * every state of a (beta, omega1) grid of the Fig. 12 section (mu = 1) that slips at the default
   delta;

@@ -6,9 +6,9 @@ what its ``derive`` adds); the settings' units, meaning and allowed values from 
 (``rimroll.study.setting_table``), with each study's defaults.
 
 Run from the repository root after adding or changing a study: ``python docs/gen_studies.py``
-(``tests/test_docs.py`` fails while a study or variable is missing from docs/studies.md). It also
+(``tests/docs/test_docs.py`` fails while a study or variable is missing from docs/studies.md). It also
 writes ``study/catalogue.json``, the cards ``study list`` and ``study info NAME`` read instead of
-importing the studies (``rimroll.study.catalogue``; tests/test_cli_info.py checks them).
+importing the studies (``rimroll.study.catalogue``; tests/study/test_cli_info.py checks them).
 """
 
 import pathlib

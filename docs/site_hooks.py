@@ -94,7 +94,7 @@ def notebook_page() -> str:
         source = "".join(cell["source"])
         out.append(source if cell["cell_type"] == "markdown" else f"```python\n{source}\n```")
     out.insert(1, "Download the notebook: [notebook.ipynb](../notebook.ipynb). The test suite runs it in a Jupyter "
-                  "kernel (`tests/test_notebook.py`); run it yourself to see the outputs and the figures.")
+                  "kernel (`tests/docs/test_notebook.py`); run it yourself to see the outputs and the figures.")
     return "\n\n".join(out) + "\n"
 
 

@@ -44,7 +44,7 @@ _PUBLIC = {
 }
 
 # literal, so that tools that read the source without importing it (mkdocstrings) see the public names;
-# tests/test_docs_blocks.py checks that it names exactly the keys of _PUBLIC
+# tests/docs/test_docs_blocks.py checks that it names exactly the keys of _PUBLIC
 __all__ = ["OUTCOME_MEANINGS", "Params", "STATUS_MEANINGS", "floquet", "invariants", "kinematics", "predictability",
            "rolling", "shots", "simulate", "slipping", "steady"]
 

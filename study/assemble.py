@@ -4,7 +4,7 @@ The coordinates and global attributes are written by xarray (``study.dataset.coo
 ``scalar_coords``, ``global_attrs``); the data variables are created with netCDF4 and filled
 block by block, so memory holds a few chunks whatever the size of the cube.
 
-How the file maps to CF (``Conventions = "CF-1.8"``, checked by ``tests/test_cf_checkers.py``):
+How the file maps to CF (``Conventions = "CF-1.8"``, checked by ``tests/study/test_cf_checkers.py``):
 
 - every axis is a coordinate variable with ``units`` and ``long_name``; a label axis (``scene``,
   ``integrator``) is a character array named like its dimension (CF's string-valued coordinate,

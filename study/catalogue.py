@@ -4,7 +4,7 @@ studies' modules, whose imports (the solver's kernels, numba, matplotlib) cost 1
 
 The file holds one card per study (``study.describe.card``: title, summary, variables, the lines of
 its settings, what it sweeps, its grids and the run's seconds on one core), made from the studies
-themselves by ``python docs/gen_studies.py``; tests/test_cli_info.py fails while a card differs from
+themselves by ``python docs/gen_studies.py``; tests/study/test_cli_info.py fails while a card differs from
 what its study declares. A study without a card here (a plugin's, one of ``$RIMROLL_STUDY_MODULES``,
 one added since the file was made) or whose entry point names another module than its card is
 described from its module, as before: the catalogue is never the only source of what it says.

@@ -5,7 +5,7 @@ into a ``study.plan`` and every run goes through ``study.execute``. Every user e
 ``study: error: ...`` on stderr and exit status 2.
 
 ``study --help``, ``study list``, ``study info NAME``, ``study run NAME --help`` and the refusal of a bad
-argument import neither numba, dask, xarray nor the studies' modules (tests/test_cli_info.py): the
+argument import neither numba, dask, xarray nor the studies' modules (tests/study/test_cli_info.py): the
 studies' titles, settings and grids come from the catalogue (``study.catalogue``); what runs, opens or
 draws a file imports them in the function that needs them.
 """

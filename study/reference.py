@@ -17,7 +17,7 @@ slices are is a field of its record, ``Study.reference`` (a
 :class:`~rimroll.study.registry.ReferenceSpec`: the sub-grid's points per axis, the precision
 settings, the method text); :func:`specs` lists the studies that have one.
 ``study verify FILE`` compares a file with the slice of its study that shares the most points
-with it (:func:`candidates`); the regression tests (``tests/test_reference_slices.py``)
+with it (:func:`candidates`); the regression tests (``tests/study/test_reference_slices.py``)
 recompute each slice at the study's default precision (:func:`recompute`) and compare with
 ``study.compare``. ``study reference --build`` writes ``--out DIR``; without ``--out`` only in a
 source checkout (never into an installed package).

@@ -13,7 +13,7 @@ checks made before a run (:func:`rimroll.study.checks.check_settings`: ``--set``
 values and new grid values alike), by ``--set`` sweeps (the axis' units and long_name) and by
 ``docs/gen_studies.py``. A setting name no study of rimroll uses (a study of another package) is
 checked by :data:`WILDCARDS` (``t_max*``, ``n_*``) or, for any other number, by :data:`NUMBER`.
-A new setting name gets one entry in :data:`TABLE`; ``tests/test_setting_table.py`` fails while a
+A new setting name gets one entry in :data:`TABLE`; ``tests/study/test_setting_table.py`` fails while a
 registered study has a setting without one.
 """
 

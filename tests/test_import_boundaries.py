@@ -3,14 +3,13 @@ studies through the ``rimroll.studies`` entry-point group and never imports ``ri
 
 from __future__ import annotations
 
-import pathlib
 import re
 import subprocess
 import sys
 
 import pytest
 
-ROOT = pathlib.Path(__file__).resolve().parent.parent
+from tests.helpers.paths import ROOT
 
 
 def _loaded_after(statement: str) -> set[str]:

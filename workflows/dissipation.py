@@ -15,7 +15,7 @@ over the states (see :func:`equivalence`; the factors are stored in the file).
 
 Every run of one island goes through one compiled kernel per phase set holding all three load terms
 (Coulomb rolling, Coulomb drilling, air drag; a term at zero strength adds exact zeros, so each
-model's numbers are those of its own scene kernel, bit for bit: tests/test_dissipation_terms.py).
+model's numbers are those of its own scene kernel, bit for bit: tests/solver/physics/test_dissipation_terms.py).
 """
 
 from __future__ import annotations

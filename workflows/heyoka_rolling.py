@@ -8,7 +8,7 @@ The model
     State (beta, omega1, omega2, omega3, alpha); the rates (33)-(36) and alpha_dot of (19) with
     u1 = 0, and F2/m of (31), are written once (:func:`rates`, :func:`f2_over_m`) over any
     ``sin``/``cos``: heyoka's expressions build the integrator, numpy's evaluate the pre-checks.
-    ``tests/test_heyoka_rolling.py`` (and ``benchmarks/peers.py`` before it times anything) checks
+    ``tests/workflows/test_heyoka_rolling.py`` (and ``benchmarks/peers.py`` before it times anything) checks
     them against ``solver.physics.rolling.rolling_rhs`` and ``normal_force`` to 1e-12.
 The rules (docs/outcome-engine.md), as the engine applies them in this scene
     * phase start, before any integration: F2 < 0 (``rolling.normal_force``) falls at t = 0; a steady

@@ -43,7 +43,7 @@ and the max/min ratio of the coefficients drops from (1+x)/(1-x) to its square r
 fundamental matrix is then integrated with the 12-stage, 8th-order Runge-Kutta tableau of DOP853
 at a fixed number of steps N (chosen from max x, >= 32), vectorised with numpy over the whole
 parameter grid. Relative error of tr M against scipy DOP853 at rtol 1e-13: ~1e-13 for
-x <= 0.99 (see tests/test_floquet.py).
+x <= 0.99 (see tests/solver/analysis/test_floquet.py).
 """
 
 from __future__ import annotations

@@ -353,7 +353,7 @@ def integrate(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, method=
     switches, y_end, steps_rolling, steps_slipping, reason, phases, events): y_end the state at
     t_end in the layout of its phase; steps_* the accepted ``solve_ivp`` steps taken in each
     kind of phase up to the phase's end (the cost a method needs for the accuracy asked, without
-    the engine's overheads: ``tests/benchmark_slipping.py`` compares them across methods);
+    the engine's overheads: ``benchmarks/slipping_cost.py`` compares them across methods);
     ``reason`` the kind of the event that ended the run (or ``too_many_switches``,
     ``integration_failed``); ``phases`` the :class:`Phase` list and ``events`` the (t [s], kind)
     list, kinds of :data:`EVENT_KINDS` (``solver.analysis.trace`` samples them).

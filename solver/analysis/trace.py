@@ -6,7 +6,7 @@ reference of ``solver.simulate`` (the same compiled right-hand sides and switchi
 rules of ``solver.engine.rules``, scipy ``solve_ivp`` phase by phase; see that module for how every
 event is located), which keeps every phase's dense output; :func:`trace` samples all of them on
 one time grid and adds the derived quantities. The result's outcome and t_end agree with
-``solver.simulate`` to the integration tolerances (``tests/test_trace.py``); this path is for
+``solver.simulate`` to the integration tolerances (``tests/solver/analysis/test_trace.py``); this path is for
 looking at one trajectory, not for maps (a Python-level loop, about 0.1-1 s per trajectory).
 """
 

@@ -34,7 +34,7 @@ process (the current device of numba-cuda); calls from several threads take turn
 Under numba-cuda's simulator (``NUMBA_ENABLE_CUDASIM=1``, for tests without a device) the same
 launcher runs in Python threads; each simulated thread then runs the CPU machine code of the
 trajectory kernel on its own local arrays, so the simulator checks the launcher, the batching and
-the result layout; ``tests/test_cuda_backend.py`` checks the device compilation of the whole
+the result layout; ``tests/solver/engine/test_cuda_backend.py`` checks the device compilation of the whole
 engine separately (to PTX, where numba-cuda finds the CUDA compiler libraries, and everywhere a
 static check that the engine calls only numpy functions the device lowers).
 """
@@ -61,7 +61,7 @@ THREADS_PER_BLOCK = 128
 MAX_REGISTERS = None
 """Cap on registers per thread passed to the device compiler (None: its own choice). The whole
 engine inlines into one kernel of ~255 registers on sm_90; a cap trades spills for occupancy
-(``tests/benchmark_gpu.py --max-registers``)."""
+(``benchmarks/gpu.py --max-registers``)."""
 MEMORY_FRACTION = 0.25
 """Fraction of the free device memory the state and result buffers of one call may take (the
 rest is left to the kernel's local memory and to other users of the device)."""

@@ -24,7 +24,7 @@ derivatives of the Chebyshev polynomials on each panel (Markov's inequality for 
 from the panel's own fundamental matrix (12-stage 8th-order DOP853 steps, ``SUBSTEPS`` per node,
 vectorised over all nodes), chained from beta = 0 outward by 2x2 products (the inverse by the
 adjugate, det Phi = (1 - x)/(1 - x cos beta) (Liouville)). Relative accuracy ~1e-15 of the table
-values (checked in tests/test_reduced_rolling.py against ``solver.analysis.floquet.fundamental``).
+values (checked in tests/solver/engine/test_reduced_rolling.py against ``solver.analysis.floquet.fundamental``).
 Pure numpy: building a table takes milliseconds and no compilation.
 """
 
