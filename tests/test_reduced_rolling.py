@@ -18,6 +18,7 @@ from rimroll import solver
 from rimroll.solver.analysis import floquet
 from rimroll.solver.analysis.reference import reference
 from rimroll.solver.engine import reduced_simulate, reduced_tables
+from rimroll.solver.engine import simulate as simulate_module
 from rimroll.solver.engine.outcomes import ON_RIM_AT_T_MAX, PERIODIC_ROLLING, STEADY_MOTION
 from rimroll.solver.engine.outputs import OUTPUTS
 from rimroll.workflows.sections import steady_beta0
@@ -129,6 +130,9 @@ def test_simulate_runs_it_on_request_and_by_choice():
     assert solver.simulate(states, P, method="auto").attrs["method"] == "reduced"
     hybrid = solver.simulate(np.empty((0, 4)), solver.Params(mu=1.0), method="auto")  # no state: no compile
     assert hybrid.attrs["method"] == "dp5" and hybrid["outcome"].shape == (0,)
+    assert solver.simulate(np.empty((0, 4)), P).attrs["method"] == "dp5"  # every result says its method
+    assert [simulate_module.method_used(m, q) for m, q in (("auto", P), ("auto", solver.Params(mu=1.0)),
+                                                           ("dop853", P))] == ["reduced", "dp5", "dop853"]
 
 
 def test_threads_and_shapes_do_not_change_the_answer():
