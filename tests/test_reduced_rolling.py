@@ -135,6 +135,18 @@ def test_simulate_runs_it_on_request_and_by_choice():
                                                            ("dop853", P))] == ["reduced", "dp5", "dop853"]
 
 
+def test_auto_passes_every_option_to_the_integrator_it_falls_back_on():
+    """"auto" in a slipping scene runs dp5 with the caller's switching, slip_method included."""
+    x = np.array([[1.2, 5.0, 65.0, 10.0], [1.0, -3.0, 65.0, 10.0], [1.4, 0.5, 65.0, 10.0]])
+    slip = solver.Params(mu=1.0)
+    switching = {"delta": 1e-6, "u_stop": 1e-6, "u_floor": 1e-8, "slip_method": "explicit"}
+    auto = solver.simulate(x, slip, t_max=2.0, switching=switching, method="auto", workers=1)
+    dp5 = solver.simulate(x, slip, t_max=2.0, switching=switching, method="dp5", workers=1)
+    assert auto.attrs["method"] == "dp5"
+    for name in dp5:
+        np.testing.assert_array_equal(auto[name], dp5[name])
+
+
 def test_threads_and_shapes_do_not_change_the_answer():
     states = _states(105.0, 24, seed=5)
     one = reduced_simulate.solve(states, P, workers=1)

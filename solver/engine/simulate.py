@@ -138,7 +138,8 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
             res = reduced_simulate.solve(x, params, limits.t_max, limits.rtol, _checked_workers(workers))
             return SimulateResult(res, method="reduced")
         return simulate(states, params, t_max, rtol, atol, use, max_steps=max_steps, max_switches=max_switches,
-                        workers=workers, switching=switching, backend=backend, terms=terms)
+                        workers=workers, switching={**switching, "slip_method": slip_method}, backend=backend,
+                        terms=terms)
     if not isinstance(method, str) or method not in TABLEAUS:
         raise ValueError(f"`method` must be one of {sorted(TABLEAUS)} or {', '.join(map(repr, REDUCED_METHODS))}; "
                          f"got {method!r}")
