@@ -70,7 +70,7 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
         (``solver.engine.reduced_rolling``, docs/explanation/exact-rolling.md; ValueError with one line
         for any other scene; on the CPU; atol, max_steps, max_switches and switching are not used, rtol
         only sets what counts as a transversal omega1 zero). The result's ``attrs["method"]`` says
-        which method computed it (:func:`method_used` says it beforehand).
+        which method computed it (``method_used`` says it beforehand).
     max_steps : int
         Budget of attempted steps per trajectory, 1 <= max_steps <= ``MAX_COUNT`` (2**63 - 1)
         (status ``max_steps`` when spent).
