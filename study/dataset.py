@@ -179,8 +179,12 @@ def _source(study: Study, settings: dict, version: str, device: str | None = Non
     """CF ``source``: the software and the method that made the file (and the backend it ran on)."""
     text = f"rimroll {version}, study {study.name}"
     if "method" in settings and "rtol" in settings:
-        text += (f": solver.simulate, compiled event-driven integrator {settings['method']} at rtol "
-                 f"{settings['rtol']:g}, atol {settings.get('atol', float('nan')):g}")
+        method = settings["method"]
+        text += (f": solver.simulate, compiled event-driven integrator {'dp5' if method == 'auto' else method} at "
+                 f"rtol {settings['rtol']:g}, atol {settings.get('atol', float('nan')):g}")
+        if method == "auto":
+            text += ("; the conservative rolling-only scene: the exact reduced solver (Sect. 4.4, no integration; "
+                     "method auto)")
     elif "rtol" in settings:
         text += f": rtol {settings['rtol']:g}"
     if "backend" in settings:

@@ -62,7 +62,7 @@ def _contact_range(key: str) -> Range:
 def _methods() -> tuple:
     from rimroll.solver.engine.tableaus import TABLEAUS
 
-    return tuple(sorted(TABLEAUS))
+    return ("auto",) + tuple(sorted(TABLEAUS))
 
 
 def _backends() -> tuple:
@@ -170,7 +170,8 @@ _ENTRIES = (
     S("t_max_dissipative", "s", "end of a run still on the rim (dissipative scenes)", POSITIVE),
     S("rtol", "1", "relative tolerance of the integrator", TOLERANCE),
     S("atol", "1", "absolute tolerance of the integrator", ABSOLUTE_TOLERANCE),
-    S("method", "", "integrator of solver.simulate (dp5: Dormand-Prince 5(4))", choices=_methods, what="methods"),
+    S("method", "", "method of solver.simulate (auto: the exact reduced solver in conservative rolling-only scenes, "
+      "dp5 elsewhere; dp5: Dormand-Prince 5(4); dop853)", choices=_methods, what="methods"),
     S("backend", "", "where solver.simulate runs (cuda: a GPU, extra rimroll[gpu]; auto: the GPU when usable)",
       choices=_backends, what="backends"),
     S("delta", "m s-1", "launch speed of a slip (Sect. 5.2.2); u_stop = delta, u_floor = delta/100",

@@ -207,7 +207,7 @@ register(Study(
     title="Outcome fractions and periodic islands of the Figs. 11-13 section continued in omega2",
     settings={"omega2": tuple(float(v) for v in np.linspace(20.0, 120.0, 51)), "omega3": 10.0, "mu": np.inf,
               "beta_min": 0.8, "beta_max": 1.8, "n_beta": 120, "omega1_max": 20.0, "n_omega1": 180,
-              "t_max": 20.0, "rtol": 1e-8, "atol": 1e-10, "method": "dp5", "backend": "cpu", "v_throw": 10.0,
+              "t_max": 20.0, "rtol": 1e-8, "atol": 1e-10, "method": "auto", "backend": "cpu", "v_throw": 10.0,
               **adaptive.SETTINGS, "adaptive": True},
     quick={"omega2": (20.0, 35.0, 50.0, 65.0, 85.0, 105.0, 120.0), "n_beta": 24, "n_omega1": 36,
            "adaptive_coarse": 4},

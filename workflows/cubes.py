@@ -238,7 +238,7 @@ register(Study(
     title="Outcomes of rolling initial states (Figs. 11-13, reduced grid) over mu x k_r x k_d x omega2",
     settings={"mu": (0.5, 1.0, 2.0), "k_r": (0.0, 0.01, 0.02), "k_d": (0.0, 0.01, 0.02),
               "omega2": (35.0, 65.0, 105.0), "omega3": 10.0, "n_beta": 36, "n_omega1": 60,
-              "t_max": 20.0, "rtol": 1e-6, "atol": 1e-9, "method": "dp5", "backend": "cpu", **adaptive.SETTINGS,
+              "t_max": 20.0, "rtol": 1e-6, "atol": 1e-9, "method": "auto", "backend": "cpu", **adaptive.SETTINGS,
               "delta": sections.SETTINGS["delta"], "slip_method": sections.SETTINGS["slip_method"]},
     quick={"mu": (0.5, 1.0), "k_r": (0.0, 0.02), "k_d": (0.0, 0.02), "omega2": (65.0, 105.0),
            "n_beta": 12, "n_omega1": 18},

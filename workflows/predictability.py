@@ -61,6 +61,7 @@ def _section_states(beta, omega1, s):
 # ================================================================ predictability
 PRED_SETTINGS = {
     **{k: v for k, v in sections.SETTINGS.items()},
+    "method": "dp5",  # its reference slices are a regression of dp5's uncertain pairs (auto changes them)
     "omega2": (35.0, 65.0, 105.0),  # [1/s] the sections of Figs. 11, 12, 13
     "box": 5,  # points per side of an entropy box
     "n_fine": 3,  # eps = 1/2, 1/4, 1/8 grid steps: simulated
@@ -403,7 +404,7 @@ PROB_SETTINGS = {
     "sigma_beta": 0.02,  # [rad] about 1.1 degrees, 2.6 mm of the contact point on the rim's tube
     "sigma_omega1": 1.0, "sigma_omega2": 2.0, "sigma_omega3": 1.0,  # [1/s]
     "n_samples": 64, "seed": 0, "confidence": 0.95,
-    "t_max": 20.0, "rtol": 1e-6, "atol": 1e-9, "method": "dp5",
+    "t_max": 20.0, "rtol": 1e-6, "atol": 1e-9, "method": "auto",
     "delta": sections.SETTINGS["delta"], "slip_method": sections.SETTINGS["slip_method"],
 }
 PROB_QUICK = {"n_beta": 24, "n_omega1": 36, "n_samples": 16}

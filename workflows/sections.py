@@ -26,7 +26,7 @@ SETTINGS = {
     "k_dissipation": 0.02,  # [1/s] rate of the drilling / rolling resistance scenes
     "t_max": 20.0,  # [s] conservative scenes
     "t_max_dissipative": 60.0,  # [s]
-    "rtol": 1e-8, "atol": 1e-10, "method": "dp5",
+    "rtol": 1e-8, "atol": 1e-10, "method": "auto",
     "backend": "cpu",  # solver.simulate's backend: cpu, cuda or auto (docs/outcome-engine.md, Backends)
     "delta": switching.DELTA,  # [m/s] launch speed of a slip (Sect. 5.2.2); u_stop = delta, u_floor = delta/100
     "slip_method": "rodas4",  # solver.simulate's slip_method (docs/outcome-engine.md, "Stiff slips")

@@ -64,7 +64,7 @@ from rimroll.solver.engine.outcomes import (
     ON_RIM_AT_T_MAX,
     PERIODIC_ROLLING,
 )
-from rimroll.solver.engine.reduced_tables import N_COEF, PHI21, PHI22, Q11, S11
+from rimroll.solver.engine.reduced_tables import N_COEF, N_FORMS, N_FUNCTIONS, PHI21, PHI22, Q11, S11
 
 H_MIN = 1e-13
 """Shortest interval of the root isolation [rad]."""
@@ -94,6 +94,12 @@ def _helper(func):
     return _jit.njit_cached(func, nogil=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True,
                             **_jit.NO_REFCOUNT)
 
+
+# rows of the working table (axis 1): the tabled functions (reduced_tables.PHI11 .. S22), the slopes
+# of the forms (T_SLOPES ..), then per panel the level's combined series (filled by ``_coefs``) and its key
+T_SLOPES = N_FUNCTIONS
+K_Q, K_DQ, K_S, K_DS, K_W2, K_W3, K_KEY = range(T_SLOPES + N_FORMS, T_SLOPES + N_FORMS + 7)
+N_ROWS = K_KEY + 1
 
 # constants vector c
 C_X, C_K, C_A, C_R2RHO, C_R2R, C_G, C_TIME, C_ALPHA, C_BLO, C_W, C_NPAN, C_RTOL, C_TMAX = range(13)
@@ -134,18 +140,52 @@ def _panel(beta, d, c):
 
 
 @_helper
-def _level_values(beta, d, st, tab, slo, c):
-    """(W, dW/dbeta, F, dF/dbeta): omega1^2 [1/s^2] and F2/m [m/s^2] on the level st at beta."""
-    i, u = _panel(beta, d, c)
+def _coefs(i, st, tab, c):
+    """Fill the rows K_Q .. K_W3 of panel i of the working table for the level st (unless they hold it):
+    the Chebyshev coefficients of P^T Q P, its derivative [1/rad], P^T S P, its derivative, omega2 and
+    omega3 on that panel (the combinations of the tabled functions with the level's coefficients)."""
+    key = tab[i, K_KEY]
+    if key[0] == st[ST_C0] and key[1] == st[ST_P1] and key[2] == st[ST_P2]:
+        return
     p1 = st[ST_P1]
     p2 = st[ST_P2]
     q0 = p1 * p1
     q1 = 2.0 * p1 * p2
     q2 = p2 * p2
-    Q = q0 * _clenshaw(tab[i, Q11], u) + q1 * _clenshaw(tab[i, Q11 + 1], u) + q2 * _clenshaw(tab[i, Q11 + 2], u)
-    S = q0 * _clenshaw(tab[i, S11], u) + q1 * _clenshaw(tab[i, S11 + 1], u) + q2 * _clenshaw(tab[i, S11 + 2], u)
-    dQ = q0 * _clenshaw(slo[i, 0], u) + q1 * _clenshaw(slo[i, 1], u) + q2 * _clenshaw(slo[i, 2], u)
-    dS = q0 * _clenshaw(slo[i, 3], u) + q1 * _clenshaw(slo[i, 4], u) + q2 * _clenshaw(slo[i, 5], u)
+    row = tab[i]
+    for n in range(N_COEF):
+        row[K_Q, n] = q0 * row[Q11, n] + q1 * row[Q11 + 1, n] + q2 * row[Q11 + 2, n]
+        row[K_DQ, n] = q0 * row[T_SLOPES, n] + q1 * row[T_SLOPES + 1, n] + q2 * row[T_SLOPES + 2, n]
+        row[K_S, n] = q0 * row[S11, n] + q1 * row[S11 + 1, n] + q2 * row[S11 + 2, n]
+        row[K_DS, n] = q0 * row[T_SLOPES + 3, n] + q1 * row[T_SLOPES + 4, n] + q2 * row[T_SLOPES + 5, n]
+        row[K_W2, n] = p1 * row[0, n] + p2 * row[1, n]
+        row[K_W3, n] = p1 * row[PHI21, n] + p2 * row[PHI22, n]
+    key[0] = st[ST_C0]
+    key[1] = p1
+    key[2] = p2
+
+
+@_helper
+def _level_values(beta, d, st, tab, c):
+    """(W, dW/dbeta, F, dF/dbeta): omega1^2 [1/s^2] and F2/m [m/s^2] on the level st at beta (the four
+    combined series of the panel summed in one pass of the Chebyshev recurrence)."""
+    i, u = _panel(beta, d, c)
+    _coefs(i, st, tab, c)
+    row = tab[i]
+    t0 = 1.0
+    t1 = u
+    Q = row[K_Q, 0] + row[K_Q, 1] * u
+    dQ = row[K_DQ, 0] + row[K_DQ, 1] * u
+    S = row[K_S, 0] + row[K_S, 1] * u
+    dS = row[K_DS, 0] + row[K_DS, 1] * u
+    for n in range(2, N_COEF):
+        t2 = 2.0 * u * t1 - t0
+        Q += row[K_Q, n] * t2
+        dQ += row[K_DQ, n] * t2
+        S += row[K_S, n] * t2
+        dS += row[K_DS, n] * t2
+        t0 = t1
+        t1 = t2
     s = np.sin(beta)
     co = np.cos(beta)
     W = st[ST_C0] - c[C_A] * s - Q
@@ -181,7 +221,7 @@ def _classify(fa, ga, fb, gb, m2, h):
 
 
 @_helper
-def _root(beta_a, d, h, which, st, tab, slo, c):
+def _root(beta_a, d, h, which, st, tab, c):
     """Zero of W (which = 0) or F (1) in s in [0, h] from beta_a in direction d, where the value is
     > 0 at s = 0 and <= 0 at s = h: safeguarded Newton-bisection. Returns (beta, evaluations)."""
     lo = 0.0
@@ -189,7 +229,7 @@ def _root(beta_a, d, h, which, st, tab, slo, c):
     s = 0.5 * h
     n = 0
     for _ in range(MAX_NEWTON):
-        W, dW, F, dF = _level_values(beta_a + d * s, d, st, tab, slo, c)
+        W, dW, F, dF = _level_values(beta_a + d * s, d, st, tab, c)
         n += 1
         f = W if which == 0.0 else F
         g = d * (dW if which == 0.0 else dF)
@@ -203,20 +243,23 @@ def _root(beta_a, d, h, which, st, tab, slo, c):
         s_new = s + step
         if not (lo < s_new < hi) or g == 0.0:
             s_new = 0.5 * (lo + hi)
-        if s_new == s:
-            break
+        b = beta_a + d * s
+        if beta_a + d * s_new == b:  # Newton stalls within one float of beta: the adjacent float, on the zero's side
+            s_new = d * (np.nextafter(b, b + d if f > 0.0 else b - d) - beta_a)
+            if not (lo < s_new < hi):
+                break
         s = s_new
     return beta_a + d * hi, n
 
 
 @_helper
-def _march(beta0, d, st, tab, slo, curv, c, w_start_zero):
+def _march(beta0, d, st, tab, curv, c, w_start_zero):
     """First event moving from beta0 in the direction d (+-1): (kind EV_*, beta_event, f2_min [m/s^2]
     along the way (F2/m), evaluations). ``w_start_zero``: beta0 is a turning point (W = 0 there)."""
     w = c[C_W]
     lo_edge = c[C_BLO]
     hi_edge = c[C_BLO] + c[C_NPAN] * w
-    Wa, dWa, Fa, dFa = _level_values(beta0, d, st, tab, slo, c)
+    Wa, dWa, Fa, dFa = _level_values(beta0, d, st, tab, c)
     if w_start_zero > 0.0:
         Wa = 0.0
     ga_w = d * dWa
@@ -240,7 +283,7 @@ def _march(beta0, d, st, tab, slo, curv, c, w_start_zero):
         if d * (edge - beta_b) < 1e-15:
             beta_b = edge
             hh = room
-        Wb, dWb, Fb, dFb = _level_values(beta_b, d, st, tab, slo, c)
+        Wb, dWb, Fb, dFb = _level_values(beta_b, d, st, tab, c)
         n += 1
         gb_w = d * dWb
         gb_f = d * dFb
@@ -256,11 +299,11 @@ def _march(beta0, d, st, tab, slo, curv, c, w_start_zero):
             bw = np.inf
             bf = np.inf
             if kw == 1 or (kw == 2 and Wb <= 0.0 < Wa):
-                rw, m = _root(beta_a, d, hh, 0.0, st, tab, slo, c)
+                rw, m = _root(beta_a, d, hh, 0.0, st, tab, c)
                 n += m
                 bw = d * (rw - beta0)
             if kf == 1 or (kf == 2 and Fb <= 0.0 < Fa):
-                rf, m = _root(beta_a, d, hh, 1.0, st, tab, slo, c)
+                rf, m = _root(beta_a, d, hh, 1.0, st, tab, c)
                 n += m
                 bf = d * (rf - beta0)
             if bw == np.inf and bf == np.inf:
@@ -308,19 +351,15 @@ def _w_change(beta_ref, delta, st, tab, c):
     far outside it)."""
     i, u0 = _panel(beta_ref, 1.0 if delta > 0.0 else -1.0, c)
     du = 2.0 * delta / c[C_W]
-    p1 = st[ST_P1]
-    p2 = st[ST_P2]
     ds = 2.0 * np.cos(beta_ref + 0.5 * delta) * np.sin(0.5 * delta)
+    _coefs(i, st, tab, c)
     if abs(u0 + du) > 1.25:
         j, u = _panel(beta_ref + delta, 1.0, c)
-        dq0 = _clenshaw(tab[j, Q11], u) - _clenshaw(tab[i, Q11], u0)
-        dq1 = _clenshaw(tab[j, Q11 + 1], u) - _clenshaw(tab[i, Q11 + 1], u0)
-        dq2 = _clenshaw(tab[j, Q11 + 2], u) - _clenshaw(tab[i, Q11 + 2], u0)
+        _coefs(j, st, tab, c)
+        dq = _clenshaw(tab[j, K_Q], u) - _clenshaw(tab[i, K_Q], u0)
     else:
-        dq0 = _dclenshaw(tab[i, Q11], u0, du)
-        dq1 = _dclenshaw(tab[i, Q11 + 1], u0, du)
-        dq2 = _dclenshaw(tab[i, Q11 + 2], u0, du)
-    return -c[C_A] * ds - (p1 * p1 * dq0 + 2.0 * p1 * p2 * dq1 + p2 * p2 * dq2)
+        dq = _dclenshaw(tab[i, K_Q], u0, du)
+    return -c[C_A] * ds - dq
 
 
 @_helper
@@ -329,7 +368,8 @@ def _densities(beta, w_shifted, st, tab, c):
     if not w_shifted > 0.0:
         return 0.0, 0.0
     i, u = _panel(beta, 1.0, c)
-    w3 = st[ST_P1] * _clenshaw(tab[i, PHI21], u) + st[ST_P2] * _clenshaw(tab[i, PHI22], u)
+    _coefs(i, st, tab, c)
+    w3 = _clenshaw(tab[i, K_W3], u)
     inv = 1.0 / np.sqrt(w_shifted)
     return c[C_TIME] * inv, -c[C_ALPHA] * w3 / (1.0 - c[C_X] * np.cos(beta)) * inv
 
@@ -379,7 +419,7 @@ def _gl(a, b, beta_s, beta_e, mode, ws, we, st, tab, c, xg, wg):
 
 
 @_helper
-def _leg(beta_s, beta_e, sing_s, sing_e, st, tab, slo, c, xg, wg, stack):
+def _leg(beta_s, beta_e, sing_s, sing_e, st, tab, c, xg, wg, stack):
     """Time [s] and alpha [rad] from beta_s to beta_e (monotone motion), W vanishing at the ends
     flagged singular. Returns (t, alpha, ok, evaluations)."""
     if beta_e == beta_s:
@@ -388,9 +428,9 @@ def _leg(beta_s, beta_e, sing_s, sing_e, st, tab, slo, c, xg, wg, stack):
     ws = 0.0
     we = 0.0
     if sing_s > 0.0 or mode == 0:
-        ws = _level_values(beta_s, 1.0, st, tab, slo, c)[0]
+        ws = _level_values(beta_s, 1.0, st, tab, c)[0]
     if sing_e > 0.0:
-        we = _level_values(beta_e, 1.0, st, tab, slo, c)[0]
+        we = _level_values(beta_e, 1.0, st, tab, c)[0]
     top = np.pi if mode == 3 else (0.5 * np.pi if mode != 0 else 1.0)
     n_st = 0
     stack[0, 0] = 0.0
@@ -433,7 +473,7 @@ def _leg(beta_s, beta_e, sing_s, sing_e, st, tab, slo, c, xg, wg, stack):
 
 
 @_helper
-def _at_time(beta_s, beta_e, sing_s, sing_e, target, st, tab, slo, c, xg, wg, stack):
+def _at_time(beta_s, beta_e, sing_s, sing_e, target, st, tab, c, xg, wg, stack):
     """beta where the time from beta_s (towards beta_e, monotone) reaches target [s] < the leg's time,
     and alpha [rad] up to it: Newton on t(beta) (dt/dbeta = (rho/r)/sqrt(W)) safeguarded by bisection.
     Returns (beta, alpha, ok, evaluations)."""
@@ -445,7 +485,7 @@ def _at_time(beta_s, beta_e, sing_s, sing_e, target, st, tab, slo, c, xg, wg, st
     alpha = 0.0
     ok = True
     for _ in range(MAX_NEWTON):
-        t, alpha, good, m = _leg(beta_s, beta_s + d * s, sing_s, 0.0, st, tab, slo, c, xg, wg, stack)
+        t, alpha, good, m = _leg(beta_s, beta_s + d * s, sing_s, 0.0, st, tab, c, xg, wg, stack)
         n += m
         ok = ok and good
         err = t - target
@@ -455,7 +495,7 @@ def _at_time(beta_s, beta_e, sing_s, sing_e, target, st, tab, slo, c, xg, wg, st
             lo = s
         if abs(err) <= 1e-14 * target + 1e-16 or hi - lo <= 4e-16 * (abs(beta_s) + hi):
             return beta_s + d * s, alpha, ok, n
-        W = _level_values(beta_s + d * s, d, st, tab, slo, c)[0]
+        W = _level_values(beta_s + d * s, d, st, tab, c)[0]
         n += 1
         s_new = s - err * np.sqrt(max(W, 0.0)) / c[C_TIME]
         if not (lo < s_new < hi):
@@ -469,8 +509,9 @@ def _transversal(beta, st, tab, c, p):
     """Whether omega1 = 0 at beta on the level st is a transversal zero at the simulation's rtol
     (``rules.transversal_omega1_zero``)."""
     i, u = _panel(beta, 1.0, c)
-    w2 = st[ST_P1] * _clenshaw(tab[i, 0], u) + st[ST_P2] * _clenshaw(tab[i, 1], u)
-    w3 = st[ST_P1] * _clenshaw(tab[i, PHI21], u) + st[ST_P2] * _clenshaw(tab[i, PHI22], u)
+    _coefs(i, st, tab, c)
+    w2 = _clenshaw(tab[i, K_W2], u)
+    w3 = _clenshaw(tab[i, K_W3], u)
     return rules.transversal_omega1_zero(beta, 0.0, w2, w3, p, c[C_RTOL])
 
 
@@ -482,7 +523,7 @@ def _extend(res, beta):
 
 
 @_helper
-def _f_min(lo, hi, st, tab, slo, c):
+def _f_min(lo, hi, st, tab, c):
     """Smallest F2/m [m/s^2] on [lo, hi] [rad]: samples every 1/4 panel, then the zero of dF/dbeta
     bracketed around the smallest interior sample (bisection to 1e-6 of a panel)."""
     n = min(int(np.ceil((hi - lo) / (0.25 * c[C_W]))), 4000) + 1
@@ -490,7 +531,7 @@ def _f_min(lo, hi, st, tab, slo, c):
     k_best = 0
     step = (hi - lo) / max(n - 1, 1)
     for k in range(n):
-        F = _level_values(lo + k * step, 1.0, st, tab, slo, c)[2]
+        F = _level_values(lo + k * step, 1.0, st, tab, c)[2]
         if F < best:
             best = F
             k_best = k
@@ -498,17 +539,17 @@ def _f_min(lo, hi, st, tab, slo, c):
         return best
     a = lo + (k_best - 1) * step
     b = lo + (k_best + 1) * step
-    if not (_level_values(a, 1.0, st, tab, slo, c)[3] < 0.0 < _level_values(b, 1.0, st, tab, slo, c)[3]):
+    if not (_level_values(a, 1.0, st, tab, c)[3] < 0.0 < _level_values(b, 1.0, st, tab, c)[3]):
         return best
     for _ in range(MAX_NEWTON):
         m = 0.5 * (a + b)
         if b - a < 1e-6 * c[C_W]:  # F there is within |F''| 1e-14 of its minimum
             break
-        if _level_values(m, 1.0, st, tab, slo, c)[3] < 0.0:
+        if _level_values(m, 1.0, st, tab, c)[3] < 0.0:
             a = m
         else:
             b = m
-    return min(best, _level_values(0.5 * (a + b), 1.0, st, tab, slo, c)[2])
+    return min(best, _level_values(0.5 * (a + b), 1.0, st, tab, c)[2])
 
 
 @_helper
@@ -520,16 +561,17 @@ def _finish(res, resi, beta, w1, st, tab, c, t, alpha):
     res[R_REV] = alpha / (2.0 * np.pi)
     res[R_BETA] = beta
     res[R_W1] = w1
-    res[R_W2] = st[ST_P1] * _clenshaw(tab[i, 0], u) + st[ST_P2] * _clenshaw(tab[i, 1], u)
-    res[R_W3] = st[ST_P1] * _clenshaw(tab[i, PHI21], u) + st[ST_P2] * _clenshaw(tab[i, PHI22], u)
+    _coefs(i, st, tab, c)
+    res[R_W2] = _clenshaw(tab[i, K_W2], u)
+    res[R_W3] = _clenshaw(tab[i, K_W3], u)
 
 
 @_helper
-def _end_on_rim(res, resi, bt, d, ok, st, tab, slo, c, t_max, alpha):
+def _end_on_rim(res, resi, bt, d, ok, st, tab, c, t_max, alpha):
     """Ends the state on the rim at t_max at beta = bt, moving in direction d (status max_steps unless ok)."""
     if not ok:
         resi[RI_STATUS] = MAX_STEPS
-    W = _level_values(bt, d, st, tab, slo, c)[0]
+    W = _level_values(bt, d, st, tab, c)[0]
     _finish(res, resi, bt, d * np.sqrt(max(W, 0.0)), st, tab, c, t_max, alpha)
     resi[RI_OUTCOME] = ON_RIM_AT_T_MAX
 
@@ -543,9 +585,9 @@ def _end_periodic(res, resi, b, st, tab, c, t, alpha, half):
 
 
 @_helper
-def _end_fall(res, resi, b, d, st, tab, slo, c, t, alpha):
+def _end_fall(res, resi, b, d, st, tab, c, t, alpha):
     """Ends the state where the ball leaves the rim (F2 = 0) at beta = b, moving in direction d, time t [s]."""
-    W = _level_values(b, d, st, tab, slo, c)[0]
+    W = _level_values(b, d, st, tab, c)[0]
     _finish(res, resi, b, d * np.sqrt(max(W, 0.0)), st, tab, c, t, alpha)
     resi[RI_FELL] = 1
 
@@ -567,17 +609,17 @@ def _end_failed(res, resi, k, fmin, beta0, w10, st, tab, c):
 
 
 @_helper
-def solve_one(x, st, tab, slo, curv, c, p, xg, wg, stack, res, resi):
+def solve_one(x, st, tab, curv, c, p, xg, wg, stack, res, resi):
     """One conservative rolling state that neither starts off the rim nor on a steady motion.
 
     x: the state (beta [rad], omega1 [1/s], ...) at the start, its level st (C0, P1, P2). Writes res (N_R floats:
     t_end [s], f2_min [N/kg], half_period [s], revolutions, end state) and resi (outcome, status,
     evaluations, fell: 1 when the ball left the rim at the end state)."""
-    resi[RI_EVALS] = _solve_legs(x, st, tab, slo, curv, c, p, xg, wg, stack, res, resi)
+    resi[RI_EVALS] = _solve_legs(x, st, tab, curv, c, p, xg, wg, stack, res, resi)
 
 
 @_helper
-def _solve_legs(x, st, tab, slo, curv, c, p, xg, wg, stack, res, resi):
+def _solve_legs(x, st, tab, curv, c, p, xg, wg, stack, res, resi):
     """``solve_one``'s work; returns the number of evaluations of the tables."""
     beta0, w10 = x[0], x[1]
     t_max = c[C_TMAX]
@@ -587,32 +629,32 @@ def _solve_legs(x, st, tab, slo, curv, c, p, xg, wg, stack, res, resi):
     res[R_LO] = res[R_HI] = beta0
     start_turn = w10 == 0.0
     if start_turn:
-        d = 1.0 if _level_values(beta0, 1.0, st, tab, slo, c)[1] > 0.0 else -1.0
+        d = 1.0 if _level_values(beta0, 1.0, st, tab, c)[1] > 0.0 else -1.0
     else:
         d = 1.0 if w10 > 0.0 else -1.0
     n_ev = 0
     # leg 1: from beta0 in direction d
     ts = 1.0 if start_turn else 0.0
-    k1, b1, fmin1, m = _march(beta0, d, st, tab, slo, curv, c, ts)
+    k1, b1, fmin1, m = _march(beta0, d, st, tab, curv, c, ts)
     s1 = 1.0 if k1 == EV_TURN else 0.0
     n_ev += m
     fmin = fmin1
     if k1 == EV_FAIL or k1 == EV_CAP:
         _end_failed(res, resi, k1, fmin, beta0, w10, st, tab, c)
         return n_ev
-    t1, a1, ok1, m = _leg(beta0, b1, ts, s1, st, tab, slo, c, xg, wg, stack)
+    t1, a1, ok1, m = _leg(beta0, b1, ts, s1, st, tab, c, xg, wg, stack)
     n_ev += m
     if not ok1:
         resi[RI_STATUS] = MAX_STEPS
     if t1 > t_max:  # on the rim at t_max, during leg 1
-        bt, at, ok, m = _at_time(beta0, b1, ts, s1, t_max, st, tab, slo, c, xg, wg, stack)
+        bt, at, ok, m = _at_time(beta0, b1, ts, s1, t_max, st, tab, c, xg, wg, stack)
         n_ev += m
-        _end_on_rim(res, resi, bt, d, ok, st, tab, slo, c, t_max, at)
+        _end_on_rim(res, resi, bt, d, ok, st, tab, c, t_max, at)
         res[R_F2MIN] = fmin
         return n_ev
     _extend(res, b1)
     if k1 == EV_FALL:
-        _end_fall(res, resi, b1, d, st, tab, slo, c, t1, a1)
+        _end_fall(res, resi, b1, d, st, tab, c, t1, a1)
         res[R_F2MIN] = fmin
         return n_ev
     # the other way: from beta0 in direction -d (unless beta0 itself is the turning point)
@@ -620,13 +662,13 @@ def _solve_legs(x, st, tab, slo, curv, c, p, xg, wg, stack, res, resi):
         k2, b2, t2, a2 = EV_TURN, beta0, 0.0, 0.0
         cross_first = _transversal(beta0, st, tab, c, p)
     else:
-        k2, b2, fmin2, m = _march(beta0, -d, st, tab, slo, curv, c, 0.0)
+        k2, b2, fmin2, m = _march(beta0, -d, st, tab, curv, c, 0.0)
         n_ev += m
         fmin = min(fmin, fmin2)
         if k2 == EV_FAIL or k2 == EV_CAP:
             _end_failed(res, resi, k2, fmin, beta0, w10, st, tab, c)
             return n_ev
-        t2, a2, ok2, m = _leg(beta0, b2, 0.0, 1.0 if k2 == EV_TURN else 0.0, st, tab, slo, c, xg, wg, stack)
+        t2, a2, ok2, m = _leg(beta0, b2, 0.0, 1.0 if k2 == EV_TURN else 0.0, st, tab, c, xg, wg, stack)
         n_ev += m
         if not ok2:
             resi[RI_STATUS] = MAX_STEPS
@@ -650,20 +692,20 @@ def _solve_legs(x, st, tab, slo, curv, c, p, xg, wg, stack, res, resi):
             # b1 -> beta0 -> b2
             if t + t1 + t2 > t_max:
                 if t + t1 > t_max:
-                    bt, at, ok, m = _at_time(b1, beta0, 1.0, ts, t_max - t, st, tab, slo, c, xg, wg, stack)
+                    bt, at, ok, m = _at_time(b1, beta0, 1.0, ts, t_max - t, st, tab, c, xg, wg, stack)
                     alpha_t = alpha + at
                 else:
                     bt, at, ok, m = _at_time(beta0, b2, ts, 1.0 if k2 == EV_TURN else 0.0, t_max - t - t1, st, tab,
-                                             slo, c, xg, wg, stack)
+                                             c, xg, wg, stack)
                     alpha_t = alpha + a1 + at
                 n_ev += m
-                _end_on_rim(res, resi, bt, -d, ok, st, tab, slo, c, t_max, alpha_t)
+                _end_on_rim(res, resi, bt, -d, ok, st, tab, c, t_max, alpha_t)
                 return n_ev
             t += t1 + t2
             alpha += a1 + a2
             _extend(res, b2)
             if k2 == EV_FALL:
-                _end_fall(res, resi, b2, -d, st, tab, slo, c, t, alpha)
+                _end_fall(res, resi, b2, -d, st, tab, c, t, alpha)
                 return n_ev
             at_b1 = False
             if turn_b2:
@@ -675,14 +717,14 @@ def _solve_legs(x, st, tab, slo, curv, c, p, xg, wg, stack, res, resi):
             # b2 -> beta0 -> b1
             if t + t1 + t2 > t_max:
                 if t + t2 > t_max:
-                    bt, at, ok, m = _at_time(b2, beta0, 1.0, ts, t_max - t, st, tab, slo, c, xg, wg, stack)
+                    bt, at, ok, m = _at_time(b2, beta0, 1.0, ts, t_max - t, st, tab, c, xg, wg, stack)
                     alpha_t = alpha + at
                 else:
-                    bt, at, ok, m = _at_time(beta0, b1, ts, 1.0, t_max - t - t2, st, tab, slo, c, xg, wg,
+                    bt, at, ok, m = _at_time(beta0, b1, ts, 1.0, t_max - t - t2, st, tab, c, xg, wg,
                                              stack)
                     alpha_t = alpha + a2 + at
                 n_ev += m
-                _end_on_rim(res, resi, bt, d, ok, st, tab, slo, c, t_max, alpha_t)
+                _end_on_rim(res, resi, bt, d, ok, st, tab, c, t_max, alpha_t)
                 return n_ev
             t += t1 + t2
             alpha += a1 + a2
@@ -699,14 +741,24 @@ def _solve_legs(x, st, tab, slo, curv, c, p, xg, wg, stack, res, resi):
     return n_ev
 
 
+def working_table(table):
+    """A working copy (n_panels, N_ROWS, N_COEF) of a ``reduced_tables.Table`` for one thread: its values, the
+    slopes of its forms, and room for the combined series of one level per panel (keys NaN: empty)."""
+    out = np.full((table.values.shape[0], N_ROWS, N_COEF), np.nan)
+    out[:, :T_SLOPES] = table.values
+    out[:, T_SLOPES:T_SLOPES + N_FORMS] = table.slopes
+    return out
+
+
 @kernel(runtime=True)
-def solve_many(x0, levels, tab, slo, curv, c, p, xg, wg, res, resi):
+def solve_many(x0, levels, tab, curv, c, p, xg, wg, res, resi):
     """``solve_one`` for each row of x0 (m, 4) with its level row (C0, P1, P2): results into res (m, N_R)
-    and resi (m, N_RI). Falls are classified by ``rules.fall_outcome`` here."""
+    and resi (m, N_RI); tab: a ``working_table`` (written: one per thread). Falls are
+    classified by ``rules.fall_outcome`` here."""
     stack = np.empty((MAX_PANELS + 4, 4))
     for n in range(x0.shape[0]):
-        solve_one(x0[n], levels[n], tab, slo, curv, c, p, xg, wg, stack, res[n], resi[n])
-        fmin = _f_min(res[n, R_LO], res[n, R_HI], levels[n], tab, slo, c)
+        solve_one(x0[n], levels[n], tab, curv, c, p, xg, wg, stack, res[n], resi[n])
+        fmin = _f_min(res[n, R_LO], res[n, R_HI], levels[n], tab, c)
         res[n, R_F2MIN] = min(fmin, 0.0) if resi[n, RI_FELL] == 1 else fmin
         if resi[n, RI_FELL] == 1:
             resi[n, RI_OUTCOME] = rules.fall_outcome(res[n, R_BETA], res[n, R_W1], res[n, R_W3], 0.0, 0.0, p)

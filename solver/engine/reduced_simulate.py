@@ -167,9 +167,9 @@ def _run_threads(x0, levels, table, c, p, res, resi, workers):
     workers = min(os.cpu_count() or 1, 1024) if workers is None else int(workers)
     m = x0.shape[0]
     n_chunks = min(m, workers * _CHUNKS_PER_WORKER) if workers > 1 else 1
-    args = (table.values, table.slopes, table.curvature, c, p, _GL_X, _GL_W)
+    args = (table.curvature, c, p, _GL_X, _GL_W)
     if n_chunks <= 1:
-        rr.solve_many(x0, levels, *args[:5], *args[5:], res, resi)
+        rr.solve_many(x0, levels, rr.working_table(table), *args, res, resi)
         return
     order = np.argsort(np.arange(m) % n_chunks, kind="stable")
     bounds = np.searchsorted(order % n_chunks, np.arange(n_chunks + 1))
@@ -177,7 +177,7 @@ def _run_threads(x0, levels, table, c, p, res, resi, workers):
     rs, ris = np.empty_like(res), np.empty_like(resi)
 
     def run(lo, hi):
-        rr.solve_many(xs[lo:hi], ls[lo:hi], *args, rs[lo:hi], ris[lo:hi])
+        rr.solve_many(xs[lo:hi], ls[lo:hi], rr.working_table(table), *args, rs[lo:hi], ris[lo:hi])
 
     with ThreadPoolExecutor(max_workers=workers) as pool:
         for fut in [pool.submit(run, lo, hi) for lo, hi in zip(bounds[:-1], bounds[1:])]:

@@ -62,13 +62,15 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
         units of each state component) of the embedded error estimate. rtol also sets what
         counts as a steady motion and as a transversal omega1 zero (``solver.engine.rules``).
     method : {"dp5", "dop853", "reduced", "auto"}
-        Dormand-Prince 5(4) with 4th-order dense output, or DOP853 with 7th-order dense output;
-        "reduced": the conservative rolling-only scene solved exactly on the level of the conserved
-        quantities (60), (68) (``solver.engine.reduced_rolling``, docs/explanation/exact-rolling.md;
-        ValueError with one line for any other scene; on the CPU; atol, max_steps, max_switches and
-        switching are not used, rtol only sets what counts as a transversal omega1 zero); "auto":
-        "reduced" where the scene allows it (and ``backend`` is not "cuda"), else "dp5". With "reduced"
-        or "auto" the result's ``attrs["method"]`` says which was used.
+        "auto" (the studies' default): "reduced" where the scene allows it (the conservative rolling-only
+        scene, ``backend`` not "cuda"), else "dp5"; "dp5" (the default here): Dormand-Prince 5(4) with
+        4th-order dense output;
+        "dop853": DOP853 with 7th-order dense output; "reduced": the conservative rolling-only scene
+        solved exactly on the level of the conserved quantities (60), (68)
+        (``solver.engine.reduced_rolling``, docs/explanation/exact-rolling.md; ValueError with one line
+        for any other scene; on the CPU; atol, max_steps, max_switches and switching are not used, rtol
+        only sets what counts as a transversal omega1 zero). The result's ``attrs["method"]`` says
+        which method computed it (``method_used`` says it beforehand).
     max_steps : int
         Budget of attempted steps per trajectory, 1 <= max_steps <= ``MAX_COUNT`` (2**63 - 1)
         (status ``max_steps`` when spent).
@@ -135,9 +137,9 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
         if use == "reduced":
             res = reduced_simulate.solve(x, params, limits.t_max, limits.rtol, _checked_workers(workers))
             return SimulateResult(res, method="reduced")
-        return SimulateResult(simulate(states, params, t_max, rtol, atol, use, max_steps=max_steps,
-                                       max_switches=max_switches, workers=workers, switching=switching,
-                                       backend=backend, terms=terms), method=use)
+        return simulate(states, params, t_max, rtol, atol, use, max_steps=max_steps, max_switches=max_switches,
+                        workers=workers, switching={**switching, "slip_method": slip_method}, backend=backend,
+                        terms=terms)
     if not isinstance(method, str) or method not in TABLEAUS:
         raise ValueError(f"`method` must be one of {sorted(TABLEAUS)} or {', '.join(map(repr, REDUCED_METHODS))}; "
                          f"got {method!r}")
@@ -156,7 +158,7 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
     else:
         _run_cpu(scene, TABLEAUS[method].method, flat, params.as_array(), sw if scene.slips else None, limits, workers,
                  res_f, res_i)
-    return _fields(flat, shape, res_f, res_i, params)
+    return SimulateResult(_fields(flat, shape, res_f, res_i, params), method=method)
 
 
 REDUCED_METHODS = ("reduced", "auto")
@@ -169,6 +171,15 @@ class SimulateResult(dict):
     def __init__(self, columns, method: str):
         super().__init__(columns)
         self.attrs = {"method": method}
+
+
+def method_used(method, params: Params, terms=(), backend="cpu") -> str:
+    """The method :func:`simulate` runs for ``method`` in the scene of ``params`` and ``terms``: "auto"
+    resolved ("reduced" for the conservative rolling-only scene on the CPU, else "dp5"); any other
+    value as given (checked by ``simulate``)."""
+    if method != "auto":
+        return method
+    return _reduced_method(method, params, terms, backend)
 
 
 def _reduced_method(method, params, terms, backend) -> str:

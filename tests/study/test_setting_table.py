@@ -103,7 +103,7 @@ def test_every_studys_defaults_and_quick_values_pass_the_checks():
 def test_out_of_range_messages_name_setting_value_and_what_is_allowed(tmp_path, capsys):
     cases = [(["fig11", "--quick", "--set", "rtol=0"], "setting rtol=0.0 is out of range for study 'fig11': "
                                                        "allowed 1e-14 <= rtol <= 0.01"),
-             (["fig11", "--quick", "--set", "method=rk4"], "allowed methods are dop853, dp5"),
+             (["fig11", "--quick", "--set", "method=rk4"], "allowed methods are auto, dop853, dp5"),
              (["fig8", "--set", "j=-1"], "parameter j=-1.0 is out of range: allowed a positive number below 1e12"),
              (["predictability", "--quick", "--set", "n_fine=-1"], "allowed an integer 0 <= n_fine <= 100000"),
              # a swept value and a new grid value are checked by the same table
@@ -123,7 +123,7 @@ def test_study_info_and_run_help_show_the_tables_units_doc_and_range(monkeypatch
     out = capsys.readouterr().out
     entry = TABLE["rtol"]
     assert re.search(rf"rtol\s+1e-08\s+\[1\]\s+{re.escape(entry.doc)} \(1e-14 <= rtol <= 0\.01\)", out)
-    assert re.search(r"method\s+dp5\s+.*\(methods dop853, dp5\)", out)
+    assert re.search(r"method\s+auto\s+.*\(methods auto, dop853, dp5\)", out)
     # what the table says is what info says: change an entry, and the line changes (of the study described
     # from its module; the catalogue's cards are made that way, tests/study/test_cli_info.py)
     from rimroll.study import catalogue

@@ -18,6 +18,7 @@ from rimroll import solver
 from rimroll.solver.analysis import floquet
 from rimroll.solver.analysis.reference import reference
 from rimroll.solver.engine import reduced_simulate, reduced_tables
+from rimroll.solver.engine import simulate as simulate_module
 from rimroll.solver.engine.outcomes import ON_RIM_AT_T_MAX, PERIODIC_ROLLING, STEADY_MOTION
 from rimroll.solver.engine.outputs import OUTPUTS
 from rimroll.workflows.sections import steady_beta0
@@ -129,6 +130,21 @@ def test_simulate_runs_it_on_request_and_by_choice():
     assert solver.simulate(states, P, method="auto").attrs["method"] == "reduced"
     hybrid = solver.simulate(np.empty((0, 4)), solver.Params(mu=1.0), method="auto")  # no state: no compile
     assert hybrid.attrs["method"] == "dp5" and hybrid["outcome"].shape == (0,)
+    assert solver.simulate(np.empty((0, 4)), P).attrs["method"] == "dp5"  # every result says its method
+    assert [simulate_module.method_used(m, q) for m, q in (("auto", P), ("auto", solver.Params(mu=1.0)),
+                                                           ("dop853", P))] == ["reduced", "dp5", "dop853"]
+
+
+def test_auto_passes_every_option_to_the_integrator_it_falls_back_on():
+    """"auto" in a slipping scene runs dp5 with the caller's switching, slip_method included."""
+    x = np.array([[1.2, 5.0, 65.0, 10.0], [1.0, -3.0, 65.0, 10.0], [1.4, 0.5, 65.0, 10.0]])
+    slip = solver.Params(mu=1.0)
+    switching = {"delta": 1e-6, "u_stop": 1e-6, "u_floor": 1e-8, "slip_method": "explicit"}
+    auto = solver.simulate(x, slip, t_max=2.0, switching=switching, method="auto", workers=1)
+    dp5 = solver.simulate(x, slip, t_max=2.0, switching=switching, method="dp5", workers=1)
+    assert auto.attrs["method"] == "dp5"
+    for name in dp5:
+        np.testing.assert_array_equal(auto[name], dp5[name])
 
 
 def test_threads_and_shapes_do_not_change_the_answer():
