@@ -94,6 +94,11 @@ def _parser() -> argparse.ArgumentParser:
                         help="directory of the reference slices (default: $RIMROLL_REFERENCE_DIR, else the "
                              "slices shipped with rimroll)")
     _trace_parser(sub)
+    cross = sub.add_parser("crosscheck", help="the exact reduced solver against the engine on the reference slices "
+                                              "(the cells of conservative rolling-only scenes; study.crosscheck)")
+    cross.add_argument("names", nargs="*", metavar="STUDY", help="studies to check (default: every study with a slice)")
+    cross.add_argument("--reference", default=None, metavar="DIR", help="directory of the reference slices")
+    cross.add_argument("--grid", default="default", choices=("default", "quick"), help="which slice (default: default)")
     ref = sub.add_parser("reference", help="stored reference slices (study/reference_slices): build them")
     ref.add_argument("--build", action="store_true", required=True,
                      help="compute the slices (outcome sections at rtol 1e-12, DOP853) and write them")
@@ -516,6 +521,10 @@ def _dispatch(args, command: str) -> int:
         return _cmd_verify(args)
     if args.command == "reference":
         return _cmd_reference(args, command)
+    if args.command == "crosscheck":
+        from rimroll.study import crosscheck
+
+        return crosscheck.main(args.names, args.reference, args.grid)
     if args.command == "trace":
         from rimroll.study import rim_trace as trace
 

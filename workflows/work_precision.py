@@ -33,10 +33,16 @@ from rimroll.study.registry import Axis, ReferenceSpec, Study, Var, register
 from rimroll.workflows import heyoka_rolling
 from rimroll.workflows.sections import SCENE_IGNORES, SCENES, scene_axis, scene_index, scene_params
 
+REDUCED = "rimroll_reduced"
 INTEGRATORS = ("rimroll_dp5", "rimroll_dop853", "scipy_rk45", "scipy_dop853", "scipy_lsoda") + (
-    (heyoka_rolling.LABEL,) if heyoka_rolling.available() else ())
-"""Labels of the ``integrator`` coordinate: rimroll's compiled methods, scipy's solve_ivp, then heyoka's
-Taylor integrator where heyoka is installed (the extra rimroll[bench])."""
+    (heyoka_rolling.LABEL,) if heyoka_rolling.available() else ()) + (REDUCED,)
+"""Labels of the ``integrator`` coordinate: rimroll's compiled methods, scipy's solve_ivp, heyoka's
+Taylor integrator where heyoka is installed (the extra rimroll[bench]), then rimroll's exact reduced
+solver of the rolling-only scene."""
+REDUCED_TEXT = (f"; {REDUCED} = rimroll's exact reduced solver (solver.simulate method='reduced', "
+                "docs/explanation/exact-rolling.md): a quadrature, not an integration, so rtol changes nothing but "
+                "the rule of a transversal omega1 zero; it runs the rolling-only scene only, its values in the other "
+                "scenes are NaN")
 HEYOKA_TEXT = (f"; {heyoka_rolling.LABEL} = heyoka's Taylor integrator, batch mode on one thread, tol = rtol "
                "(rimroll.workflows.heyoka_rolling); it runs the rolling-only scene only, its values in the other "
                "scenes are NaN: its model is that scene (mu = inf, k_r = k_d = 0)")
@@ -86,7 +92,7 @@ def _axes(s: dict) -> list[Axis]:
         Axis("integrator", np.array(INTEGRATORS), "", "integration method: rimroll_dp5 / rimroll_dop853 = rimroll's "
              "compiled Dormand-Prince 5(4) / 8(5,3); scipy_rk45 / scipy_dop853 / scipy_lsoda = scipy.integrate."
              "solve_ivp with RK45 / DOP853 / LSODA on the same equations and event rules"
-             + (HEYOKA_TEXT if heyoka_rolling.LABEL in INTEGRATORS else "")),
+             + (HEYOKA_TEXT if heyoka_rolling.LABEL in INTEGRATORS else "") + REDUCED_TEXT),
         Axis("rtol", rtols, "1", "relative tolerance", comment="relative tolerance of the run (atol = 1e-2 rtol)"),
     ]
 
@@ -106,6 +112,15 @@ def _ours(states, params, t_max, rtol, method, min_seconds=0.05):
         elapsed = time.perf_counter() - start
         best, spent = min(best, elapsed), spent + elapsed
     return res, best / len(states)
+
+
+def _refused(states, params, t_max) -> bool:
+    """Whether the reduced solver refuses the scene of ``params`` (it runs the conservative rolling-only one)."""
+    try:
+        solver.simulate(states[:1], params, t_max=t_max, method="reduced", workers=1)
+    except ValueError:
+        return True
+    return False
 
 
 def _heyoka(states, params, t_max, rtol, min_seconds=0.05):
@@ -169,12 +184,15 @@ def _compute(coords, p: solver.Params, s: dict) -> dict:
             name = str(name)
             for r in np.unique(rtol):
                 where = (scene == label) & (integrator == name) & (rtol == r)
-                if name in OURS:
-                    res, sec = _ours(states, params, t_max, float(r), OURS[name])
+                if name in OURS or name == REDUCED:
+                    if name == REDUCED and _refused(states, params, t_max):
+                        continue  # NaN: the reduced solver runs the conservative rolling-only scene only
+                    method = OURS.get(name, "reduced")
+                    res, sec = _ours(states, params, t_max, float(r), method)
                     scores = _scores(res, ref, sec)
                     if n_scipy:
                         scores["seconds_per_trajectory_common"] = _ours(states[common], params, t_max, float(r),
-                                                                        OURS[name])[1]
+                                                                        method)[1]
                 elif name == heyoka_rolling.LABEL:
                     if heyoka_rolling.unsupported(params):
                         continue  # NaN: the reason is in the integrator coordinate's long_name
@@ -194,7 +212,8 @@ def _compute(coords, p: solver.Params, s: dict) -> dict:
 
 
 STYLES = {"rimroll_dp5": ("C0", "o-"), "rimroll_dop853": ("C1", "s-"), "scipy_rk45": ("C2", "^--"),
-          "scipy_dop853": ("C3", "v--"), "scipy_lsoda": ("C4", "d--"), heyoka_rolling.LABEL: ("C5", "P-")}
+          "scipy_dop853": ("C3", "v--"), "scipy_lsoda": ("C4", "d--"), heyoka_rolling.LABEL: ("C5", "P-"),
+          REDUCED: ("C6", "*-")}
 RTOL_NOTED = ("rimroll_dp5", "scipy_rk45")  # curves whose points carry their log10 rtol
 
 

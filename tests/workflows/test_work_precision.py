@@ -10,7 +10,7 @@ import xarray as xr
 
 from rimroll.workflows import heyoka_rolling
 from rimroll.workflows.sections import SCENES
-from rimroll.workflows.work_precision import INTEGRATORS, speed_ratio
+from rimroll.workflows.work_precision import INTEGRATORS, REDUCED, speed_ratio
 
 HEYOKA = heyoka_rolling.LABEL
 
@@ -31,7 +31,7 @@ def test_every_integrator_runs_in_every_scene_with_units(wp):
     assert list(wp["integrator"].values) == list(INTEGRATORS)
     assert list(wp["scene"].values) == list(SCENES)
     assert wp.sizes == {"scene": 4, "integrator": len(INTEGRATORS), "rtol": 2}
-    ours_and_scipy = wp["seconds_per_trajectory"].drop_sel(integrator=HEYOKA, errors="ignore")
+    ours_and_scipy = wp["seconds_per_trajectory"].drop_sel(integrator=[HEYOKA, REDUCED], errors="ignore")
     assert np.isfinite(ours_and_scipy).all()  # scipy too, slipping scenes included
     for name in ("seconds_per_trajectory", "misclassified_fraction", "t_end_error_median", "t_end_error_max"):
         assert wp[name].attrs["units"] and wp[name].attrs["long_name"]
@@ -54,6 +54,19 @@ def test_heyoka_runs_the_rolling_only_scene_and_says_why_not_the_others(wp):
     assert (rolling["misclassified_fraction"] == 0).all() and (rolling["t_end_error_max"] < 1e-5).all()
     assert (rolling["n_trajectories"] == wp["n_trajectories"].sel(integrator="rimroll_dp5", scene="rolling_only")).all()
     assert "rolling-only scene only" in wp["integrator"].attrs["long_name"]
+
+
+def test_the_reduced_solver_runs_the_rolling_only_scene_exactly_and_says_why_not_the_others(wp):
+    red = wp.sel(integrator=REDUCED)
+    rolling = red.sel(scene="rolling_only")
+    for name in ("seconds_per_trajectory", "seconds_per_trajectory_common", "t_end_error_max", "energy_drift_median"):
+        assert np.isfinite(rolling[name]).all(), name
+        assert np.isnan(red[name].sel(scene=[s for s in SCENES if s != "rolling_only"])).all(), name
+    assert (rolling["misclassified_fraction"] == 0).all()
+    # exact up to the reference's own error (DOP853 at rtol 1e-12): tighter than rimroll's DOP853 at 1e-8
+    dop = wp["t_end_error_max"].sel(integrator="rimroll_dop853", scene="rolling_only").sel(rtol=1e-8, method="nearest")
+    assert (rolling["t_end_error_max"] < 1e-10).all() and float(rolling["t_end_error_max"].max()) < float(dop)
+    assert "rolling-only scene only" in wp["integrator"].attrs["long_name"].split(REDUCED)[1]
 
 
 def test_rimroll_error_shrinks_as_rtol_tightens_and_stays_near_it(wp):
@@ -90,12 +103,12 @@ def test_files_of_the_older_layout_read_the_same(wp):
     figure layout as the labelled one."""
     from rimroll.workflows.work_precision import _derive, _plot, integrator_names
 
-    wp = wp.drop_sel(integrator=HEYOKA, errors="ignore")  # older files hold the five integrators below
+    wp = wp.drop_sel(integrator=[HEYOKA, REDUCED], errors="ignore")  # older files hold the five below
     old = wp.drop_vars("speed_ratio_rk45_dp5").rename({"integrator": "method"})
     old = old.assign_coords(method=np.arange(old.sizes["method"]), scene=np.arange(old.sizes["scene"]))
     old = old.assign_coords(method_name=("method", ["rimroll_dp5", "rimroll_dop853", "scipy_RK45",
                                                     "scipy_DOP853", "scipy_LSODA"]))
-    assert integrator_names(old) == [name for name in INTEGRATORS if name != HEYOKA]
+    assert integrator_names(old) == [name for name in INTEGRATORS if name not in (HEYOKA, REDUCED)]
     assert speed_ratio(old) == speed_ratio(wp) == speed_ratio(wp, "rolling_only")
     np.testing.assert_array_equal(_derive(old)["speed_ratio_rk45_dp5"][1], wp["speed_ratio_rk45_dp5"].values)
     assert len(_plot(old).axes) == len(_plot(wp).axes)
