@@ -7,7 +7,7 @@ What runs (benchmarks/README.md says how to read the output):
 
 * the section: 360 x 240 states (beta in [0.8, 1.8] rad, omega1 in [-20, 20] 1/s), omega2 = 35 1/s,
   omega3 = 10 1/s, Params(mu=inf), t_max = 20 s;
-* heyoka (``rimroll.workflows.heyoka_rolling``): batch mode at ``heyoka.recommended_simd_size()``,
+* heyoka (``rimroll.peer_models.heyoka_rolling``): batch mode at ``heyoka.recommended_simd_size()``,
   terminal events whose callbacks refill the lane, one forked process per core, tol = --heyoka-tols;
 * rimroll: ``rimroll.solver.simulate`` (one thread per core), method dp5 at --dp5-rtols and dop853 at
   --dop853-rtols, atol = rtol / 100;
@@ -46,9 +46,9 @@ import numpy as np
 import peers_report
 
 from rimroll import solver
+from rimroll.peer_models import heyoka_rolling
 from rimroll.solver.analysis import reference
-from rimroll.workflows import heyoka_rolling
-from rimroll.workflows.sections import SETTINGS, section_axes
+from rimroll.study.outcome_sections import SETTINGS, section_axes
 
 HERE = pathlib.Path(__file__).resolve().parent
 OMEGA2, T_MAX = 35.0, 20.0

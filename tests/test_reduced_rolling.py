@@ -20,7 +20,7 @@ from rimroll.solver.analysis.reference import reference
 from rimroll.solver.engine import reduced_simulate, reduced_tables
 from rimroll.solver.engine.outcomes import ON_RIM_AT_T_MAX, PERIODIC_ROLLING, STEADY_MOTION
 from rimroll.solver.engine.outputs import OUTPUTS
-from rimroll.workflows.sections import steady_beta0
+from rimroll.study.outcome_sections import steady_beta0
 
 P = solver.Params(mu=np.inf)
 SECTIONS = (35.0, 65.0, 105.0)  # omega2 [1/s] of Figs. 11, 12, 13; omega3 = 10 1/s

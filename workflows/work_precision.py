@@ -27,18 +27,18 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from rimroll import solver
+from rimroll.peer_models import heyoka_rolling
 from rimroll.solver.analysis import reference
 from rimroll.study import plotting as P
+from rimroll.study.outcome_sections import SCENE_IGNORES, SCENES, scene_axis, scene_index, scene_params
 from rimroll.study.registry import Axis, ReferenceSpec, Study, Var, register
-from rimroll.workflows import heyoka_rolling
-from rimroll.workflows.sections import SCENE_IGNORES, SCENES, scene_axis, scene_index, scene_params
 
 INTEGRATORS = ("rimroll_dp5", "rimroll_dop853", "scipy_rk45", "scipy_dop853", "scipy_lsoda") + (
     (heyoka_rolling.LABEL,) if heyoka_rolling.available() else ())
 """Labels of the ``integrator`` coordinate: rimroll's compiled methods, scipy's solve_ivp, then heyoka's
 Taylor integrator where heyoka is installed (the extra rimroll[bench])."""
 HEYOKA_TEXT = (f"; {heyoka_rolling.LABEL} = heyoka's Taylor integrator, batch mode on one thread, tol = rtol "
-               "(rimroll.workflows.heyoka_rolling); it runs the rolling-only scene only, its values in the other "
+               "(rimroll.peer_models.heyoka_rolling); it runs the rolling-only scene only, its values in the other "
                "scenes are NaN: its model is that scene (mu = inf, k_r = k_d = 0)")
 OURS = {"rimroll_dp5": "dp5", "rimroll_dop853": "dop853"}
 SCIPY = {"scipy_rk45": "RK45", "scipy_dop853": "DOP853", "scipy_lsoda": "LSODA"}
