@@ -14,7 +14,7 @@ from scipy.integrate import solve_ivp
 from test_equations import gradient
 
 from rimroll import solver
-from rimroll.solver.analysis.reference import reference
+from rimroll.solver.analysis.scipy_reference import reference
 from rimroll.solver.engine import outcomes, scenes
 from rimroll.solver.physics import air, flight, kinematics, loads, resistance, rolling, slipping
 

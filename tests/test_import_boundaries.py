@@ -112,6 +112,29 @@ def test_the_independence_contract_lists_every_module_of_workflows():
     assert listed == modules, (sorted(modules - listed), sorted(listed - modules))
 
 
+def _package_modules() -> dict[str, list[str]]:
+    """{file name: [paths]} of every module of the installed package, read from pyproject.toml's package-dir
+    (the folders of the floors: src/rimroll, solver, study, workflows, benchmarks/peer_models)."""
+    import tomllib
+
+    folders = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["package-dir"].values()
+    names: dict[str, list[str]] = {}
+    for folder in folders:
+        for path in sorted((ROOT / folder).rglob("*.py")):
+            if path.name not in ("__init__.py", "__main__.py", "_version.py"):
+                names.setdefault(path.name, []).append(path.relative_to(ROOT).as_posix())
+    return names
+
+
+def test_no_two_modules_share_a_name_across_the_floors():
+    """One meaning per name: a module's file name is unique in the package (e.g. the scipy reference
+    integrator solver/analysis/scipy_reference.py beside the stored reference slices study/reference.py)."""
+    names = _package_modules()
+    assert len(names) > 50 and "simulate.py" in names  # the folders were read
+    clashes = {name: paths for name, paths in names.items() if len(paths) > 1}
+    assert not clashes, clashes
+
+
 
 def test_no_entry_points_is_one_line_error(monkeypatch, capsys):
     """An environment where no package declares the group (rimroll not installed): one line, exit 2."""
