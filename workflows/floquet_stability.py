@@ -1,4 +1,4 @@
-"""Fig. 9 (paper Sect. 4.4, Prop. 7): Floquet stability of omega2 = omega3 = 0 in (62).
+"""Floquet stability of omega2 = omega3 = 0 in (62) over (rho/R, j): paper Fig. 9 (Sect. 4.4, Prop. 7).
 
 - ``fig9``: over the physically relevant parameters 0 < rho/R < 1 - a/R, 0 < j <= 2/3, whether
   both Floquet multipliers of (62) lie on the unit circle, with the trace of the monodromy matrix
