@@ -6,7 +6,7 @@
 Per section (omega2 = 35, 65, 105 1/s; omega3 = 10 1/s; mu = inf; t_max = 20 s): the outcome grid by the
 reduced solver (``simulate(..., method="reduced")``), every boundary crossing of a grid line bisected to
 adjacent doubles (``solver.analysis.exact_boundaries``), the curves through them, and the adaptive map
-of the same grid (``workflows.adaptive.adaptive_map``, stride ``--coarse``, the reduced solver too): the
+of the same grid (``solver.analysis.adaptive_map.adaptive_map``, stride ``--coarse``, the reduced solver too): the
 distance along each grid line from each exact crossing to the adaptive map's nearest crossing of that
 line (rad on lines of constant omega1, 1/s on lines of constant beta), median and max. Writes
 ``exact_boundaries.nc`` (polylines as a contiguous ragged array, crossings with their kind) and
@@ -24,9 +24,9 @@ import xarray as xr
 from matplotlib.figure import Figure
 
 from rimroll import solver
+from rimroll.solver.analysis import adaptive_map as adaptive
 from rimroll.solver.analysis import exact_boundaries as eb
 from rimroll.solver.engine import outcomes
-from rimroll.workflows import adaptive
 
 OMEGA2 = (35.0, 65.0, 105.0)  # [1/s] Figs. 11, 12, 13
 FIGURE = {35.0: "fig11", 65.0: "fig12", 105.0: "fig13"}

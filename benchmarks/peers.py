@@ -7,7 +7,7 @@ What runs (benchmarks/README.md says how to read the output):
 
 * the section: 360 x 240 states (beta in [0.8, 1.8] rad, omega1 in [-20, 20] 1/s), omega2 = 35 1/s,
   omega3 = 10 1/s, Params(mu=inf), t_max = 20 s;
-* heyoka (``rimroll.workflows.heyoka_rolling``): batch mode at ``heyoka.recommended_simd_size()``,
+* heyoka (``rimroll.peer_models.heyoka_rolling``): batch mode at ``heyoka.recommended_simd_size()``,
   terminal events whose callbacks refill the lane, one forked process per core, tol = --heyoka-tols;
 * rimroll: ``rimroll.solver.simulate`` (one thread per core), method dp5 at --dp5-rtols and dop853 at
   --dop853-rtols, atol = rtol / 100;
@@ -23,7 +23,7 @@ states (1e-12 relative; the script stops if they differ). Every configuration is
 configuration once, heyoka and rimroll interleaved (odd rounds in reverse order); the best round counts.
 Errors: median and max |t_end - truth| over 200 states that fall after integration, sampled with seed 0
 from rimroll's dop853 rtol 1e-12 answer; the truth is rimroll's scipy reference (solve_ivp DOP853, rtol
-1e-12, atol 1e-14, ``solver.analysis.reference``), computed once and cached in --out. Times at matched
+1e-12, atol 1e-14, ``solver.analysis.scipy_reference``), computed once and cached in --out. Times at matched
 median error 1e-9 and 1e-12: log-log interpolation between the two tolerances whose errors bracket it.
 Outcome agreement: every configuration's outcome on all 86,400 cells against rimroll dop853 at rtol 1e-12.
 Cold compile (unless --no-cold): CPU time in a fresh process with an empty cache (peers_cold.py).
@@ -46,9 +46,9 @@ import numpy as np
 import peers_report
 
 from rimroll import solver
-from rimroll.solver.analysis import reference
-from rimroll.workflows import heyoka_rolling
-from rimroll.workflows.sections import SETTINGS, section_axes
+from rimroll.peer_models import heyoka_rolling
+from rimroll.solver.analysis import scipy_reference as reference
+from rimroll.study.outcome_sections import SETTINGS, section_axes
 
 HERE = pathlib.Path(__file__).resolve().parent
 OMEGA2, T_MAX = 35.0, 20.0
@@ -224,7 +224,7 @@ def main(argv=None) -> int:
         engines.close()
     meta["load_after"] = load_now()
     rows = rows_of(engines, last, times, cpus, sample)
-    meta["truth"] = {"n": N_TRUTH, "seed": TRUTH_SEED, "method": "solver.analysis.reference, scipy DOP853",
+    meta["truth"] = {"n": N_TRUTH, "seed": TRUTH_SEED, "method": "solver.analysis.scipy_reference, scipy DOP853",
                      "rtol": TRUTH_RTOL, "atol": TRUTH_ATOL, "cached": sample["cached"],
                      "seconds": round(sample["seconds"], 2),
                      "fall_in": int(np.sum(sample["outcome"] == 0)), "fall_out": int(np.sum(sample["outcome"] == 1))}

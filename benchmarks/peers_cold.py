@@ -27,7 +27,7 @@ def heyoka_cold(tol: float, cache: str) -> dict:
     hy, import_cpu, _ = _timed(lambda: __import__("heyoka"))
     hy.llvm_state.set_diskcache_path(cache)
     from rimroll import solver
-    from rimroll.workflows import heyoka_rolling
+    from rimroll.peer_models import heyoka_rolling
 
     params = solver.Params(mu=float("inf"))
     integrator, cpu, wall = _timed(lambda: heyoka_rolling.Integrator(params, tol))

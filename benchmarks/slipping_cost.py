@@ -9,7 +9,7 @@ omega2 = 35 1/s) and 6x (Fig. 12 section, omega2 = 65 1/s) the rolling-only time
 1. wall time of ``solver.simulate`` in both scenes (best of 3, warm cache, all cores), and the
    attempted steps per state;
 2. on a seeded sample of the states that slip, the accepted steps that ``scipy.integrate.solve_ivp``
-   needs for the same trajectories at the same tolerances (``solver.analysis.reference.reference_hybrid``:
+   needs for the same trajectories at the same tolerances (``solver.analysis.scipy_reference.reference_hybrid``:
    same rules, phase by phase), split into rolling and slipping phases, for RK45 (the explicit
    Dormand-Prince pair the engine uses by default), DOP853 (its higher-order one) and for the
    implicit Radau and BDF, whose steps are not limited by the stiffness of the slip angle but only
@@ -35,7 +35,7 @@ import time
 import numpy as np
 
 from rimroll import solver
-from rimroll.solver.analysis.reference import reference_hybrid
+from rimroll.solver.analysis.scipy_reference import reference_hybrid
 
 RTOL, ATOL, T_MAX = 1e-8, 1e-10, 20.0
 

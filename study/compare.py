@@ -42,7 +42,7 @@ continuous values, ``SIMULATED``; ``slip_method``: the steps of a slip phase, Ro
 same equations)."""
 SIMULATED = "refine_level"
 """A file's per-cell variable saying which cells were simulated (>= 0) and which were filled from a
-uniform block's corners (-1, workflows/adaptive.py): continuous variables are compared at the first only."""
+uniform block's corners (-1, solver/analysis/adaptive_map.py): continuous variables are compared at the first only."""
 DEFAULT_TOLERANCE = (1e-9, 1e-9)
 """(atol, rtol) of a continuous variable whose study declares no tolerance of its own (``Var.tolerance``;
 the outputs of ``simulate`` declare theirs in ``solver.engine.outputs``)."""

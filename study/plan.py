@@ -218,9 +218,11 @@ def code_digest(study: Study) -> str:
 
 
 def _sibling_sources(compute) -> list[pathlib.Path]:
-    """Source files of the modules of the same package whose names the module of ``compute`` imported
-    (e.g. ``workflows.sections``, ``workflows.adaptive`` for ``workflows.outcome_grids``): their code
-    decides the numbers too."""
+    """Source files of the modules whose names the module of ``compute`` imported, of its own package or
+    of rimroll outside the solver (whose every source is in ``_jit.SOURCES_DIGEST``): e.g.
+    ``study.outcome_sections`` for ``workflows.outcome_grids``, ``peer_models.heyoka_rolling`` for
+    ``workflows.work_precision``. Their code decides the numbers too (the study layer's modules a study
+    names, such as its registry, come along: a change there also makes new fingerprints)."""
     module = inspect.getmodule(compute)
     if module is None or "." not in module.__name__:
         return []
@@ -228,7 +230,8 @@ def _sibling_sources(compute) -> list[pathlib.Path]:
     names = set()
     for obj in vars(module).values():
         name = obj.__name__ if inspect.ismodule(obj) else getattr(obj, "__module__", None)
-        if isinstance(name, str) and name.startswith(package) and name != module.__name__:
+        shared = isinstance(name, str) and name.startswith("rimroll.") and not name.startswith("rimroll.solver")
+        if isinstance(name, str) and (name.startswith(package) or shared) and name != module.__name__:
             names.add(name)
     files = []
     for name in sorted(names):

@@ -1,6 +1,6 @@
 """``study trace``: one trajectory as a netCDF time series and a figure.
 
-The trajectory comes from ``solver.analysis.trace`` (dense output of every rolling and slipping phase,
+The trajectory comes from ``solver.analysis.phase_trace`` (dense output of every rolling and slipping phase,
 the rules of ``solver.simulate``). Its initial state is given directly (``--state``) or picked
 from an outcome map (``FILE --at omega1=..,beta=..``), with that file's parameters, scene,
 t_max and the map's omega2, omega3. The file holds, over ``time``: the state, the slip
@@ -25,7 +25,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, Patch
 
 from rimroll import solver
-from rimroll.solver.analysis import trace as tr
+from rimroll.solver.analysis import phase_trace as tr
 from rimroll.study import cli_text, cubeplots, io
 from rimroll.study import plotting as P
 from rimroll.study.dataset import params_of, provenance, setting_of
@@ -62,7 +62,7 @@ REVOLUTIONS_SIGN = ("signed: + while alpha grows, anticlockwise seen from above 
 
 
 def rim_numbers(res: dict) -> dict:
-    """What a reader looks for first in one trajectory (``solver.analysis.trace.trace`` result ``res``), up to
+    """What a reader looks for first in one trajectory (``solver.analysis.phase_trace.trace`` result ``res``), up to
     t_end, the end ``solver.simulate`` decides: ``revolutions`` around the rim (alpha(t_end) / 2 pi, signed,
     :data:`REVOLUTIONS_SIGN`; ``simulate``'s output of that name), ``slip_time`` [s] (the time in slip phases,
     ``simulate``'s ``slip_time``) and ``time_on_rim`` [s] (t_end: to the fall, the periodic decision or t_max)."""
@@ -281,7 +281,7 @@ def at_start(res: dict, state, params: solver.Params) -> dict:
     """``res`` with one sample, the initial state at t = 0, where it has none: a state that leaves
     the rim at once (F2 <= 0 from the start, or a slip onset that loses the contact at t = 0) ends
     at t_end = 0 with no phase to sample. The sample is the rolling initial state (u1 = u3 = 0,
-    alpha = 0) with its F2 [N], friction use and energy [J], as ``solver.analysis.trace.sample``
+    alpha = 0) with its F2 [N], friction use and energy [J], as ``solver.analysis.phase_trace.sample``
     computes them; the outcome, events and reason stay the trace's."""
     if res["t"].size:
         return res
@@ -293,7 +293,7 @@ def at_start(res: dict, state, params: solver.Params) -> dict:
 # ------------------------------------------------------------------ the file
 def dataset(res: dict, state, params: solver.Params, t_max: float, rtol: float, atol: float, command: str,
             extra: dict | None = None) -> xr.Dataset:
-    """The netCDF content of one trace (``solver.analysis.trace.trace`` result ``res``)."""
+    """The netCDF content of one trace (``solver.analysis.phase_trace.trace`` result ``res``)."""
     now = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat()
     time = ("time", res["t"], {"units": "s", "long_name": "time since the initial state"})
     data = {name: ("time", res[name], {"units": u, "long_name": ln}) for name, (u, ln) in SERIES.items()}

@@ -200,7 +200,7 @@ _ENTRIES = (
     S("n_omega1", "", "grid points of omega1", GRID),
     S("n_j", "", "grid points of j", GRID),
     S("n_rho_over_R", "", "grid points of rho/R", GRID),
-    # ---- a shot (workflows.shots; docs/shots.md): the release, the contacts, the ring, the grid
+    # ---- a shot (workflows.shot_map; docs/shots.md): the release, the contacts, the ring, the grid
     # (the ranges of the release keys and contact coefficients are the solver's: solver.shots.RELEASE,
     # CONTACT_RANGES; the angles in degrees)
     S("distance", "m", _RELEASE["distance"].doc, _release_range("distance", low_open=True), sweep=True,

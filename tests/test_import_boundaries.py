@@ -88,10 +88,51 @@ def test_getting_a_study_imports_only_its_own_module():
     code = ("import sys; from rimroll.study import registry; registry.get('fig11')\n"
             "print(sorted(m for m in sys.modules if m.startswith('rimroll.workflows.')))\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT)
-    # its family module and the shared modules it is built on (outcome sections, adaptive maps, boundary
-    # curves), no other family
-    assert out.stdout.strip() == ("['rimroll.workflows.adaptive', 'rimroll.workflows.curves', "
-                                  "'rimroll.workflows.outcome_grids', 'rimroll.workflows.sections']")
+    # its family module only (what it is built on, the outcome sections, adaptive maps and boundary
+    # curves, lives in the study layer and the solver), no other family
+    assert out.stdout.strip() == "['rimroll.workflows.outcome_grids']"
+
+
+def _contract(name_start: str) -> dict:
+    """The import-linter contract of pyproject.toml whose name starts with ``name_start``."""
+    import tomllib
+
+    contracts = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["importlinter"]["contracts"]
+    found = [c for c in contracts if c["name"].startswith(name_start)]
+    assert len(found) == 1, name_start
+    return found[0]
+
+
+def test_the_independence_contract_lists_every_module_of_workflows():
+    """workflows/ holds studies only, and each one is in the contract that keeps the families apart:
+    a new module there fails here until pyproject.toml lists it."""
+    modules = {f"rimroll.workflows.{p.stem}" for p in (ROOT / "workflows").glob("*.py") if p.stem != "__init__"}
+    listed = set(_contract("The study families never import each other")["modules"])
+    assert listed == modules, (sorted(modules - listed), sorted(listed - modules))
+
+
+def _package_modules() -> dict[str, list[str]]:
+    """{file name: [paths]} of every module of the installed package, read from pyproject.toml's package-dir
+    (the folders of the floors: src/rimroll, solver, study, workflows, benchmarks/peer_models)."""
+    import tomllib
+
+    folders = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["package-dir"].values()
+    names: dict[str, list[str]] = {}
+    for folder in folders:
+        for path in sorted((ROOT / folder).rglob("*.py")):
+            if path.name not in ("__init__.py", "__main__.py", "_version.py"):
+                names.setdefault(path.name, []).append(path.relative_to(ROOT).as_posix())
+    return names
+
+
+def test_no_two_modules_share_a_name_across_the_floors():
+    """One meaning per name: a module's file name is unique in the package (e.g. the scipy reference
+    integrator solver/analysis/scipy_reference.py beside the stored reference slices study/reference.py)."""
+    names = _package_modules()
+    assert len(names) > 50 and "simulate.py" in names  # the folders were read
+    clashes = {name: paths for name, paths in names.items() if len(paths) > 1}
+    assert not clashes, clashes
+
 
 
 def test_no_entry_points_is_one_line_error(monkeypatch, capsys):

@@ -2,7 +2,7 @@
 
 ``continuation`` sweeps omega2 from 20 to 120 1/s (by default; ``--set`` sweeps mu, omega3, rho_over_R,
 j, k_r or k_d instead or too) and computes, at each value, the outcome map of the section of Figs.
-11-13 (adaptive by default, ``workflows.adaptive``) and from it, once the whole cube is assembled:
+11-13 (adaptive by default, ``solver.analysis.adaptive_map``) and from it, once the whole cube is assembled:
 
 - ``fraction_fall_in``, ``fraction_fall_out``, ``fraction_periodic``, ``fraction_on_rim``: the
   share of the section's initial states with each outcome;
@@ -27,11 +27,11 @@ from rimroll.solver.analysis import steady
 from rimroll.solver.engine import outcomes
 from rimroll.solver.physics.params import TERM_KEYS
 from rimroll.study import cubeplots as C
+from rimroll.study import outcome_sections as sections
 from rimroll.study import plotting as P
 from rimroll.study.dataset import params_of, setting_of
+from rimroll.study.outcome_sections import BETA_COMMENT, OMEGA1_COMMENT, steady_beta0
 from rimroll.study.registry import Axis, ReferenceSpec, Study, Var, output_var, register
-from rimroll.workflows import adaptive
-from rimroll.workflows.sections import BETA_COMMENT, OMEGA1_COMMENT, steady_beta0
 
 SWEEPS = ("omega2", "mu", "omega3", "rho_over_R", "j", *TERM_KEYS)
 PAPER_OMEGA2 = (35.0, 65.0, 105.0)
@@ -59,7 +59,7 @@ def _compute(coords, p, s):
         states = np.stack([b, w, np.full_like(b, s["omega2"]), np.full_like(b, s["omega3"])], axis=-1)
         return solver.simulate(states, p, t_max=s["t_max"], rtol=s["rtol"], atol=s["atol"], method=s["method"],
                                workers=1, backend=s["backend"])
-    res = adaptive.section(run, beta, omega1, s, p.m * p.g, keep=("outcome", "status"))
+    res = sections.map_section(run, beta, omega1, s, p.m * p.g, keep=("outcome", "status"))
     return {name: res[name] for name in ("outcome", "status", "refine_level")}
 
 
@@ -208,17 +208,17 @@ register(Study(
     settings={"omega2": tuple(float(v) for v in np.linspace(20.0, 120.0, 51)), "omega3": 10.0, "mu": np.inf,
               "beta_min": 0.8, "beta_max": 1.8, "n_beta": 120, "omega1_max": 20.0, "n_omega1": 180,
               "t_max": 20.0, "rtol": 1e-8, "atol": 1e-10, "method": "auto", "backend": "cpu", "v_throw": 10.0,
-              **adaptive.SETTINGS, "adaptive": True},
+              **sections.ADAPTIVE_SETTINGS, "adaptive": True},
     quick={"omega2": (20.0, 35.0, 50.0, 65.0, 85.0, 105.0, 120.0), "n_beta": 24, "n_omega1": 36,
            "adaptive_coarse": 4},
     sweepable=SWEEPS,
-    cost=3e-5, compiles=True, cost_factor=adaptive.cost_factor,
-    axes=adaptive.checked_axes(_axes),
+    cost=3e-5, compiles=True, cost_factor=sections.adaptive_cost_factor,
+    axes=sections.adaptive_axes(_axes),
     variables=[output_var(name) for name in ("outcome", "status")] + [
-        Var("refine_level", "1", adaptive.LEVEL_ATTRS["long_name"], dtype="int8",
-            comment=adaptive.LEVEL_ATTRS["comment"], compared=False)],
+        Var("refine_level", "1", sections.LEVEL_ATTRS["long_name"], dtype="int8",
+            comment=sections.LEVEL_ATTRS["comment"], compared=False)],
     compute=_compute,
-    chunks=lambda s: adaptive.chunks(s, {}),
+    chunks=lambda s: sections.adaptive_chunks(s, {}),
     derive=_derive,
     derived_docs=DERIVED_DOCS,
     plot=_plot,

@@ -22,14 +22,14 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
 from rimroll import solver
-from rimroll.solver.analysis import steady
+from rimroll.solver.analysis import adaptive_map, steady
 from rimroll.solver.physics.params import TERM_KEYS
 from rimroll.study import cubeplots as C
+from rimroll.study import outcome_sections as sections
 from rimroll.study import plotting as P
 from rimroll.study.dataset import params_of, setting_of
+from rimroll.study.outcome_sections import BETA_COMMENT, OMEGA1_COMMENT, steady_beta0
 from rimroll.study.registry import Axis, ReferenceSpec, Study, Var, output_var, register
-from rimroll.workflows import adaptive, sections
-from rimroll.workflows.sections import BETA_COMMENT, OMEGA1_COMMENT, steady_beta0
 
 STANDARD = solver.Params()
 STANDARD_RHO_OVER_R = STANDARD.rho / STANDARD.R  # 0.5778: the ball of Table 1
@@ -160,16 +160,16 @@ def _outcome_compute(coords, p, s):
         states = np.stack([b, w, np.full_like(b, s["omega2"]), np.full_like(b, s["omega3"])], axis=-1)
         return solver.simulate(states, p, t_max=s["t_max"], rtol=s["rtol"], atol=s["atol"], method=s["method"],
                                workers=1, backend=s["backend"], **sections.engine_options(s))
-    res = adaptive.section(run, beta, omega1, s, p.m * p.g, keep=("outcome", "t_end", "revolutions", "status"))
+    res = sections.map_section(run, beta, omega1, s, p.m * p.g, keep=("outcome", "t_end", "revolutions", "status"))
     return {name: res[name] for name in ("outcome", "t_end", "revolutions", "status", "refine_level")}
 
 
 def _outcome_derive(ds) -> dict:
-    """``n_simulated``: the trajectories simulated for each slice's map (``workflows.adaptive``)."""
+    """``n_simulated``: the trajectories simulated for each slice's map (``solver.analysis.adaptive_map``)."""
     if "refine_level" not in ds:  # files written before adaptive maps have none
         return {}
     dims = tuple(d for d in ds["refine_level"].dims if d not in ("beta", "omega1"))
-    counts = adaptive.n_simulated(ds["refine_level"].transpose(*dims, "beta", "omega1").values)
+    counts = adaptive_map.n_simulated(ds["refine_level"].transpose(*dims, "beta", "omega1").values)
     return {"n_simulated": (dims, np.asarray(counts, dtype=np.int32), {
         "units": "1", "long_name": "trajectories simulated for the map of this slice (initial states)",
         "comment": "a full map: every cell; an adaptive map (setting adaptive = 1): the cells with refine_level >= 0"})}
@@ -238,19 +238,20 @@ register(Study(
     title="Outcomes of rolling initial states (Figs. 11-13, reduced grid) over mu x k_r x k_d x omega2",
     settings={"mu": (0.5, 1.0, 2.0), "k_r": (0.0, 0.01, 0.02), "k_d": (0.0, 0.01, 0.02),
               "omega2": (35.0, 65.0, 105.0), "omega3": 10.0, "n_beta": 36, "n_omega1": 60,
-              "t_max": 20.0, "rtol": 1e-6, "atol": 1e-9, "method": "auto", "backend": "cpu", **adaptive.SETTINGS,
+              "t_max": 20.0, "rtol": 1e-6, "atol": 1e-9, "method": "auto", "backend": "cpu",
+              **sections.ADAPTIVE_SETTINGS,
               "delta": sections.SETTINGS["delta"], "slip_method": sections.SETTINGS["slip_method"]},
     quick={"mu": (0.5, 1.0), "k_r": (0.0, 0.02), "k_d": (0.0, 0.02), "omega2": (65.0, 105.0),
            "n_beta": 12, "n_omega1": 18},
     sweepable=OUTCOME_SWEEPS,
     # cost: seconds per grid point on one core, warm (--quick on 2 shared cores, 2026-11)
-    cost=2e-4, compiles=True, cost_factor=adaptive.cost_factor,
-    axes=adaptive.checked_axes(_outcome_axes),
+    cost=2e-4, compiles=True, cost_factor=sections.adaptive_cost_factor,
+    axes=sections.adaptive_axes(_outcome_axes),
     variables=[output_var(name) for name in ("outcome", "t_end", "revolutions", "status")] + [
-        Var("refine_level", "1", adaptive.LEVEL_ATTRS["long_name"], dtype="int8",
-            comment=adaptive.LEVEL_ATTRS["comment"], compared=False)],
+        Var("refine_level", "1", sections.LEVEL_ATTRS["long_name"], dtype="int8",
+            comment=sections.LEVEL_ATTRS["comment"], compared=False)],
     compute=_outcome_compute,
-    chunks=lambda s: adaptive.chunks(s, {}),  # an adaptive map: the whole (beta, omega1) grid of a slice
+    chunks=lambda s: sections.adaptive_chunks(s, {}),  # an adaptive map: the whole (beta, omega1) grid of a slice
     derive=_outcome_derive,
     derived_docs=(("n_simulated", "1", "trajectories simulated per slice (an adaptive map: the cells with "
                    "refine_level >= 0; [outcome-studies.md](outcome-studies.md#adaptive-maps))"),),

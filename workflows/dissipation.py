@@ -29,8 +29,8 @@ from rimroll.solver.physics import air, loads, resistance, rolling, switching
 from rimroll.solver.physics.params import DISSIPATION_KEYS, QUANTITIES
 from rimroll.study import plotting as P
 from rimroll.study.dataset import setting_of
+from rimroll.study.outcome_sections import BETA_COMMENT, OMEGA1_COMMENT, engine_options, steady_beta0
 from rimroll.study.registry import Axis, ReferenceSpec, Study, Var, register
-from rimroll.workflows.sections import BETA_COMMENT, OMEGA1_COMMENT, engine_options, steady_beta0
 
 LOAD_TERMS = ("coulomb_rolling", "coulomb_drilling", "air_drag")
 """The load terms of the scene table every run of this study compiles (each at its model's strength)."""

@@ -29,30 +29,36 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
 from rimroll import solver
-from rimroll.solver.analysis import boundaries
+from rimroll.solver.analysis import adaptive_map, boundaries
 from rimroll.solver.engine import outcomes
+from rimroll.study import curve_variables as curves
 from rimroll.study import plotting as P
 from rimroll.study.dataset import params_of, setting_of
-from rimroll.study.registry import ReferenceSpec, Study, Var, output_var, register
-from rimroll.workflows import adaptive, curves
-from rimroll.workflows.sections import (
+from rimroll.study.outcome_sections import (
+    ADAPTIVE_SETTINGS,
+    LEVEL_ATTRS,
     QUICK,
     SCENE_IGNORES,
     SETTINGS,
+    adaptive_axes,
+    adaptive_chunks,
+    adaptive_cost_factor,
     engine_options,
+    map_section,
     scene_params,
     section_axes,
     steady_beta0,
 )
+from rimroll.study.registry import ReferenceSpec, Study, Var, output_var, register
 
-REFINE_LEVEL = Var("refine_level", "1", adaptive.LEVEL_ATTRS["long_name"], dtype="int8",
-                   comment=adaptive.LEVEL_ATTRS["comment"], compared=False)
+REFINE_LEVEL = Var("refine_level", "1", LEVEL_ATTRS["long_name"], dtype="int8",
+                   comment=LEVEL_ATTRS["comment"], compared=False)
 """Per cell: the level of the adaptive map at which it was simulated, or -1 where filled (a full map: 0)."""
 VARIABLES = [output_var(name) for name in (
     "outcome", "t_end", "f2_min", "half_period", "revolutions", "slip_time", "energy_drift", "beta_end", "omega1_end",
     "omega2_end", "omega3_end", "steady_h", "slip_phases", "n_steps", "status", "on_rim_reason")] + [REFINE_LEVEL]
 """The outputs of ``simulate`` stored for every cell (``solver.engine.outputs``), in file order, and
-``refine_level`` (``workflows.adaptive``)."""
+``refine_level`` (``solver.analysis.adaptive_map``)."""
 
 
 def _compute(coords, p: solver.Params, s: dict) -> dict:
@@ -63,12 +69,12 @@ def _compute(coords, p: solver.Params, s: dict) -> dict:
         states = np.stack([b, w, np.full_like(b, s["omega2"]), np.full_like(b, s["omega3"])], axis=-1)
         return solver.simulate(states, params, t_max=t_max, rtol=s["rtol"], atol=s["atol"], method=s["method"],
                                workers=1, backend=s["backend"], **engine_options(s))
-    return adaptive.section(run, beta, omega1, s, params.m * params.g)
+    return map_section(run, beta, omega1, s, params.m * params.g)
 
 
 def _chunks(s: dict) -> dict:
     """One scene per chunk, 24 rows of beta (an adaptive map: its whole grid)."""
-    return adaptive.chunks(s, {"scene": 1, "beta": 24})
+    return adaptive_chunks(s, {"scene": 1, "beta": 24})
 
 
 BOUNDARY_ATTRS = {
@@ -196,7 +202,7 @@ def _derive(ds) -> dict:
     out.update(curves.variables(outcome, labels, ds["beta"].values, ds["omega1"].values,
                                 [str(v) for v in ds["scene"].values]))
     if "refine_level" in ds:  # files written before adaptive maps have none
-        out["n_simulated"] = (("scene",), adaptive.n_simulated(get("refine_level")).astype(np.int32),
+        out["n_simulated"] = (("scene",), adaptive_map.n_simulated(get("refine_level")).astype(np.int32),
                               N_SIMULATED_ATTRS)
     return out
 
@@ -207,7 +213,7 @@ N_SIMULATED_ATTRS = {"units": "1", "long_name": "trajectories simulated for the 
                                 "boundary pairs, in either map)"}
 
 
-BOUNDARY_STYLES = {  # how the plot draws each boundary curve by its type (workflows.curves)
+BOUNDARY_STYLES = {  # how the plot draws each boundary curve by its type (study.curve_variables)
     boundaries.NOT_BOUNDARY: dict(color="0.2", lw=0.5, label="boundary between other outcomes"),
     boundaries.DEADLOCK: dict(color="k", lw=1.1, label=r"deadlock boundary ($F_{2,min} \to 0$)"),
     boundaries.SEPARATRIX: dict(color="#ffff33", lw=1.3, label=r"separatrix boundary (half period $\to \infty$)"),
@@ -244,7 +250,7 @@ def _line_kw(style: dict) -> dict:
 
 
 def _draw_boundaries(ax, sel, w1, beta) -> set:
-    """Draw the boundary curves of one scene (``workflows.curves``: stored in the file, else traced
+    """Draw the boundary curves of one scene (``study.curve_variables``: stored in the file, else traced
     from its outcomes and boundary types), each in the style of its type; returns the types drawn."""
     from matplotlib.collections import LineCollection
 
@@ -428,9 +434,9 @@ for _name, _omega2, _fig in (("fig11", 35.0, 11), ("fig12", 65.0, 12), ("fig13",
     register(Study(
         name=_name,
         title=f"Outcome of a ball on the rim (paper Fig. {_fig})",
-        settings={**SETTINGS, "omega2": _omega2, **adaptive.SETTINGS},
+        settings={**SETTINGS, "omega2": _omega2, **ADAPTIVE_SETTINGS},
         quick=QUICK,
-        axes=adaptive.checked_axes(section_axes),
+        axes=adaptive_axes(section_axes),
         variables=VARIABLES,
         compute=_compute,
         plot=_plot,
@@ -439,6 +445,6 @@ for _name, _omega2, _fig in (("fig11", 35.0, 11), ("fig12", 65.0, 12), ("fig13",
         derived_docs=DERIVED_DOCS,
         ignores=SCENE_IGNORES,
         # cost: seconds per grid point on one core, warm (--quick on 2 shared cores, 2026-11)
-        cost=3e-4, compiles=True, cost_factor=adaptive.cost_factor,
+        cost=3e-4, compiles=True, cost_factor=adaptive_cost_factor,
         reference=REFERENCE,
     ))

@@ -54,7 +54,7 @@ QUICK = {"n_dv": 11, "n_angle": 7, "n_azimuth": 5}
 SWEEPABLE = ("backspin", "sidespin", "distance", "height", "v_throw", *CONTACT_SETTINGS)
 RING_IGNORES = {k: "the ring is the geometry setting's (paper: Table 1; regulation: FIBA)" for k in ("R", "a")}
 SECTIONS = {"omega2": (35.0, 65.0, 105.0), "omega3": 10.0, "beta": (0.8, 1.8), "omega1": (-20.0, 20.0)}
-"""The outcome sections of Figs. 11-13 (workflows.sections): omega2, omega3 [1/s] and the (beta, omega1) window."""
+"""The outcome sections of Figs. 11-13 (study.outcome_sections): omega2, omega3 [1/s] and the (beta, omega1) window."""
 
 
 def _flags(meanings) -> tuple:

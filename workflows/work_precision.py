@@ -4,7 +4,7 @@ One seeded sample of initial states from the three outcome sections (omega2 = 35
 105 1/s; omega3 = 10 1/s; beta in [0.8, 1.8] rad; omega1 in [-20, 20] 1/s) is run in every
 scene by each method at each tolerance, in the same process at the same moment: rimroll's
 compiled DP5 and DOP853 and scipy's ``solve_ivp`` RK45, DOP853 and LSODA (same right-hand
-side, same event rules: ``solver.analysis.reference``), and where heyoka is installed (the extra
+side, same event rules: ``solver.analysis.scipy_reference``), and where heyoka is installed (the extra
 rimroll[bench]) heyoka's Taylor integrator in the rolling-only scene (``heyoka_rolling``; NaN in
 the other scenes). The reference is rimroll's DOP853 at rtol = 1e-12. Recorded per (scene,
 integrator, rtol): seconds per trajectory (one thread), misclassified fraction, |t_end| error
@@ -27,11 +27,11 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from rimroll import solver
-from rimroll.solver.analysis import reference
+from rimroll.peer_models import heyoka_rolling
+from rimroll.solver.analysis import scipy_reference
 from rimroll.study import plotting as P
+from rimroll.study.outcome_sections import SCENE_IGNORES, SCENES, scene_axis, scene_index, scene_params
 from rimroll.study.registry import Axis, ReferenceSpec, Study, Var, register
-from rimroll.workflows import heyoka_rolling
-from rimroll.workflows.sections import SCENE_IGNORES, SCENES, scene_axis, scene_index, scene_params
 
 REDUCED = "rimroll_reduced"
 INTEGRATORS = ("rimroll_dp5", "rimroll_dop853", "scipy_rk45", "scipy_dop853", "scipy_lsoda") + (
@@ -44,7 +44,7 @@ REDUCED_TEXT = (f"; {REDUCED} = rimroll's exact reduced solver (solver.simulate 
                 "the rule of a transversal omega1 zero; it runs the rolling-only scene only, its values in the other "
                 "scenes are NaN")
 HEYOKA_TEXT = (f"; {heyoka_rolling.LABEL} = heyoka's Taylor integrator, batch mode on one thread, tol = rtol "
-               "(rimroll.workflows.heyoka_rolling); it runs the rolling-only scene only, its values in the other "
+               "(rimroll.peer_models.heyoka_rolling); it runs the rolling-only scene only, its values in the other "
                "scenes are NaN: its model is that scene (mu = inf, k_r = k_d = 0)")
 OURS = {"rimroll_dp5": "dp5", "rimroll_dop853": "dop853"}
 SCIPY = {"scipy_rk45": "RK45", "scipy_dop853": "DOP853", "scipy_lsoda": "LSODA"}
@@ -140,11 +140,11 @@ def _scipy(states, params, t_max, rtol, method, min_seconds=0.2):
     use of the compiled right-hand sides: it made the first rtol of a sweep look slow) and the best
     of repeats while they last less than ``min_seconds`` in all."""
     kwargs = dict(t_max=t_max, rtol=rtol, atol=rtol * ATOL_OVER_RTOL, method=method)
-    reference.reference(states[:1], params, **dict(kwargs, t_max=min(t_max, 0.1)))  # warm-up: not timed
+    scipy_reference.reference(states[:1], params, **dict(kwargs, t_max=min(t_max, 0.1)))  # warm-up: not timed
     best, spent = np.inf, 0.0
     while best == np.inf or spent < min_seconds:
         start = time.perf_counter()
-        res = reference.reference(states, params, **kwargs)
+        res = scipy_reference.reference(states, params, **kwargs)
         elapsed = time.perf_counter() - start
         best, spent = min(best, elapsed), spent + elapsed
     return res, best / len(states)

@@ -1,7 +1,7 @@
 """The simulation rules of the outcome engine, written once (docs/outcome-engine.md).
 
 Every implementation of the rules — the compiled engine (``solver.engine.kernels``), the scipy
-reference (``solver.analysis.reference``) and the solution types of Theorem 1
+reference (``solver.analysis.scipy_reference``) and the solution types of Theorem 1
 (``solver.analysis.solution_types``) — calls these functions; only the integration and the event
 location differ between them. All functions are compiled scalar kernels that take a flat
 parameter vector ``p`` (:meth:`solver.Params.as_array`); ``.py_func`` is the plain-Python

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from rimroll.solver.analysis.reference import reference
+from rimroll.solver.analysis.scipy_reference import reference
 from rimroll.solver.engine.outcomes import PERIODIC_ROLLING
 from rimroll.solver.engine.simulate import simulate
 

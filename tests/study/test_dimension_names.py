@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 import xarray as xr
 
+from rimroll.peer_models import heyoka_rolling
 from rimroll.study import registry
 from rimroll.study.plan import make_plan
 from rimroll.study.registry import RESERVED_DIM_NAMES, SWEEP_KEYS, Axis
-from rimroll.workflows import heyoka_rolling
 
 
 def _keywords() -> set[str]:

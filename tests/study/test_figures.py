@@ -174,7 +174,7 @@ def test_undetermined_boundary_cells_are_drawn_and_named(fig12):
 
 
 def test_boundary_lines_are_polylines_through_the_cell_edge_midpoints(fig12):
-    """The plot draws the boundary curves (workflows.curves), not the staircase of cell edges: each
+    """The plot draws the boundary curves (study.curve_variables), not the staircase of cell edges: each
     segment joins two points half a cell or less apart, and a corner is cut diagonally."""
     fig = get("fig12").plot(fig12)
     segs = [seg for c in fig.axes[0].collections if (c.get_gid() or "").startswith("boundary_")
@@ -477,7 +477,7 @@ def test_fig9_shading_reaches_the_axes(tmp_path):
 
 
 def test_fig12_separatrix_then_deadlock_is_drawn_unlike_a_deadlock(fig12):
-    from rimroll.workflows import curves
+    from rimroll.study import curve_variables as curves
     from rimroll.workflows.outcome_grids import BOUNDARY_STYLES
 
     ds = fig12.copy(deep=True)

@@ -18,7 +18,8 @@ import pytest
 import rimroll
 from rimroll.solver import Params
 from rimroll.solver._arguments import check_size, memory_limit
-from rimroll.solver.analysis import predictability, trace
+from rimroll.solver.analysis import phase_trace as trace
+from rimroll.solver.analysis import predictability
 from rimroll.study import checks, cli_text, registry
 from rimroll.study.cli import main
 from rimroll.study.registry import UserError

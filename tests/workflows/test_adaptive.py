@@ -1,4 +1,4 @@
-"""Adaptive outcome maps (``workflows.adaptive``, ``--set adaptive=true``): the refinement on synthetic
+"""Adaptive outcome maps (``solver.analysis.adaptive_map``, ``--set adaptive=true``): the refinement on synthetic
 maps, and on the paper's sections the adaptive map equals the full one cell for cell (outcome and
 boundary type): on the --quick grids by default, on the 12 panels at 360 x 240 in a slow test."""
 
@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from rimroll.workflows import adaptive
+from rimroll.solver.analysis import adaptive_map as adaptive
+from rimroll.study import outcome_sections
 
 PERIODIC, IN, OUT = 2, 0, 1
 
@@ -104,11 +105,12 @@ def test_full_map_is_one_call_with_level_zero():
     def run(b, w):
         calls.append(b.shape)
         return {"outcome": np.zeros(b.shape, np.int8)}
-    out = adaptive.section(run, beta, omega1, {"adaptive": False, "adaptive_coarse": 8}, 1.0)
+    out = outcome_sections.map_section(run, beta, omega1, {"adaptive": False, "adaptive_coarse": 8}, 1.0)
     assert calls == [(4, 5)] and (out["refine_level"] == 0).all()
-    assert adaptive.chunks({"adaptive": True, "n_beta": 240, "n_omega1": 360}, {"scene": 1, "beta": 24}) == {
+    adaptive_chunks = outcome_sections.adaptive_chunks
+    assert adaptive_chunks({"adaptive": True, "n_beta": 240, "n_omega1": 360}, {"scene": 1, "beta": 24}) == {
         "scene": 1, "beta": 240, "omega1": 360}
-    assert adaptive.chunks({"adaptive": False}, {"scene": 1, "beta": 24}) == {"scene": 1, "beta": 24}
+    assert adaptive_chunks({"adaptive": False}, {"scene": 1, "beta": 24}) == {"scene": 1, "beta": 24}
 
 
 @pytest.mark.parametrize("name", ["fig11", "outcome-cube", "continuation"])
@@ -135,13 +137,18 @@ def test_adaptive_and_full_runs_never_share_a_fingerprint():
 
 
 def test_code_digest_covers_the_adaptive_module():
-    """A change of workflows/adaptive.py (or sections.py) changes the fingerprint of fig11-13, so no
-    part of an older adaptive map is reused."""
+    """A change of the adaptive-map algorithm (solver/analysis/adaptive_map.py) or of the outcome sections'
+    settings (study/outcome_sections.py) changes the fingerprint of fig11-13, so no part of an older adaptive
+    map is reused: the first is a source of the solver's digest, the second a module the study imported."""
+    import pathlib
+
+    from rimroll.solver import _jit
     from rimroll.study import plan, registry
 
-    names = {p.name for p in plan._sibling_sources(registry.get("fig12").compute)}
-    assert {"adaptive.py", "sections.py"} <= names
-    assert "adaptive.py" in {p.name for p in plan._sibling_sources(registry.get("outcome-cube").compute)}
+    solver_root = pathlib.Path(_jit.__file__).resolve().parent  # every .py under it: _jit.sources_digest
+    assert pathlib.Path(adaptive.__file__).resolve().is_relative_to(solver_root)
+    for name in ("fig12", "outcome-cube", "continuation"):
+        assert "outcome_sections.py" in {p.name for p in plan._sibling_sources(registry.get(name).compute)}, name
 
 
 def _compare(full: xr.Dataset, adapt: xr.Dataset) -> dict:

@@ -89,7 +89,7 @@ def test_bad_settings_are_one_line_and_exit_2(tmp_path, capsys, item, words):
 def test_figure_legend_is_the_categories_drawn_and_texts_stay_inside(quick):
     """The legend names exactly the outcome groups present in the map (plus the centre line), the
     axes carry units, and every text lies inside the figure."""
-    from rimroll.workflows import shots as study
+    from rimroll.workflows import shot_map as study
 
     fig = get("shot").plot(quick)
     FigureCanvasAgg(fig).draw()
@@ -107,7 +107,7 @@ def test_figure_legend_is_the_categories_drawn_and_texts_stay_inside(quick):
 
 def test_every_outcome_has_a_group():
     """The figure's categories cover every outcome code of the solver, each once."""
-    from rimroll.workflows import shots as study
+    from rimroll.workflows import shot_map as study
 
     members = [name for _, _, names in study.GROUPS for name in names]
     assert sorted(members) == sorted(shots.OUTCOME_MEANINGS)

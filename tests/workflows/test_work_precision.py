@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from rimroll.workflows import heyoka_rolling
-from rimroll.workflows.sections import SCENES
+from rimroll.peer_models import heyoka_rolling
+from rimroll.study.outcome_sections import SCENES
 from rimroll.workflows.work_precision import INTEGRATORS, REDUCED, speed_ratio
 
 HEYOKA = heyoka_rolling.LABEL

@@ -165,7 +165,7 @@ def test_a_band_thinner_than_a_cell_holds_a_separatrix_and_a_deadlock():
     until F2_min reaches 0 at beta ~ 1.1323 (deadlock), 0.55 grid steps in all. The grid alone sees
     a separatrix; the refined pair holds both. The scipy reference (an independent integrator)
     confirms both places."""
-    from rimroll.solver.analysis.reference import reference
+    from rimroll.solver.analysis.scipy_reference import reference
 
     p = solver.Params(mu=float("inf"))
     inside, outside = [BETA[80], W1, 65.0, 10.0], [BETA[79], W1, 65.0, 10.0]

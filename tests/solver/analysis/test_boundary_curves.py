@@ -1,4 +1,4 @@
-"""Boundary curves of outcome grids (solver.analysis.boundary_curves, workflows.curves): the
+"""Boundary curves of outcome grids (solver.analysis.boundary_curves, study.curve_variables): the
 polylines separate exactly the cells of different outcome, carry the right labels, round-trip
 through the results file and are what the plot draws."""
 
@@ -168,7 +168,7 @@ def fig12(tmp_path_factory):
 
 
 def test_the_file_stores_the_curves_of_every_scene_as_a_ragged_array(fig12):
-    from rimroll.workflows import curves
+    from rimroll.study import curve_variables as curves
 
     path = fig12[1] / "fig12.nc"
     ds = _section(path)  # the validating reader
@@ -194,8 +194,8 @@ def test_the_file_stores_the_curves_of_every_scene_as_a_ragged_array(fig12):
 def test_the_plot_draws_the_stored_curves(fig12):
     from matplotlib.collections import LineCollection
 
+    from rimroll.study import curve_variables as curves
     from rimroll.study.registry import get
-    from rimroll.workflows import curves
 
     ds = _section(fig12[1] / "fig12.nc")
     fig = get("fig12").plot(ds)
@@ -207,7 +207,7 @@ def test_the_plot_draws_the_stored_curves(fig12):
 
 
 def test_a_map_without_boundaries_stores_no_curves_and_untyped_sections_trace_as_not_boundary():
-    from rimroll.workflows import curves
+    from rimroll.study import curve_variables as curves
 
     beta, w1 = np.linspace(0.8, 1.8, 6), np.linspace(-20, 20, 8)
     uniform = np.full((2, 6, 8), outcomes.FALL_IN)
@@ -225,8 +225,8 @@ def test_files_of_two_sections_combine_and_keep_each_ones_curves(fig12, tmp_path
     """Two fig12 files of different omega2 (different numbers of curves and points) combine with
     xr.concat along omega2 (the notebook's and open_mfdataset's way), and each slice of the combined
     dataset gives back the curves of its own file."""
+    from rimroll.study import curve_variables as curves
     from rimroll.study.api import run
-    from rimroll.workflows import curves
 
     other = run("fig12", quick=True, out=tmp_path, progress=False, n_beta=12, n_omega1=18, omega2=35.0)
     first = xr.open_dataset(fig12[1] / "fig12.nc")

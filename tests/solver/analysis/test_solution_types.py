@@ -220,7 +220,7 @@ def test_alpha_advance_of_a_periodic_orbit_against_direct_integration():
 
 # ----------------------------------------------------------------------------- what docs/solution-types.md says
 def test_connections_subset_gives_connections_all_homoclinic():
-    from rimroll.workflows.global_dynamics import sample_states
+    from rimroll.workflows.solution_type_samples import sample_states
 
     s = {"n_samples": 10, "seed": 0, "subset": "connections", "omega1_max": 20.0, "omega2_max": 70.0,
          "omega3_max": 70.0}

@@ -1,6 +1,6 @@
 """No grazing fall missed: the engine against an independent reference that finds every interior
 minimum of F2 (scipy DOP853 at rtol 1e-12 with a non-terminal dF2/dt = 0 event, F2 checked at
-each located minimum: ``solver.analysis.reference``), on seeded states of the Fig. 11-13 sections, rolling
+each located minimum: ``solver.analysis.scipy_reference``), on seeded states of the Fig. 11-13 sections, rolling
 only and with slipping (mu = 1), at rtol 1e-6 and 1e-8.
 
 Where the reference's outcome is a fall whose F2 minimum lies deeper than the engine's resolution
@@ -15,7 +15,7 @@ import pytest
 
 from rimroll.solver import Params, simulate
 from rimroll.solver.analysis import boundaries
-from rimroll.solver.analysis.reference import reference
+from rimroll.solver.analysis.scipy_reference import reference
 from rimroll.solver.engine import outcomes
 from tests.helpers.bounded_runs import ROLL, assert_finite, sim
 

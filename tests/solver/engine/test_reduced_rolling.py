@@ -1,7 +1,7 @@
 """The exact reduced solver of conservative rolling against independent computations.
 
 * its tables of Phi against ``solver.analysis.floquet.fundamental`` (another integration of (62));
-* its results against the scipy reference (DOP853 at rtol 1e-12, ``solver.analysis.reference``) on
+* its results against the scipy reference (DOP853 at rtol 1e-12, ``solver.analysis.scipy_reference``) on
   states of the Figs. 11-13 rolling-only sections: random states, turning-point starts (omega1 = 0),
   the steady motion of each section and small orbits around it, runs cut by t_max;
 * ``simulate(method="reduced" | "auto")``: the same columns, the choice in ``attrs``, one-line refusals.
@@ -16,12 +16,12 @@ import pytest
 
 from rimroll import solver
 from rimroll.solver.analysis import floquet
-from rimroll.solver.analysis.reference import reference
+from rimroll.solver.analysis.scipy_reference import reference
 from rimroll.solver.engine import reduced_simulate, reduced_tables
 from rimroll.solver.engine import simulate as simulate_module
 from rimroll.solver.engine.outcomes import ON_RIM_AT_T_MAX, PERIODIC_ROLLING, STEADY_MOTION
 from rimroll.solver.engine.outputs import OUTPUTS
-from rimroll.workflows.sections import steady_beta0
+from rimroll.study.outcome_sections import steady_beta0
 
 P = solver.Params(mu=np.inf)
 SECTIONS = (35.0, 65.0, 105.0)  # omega2 [1/s] of Figs. 11, 12, 13; omega3 = 10 1/s

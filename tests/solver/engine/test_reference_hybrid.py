@@ -1,6 +1,6 @@
 """solver.simulate against the scipy reference in the hybrid scenes (finite mu): the agreement test.
 
-The reference (``solver.analysis.reference``) integrates each phase with scipy ``solve_ivp`` DOP853 and
+The reference (``solver.analysis.scipy_reference``) integrates each phase with scipy ``solve_ivp`` DOP853 and
 applies the engine's switching rules with the engine's own maps (``solver.physics.switching``): slip
 onset on the friction margin (39), impulse launch u = delta e(phi1), fall on F2 (41) with the
 slip velocities, return where ``try_return`` first allows it. Scenes: slipping (mu = 1),
@@ -23,7 +23,7 @@ Criteria, as in ``tests/solver/engine/test_simulate.py`` for the rolling-only sc
 import numpy as np
 import pytest
 
-from rimroll.solver.analysis.reference import reference, reference_hybrid, reference_one
+from rimroll.solver.analysis.scipy_reference import reference, reference_hybrid, reference_one
 from rimroll.solver.engine.outcomes import ON_RIM_AT_T_MAX, PERIODIC_ROLLING
 from rimroll.solver.engine.simulate import simulate
 from rimroll.solver.physics import rolling

@@ -8,7 +8,7 @@ import pytest
 
 from rimroll.solver import Params, simulate
 from rimroll.solver.analysis import solution_types, steady
-from rimroll.solver.analysis.reference import reference_one
+from rimroll.solver.analysis.scipy_reference import reference_one
 from rimroll.solver.engine import outcomes, rules
 from tests.helpers.bounded_runs import P, assert_finite, sim
 

@@ -14,7 +14,7 @@ import pytest
 
 from rimroll import solver
 from rimroll.solver._jit import kernel
-from rimroll.solver.analysis.reference import reference
+from rimroll.solver.analysis.scipy_reference import reference
 from rimroll.solver.engine import outcomes, scene_code, scenes
 from rimroll.solver.physics.params import P_J, P_M, P_R_BALL
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from rimroll import solver
-from rimroll.solver.analysis.reference import reference
+from rimroll.solver.analysis.scipy_reference import reference
 from rimroll.solver.engine import outcomes, rules
 from rimroll.solver.engine.outcomes import FALL_IN, FALL_OUT, ON_RIM_AT_T_MAX
 from rimroll.solver.engine.simulate import simulate
@@ -191,7 +191,7 @@ def test_physical_grazing_dip_missed_by_step_end_checks(monkeypatch):
     rtol 1e-11 and lets the ball roll on to a later fall; the engine decides the fall at the
     minimum of F2 inside the step and finds the first crossing from rtol 1e-6 down.
     """
-    import rimroll.solver.analysis.reference as ref_mod
+    import rimroll.solver.analysis.scipy_reference as ref_mod
 
     p = Params(mu=INF)
     x = np.array([0.92222377, 10.59047305, 65.0, 10.0])

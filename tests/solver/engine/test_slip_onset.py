@@ -7,7 +7,7 @@ event locator bounds it between a step's ends and searches a dip below zero insi
 * the three Fig. 12 cells (mu = 1, omega2 = 65, omega3 = 10) that rimroll once reported as periodic
   rolling without a slip at dop853 (its 18 ms steps passed over the dip), and the documented cycling
   cell: the first slip onsets at dp5 and dop853, rtol 1e-6..1e-12, against the scipy reference
-  (``solver.analysis.reference.integrate``, rtol 1e-12, the margin sampled 32 times a step);
+  (``solver.analysis.scipy_reference.integrate``, rtol 1e-12, the margin sampled 32 times a step);
 * constructed near-cone states: random rolling states, and a mu just below the largest ratio
   |F_t| / F2 along the rolling trajectory (found on a dense sample of scipy's solution, rtol 1e-12),
   so that the margin dips below zero by a chosen depth for a fraction of a step; the engine must
@@ -22,7 +22,7 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq, minimize_scalar
 
 from rimroll.solver import Params, simulate
-from rimroll.solver.analysis.reference import integrate
+from rimroll.solver.analysis.scipy_reference import integrate
 from rimroll.solver.engine import outcomes
 from rimroll.solver.physics import rolling
 

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from rimroll.solver import Params, simulate
-from rimroll.solver.analysis.reference import integrate, reference
+from rimroll.solver.analysis.scipy_reference import integrate, reference
 from rimroll.solver.engine import outcomes, rosenbrock
 
 SLIP = Params(mu=1.0)

@@ -13,7 +13,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from rimroll import solver
-from rimroll.solver.analysis.reference import reference
+from rimroll.solver.analysis.scipy_reference import reference
 from rimroll.solver.engine import outcomes, scenes
 from rimroll.solver.physics import air, flight, kinematics, loads, resistance, rolling, slipping
 from tests.solver.physics.test_equations import gradient

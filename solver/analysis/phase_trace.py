@@ -1,7 +1,7 @@
 """One trajectory in time: the rolling/slipping phases of one initial state, sampled densely.
 
 ``solver.simulate`` returns what happened (outcome, t_end, ...) for millions of states; this
-module shows how, for one. The phases come from ``solver.analysis.reference.integrate``, the scipy
+module shows how, for one. The phases come from ``solver.analysis.scipy_reference.integrate``, the scipy
 reference of ``solver.simulate`` (the same compiled right-hand sides and switching maps, the
 rules of ``solver.engine.rules``, scipy ``solve_ivp`` phase by phase; see that module for how every
 event is located), which keeps every phase's dense output; :func:`trace` samples all of them on
@@ -15,8 +15,8 @@ from __future__ import annotations
 import numpy as np
 
 from rimroll.solver._arguments import check_size
-from rimroll.solver.analysis import reference
-from rimroll.solver.analysis.reference import EVENT_KINDS, PHASE_MEANINGS, ROLLING, SLIPPING, Phase
+from rimroll.solver.analysis import scipy_reference
+from rimroll.solver.analysis.scipy_reference import EVENT_KINDS, PHASE_MEANINGS, ROLLING, SLIPPING, Phase
 from rimroll.solver.physics import rolling, slipping
 from rimroll.solver.physics.params import P_MU, P_R_BALL, P_R_RIM, P_RHO, Params
 
@@ -48,7 +48,7 @@ def trace_phases(state, params: Params, t_max: float = 20.0, rtol: float = 1e-10
         raise ValueError(f"state must be 4 finite numbers (beta, omega1, omega2, omega3); got {state!r}")
     if not (np.isfinite(t_max) and t_max > 0):
         raise ValueError(f"t_max must be a positive finite time [s]; got {t_max!r}")
-    res = reference.integrate(x0, params, t_max, rtol, atol, method, max_switches=max_switches)
+    res = scipy_reference.integrate(x0, params, t_max, rtol, atol, method, max_switches=max_switches)
     if res["reason"] == "integration_failed":
         raise RuntimeError(f"trace: scipy's {method} failed in the phase from t = {res['phases'][-1].t0:g} s")
     return {k: res[k] for k in ("phases", "events", "outcome", "t_end", "half_period", "reason", "slip_phases")}

@@ -1,4 +1,4 @@
-"""The heyoka model of the rolling-only scene (rimroll.workflows.heyoka_rolling), the peer of
+"""The heyoka model of the rolling-only scene (rimroll.peer_models.heyoka_rolling), the peer of
 benchmarks/peers.py and of the work-precision study: its equations and rules are rimroll's.
 
 Skipped where heyoka is not installed (it is the optional extra rimroll[bench]; CI does not install it).
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from rimroll import solver
-from rimroll.workflows import heyoka_rolling
+from rimroll.peer_models import heyoka_rolling
 
 pytestmark = pytest.mark.skipif(not heyoka_rolling.available(),
                                 reason="heyoka is not installed (the optional extra rimroll[bench])")

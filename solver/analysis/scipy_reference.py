@@ -6,7 +6,7 @@ dissipative. Physics and switching maps are the engine's own compiled functions
 independent is the integration (scipy), the event location (scipy's events, ``brentq``,
 bisection) and the bookkeeping of phases written out here.
 
-One loop of phases serves every scene (:func:`integrate`) and also ``solver.analysis.trace``, which
+One loop of phases serves every scene (:func:`integrate`) and also ``solver.analysis.phase_trace``, which
 samples the dense output of the phases it records. In rolling-only scenes there is one rolling
 phase (the hybrid scenes' rolling phase below, without the slip onset): F2 < 0 at t = 0 falls at once; a fall is
 classified by the free flight of
@@ -356,7 +356,7 @@ def integrate(state, params: Params, t_max=20.0, rtol=1e-11, atol=1e-12, method=
     the engine's overheads: ``benchmarks/slipping_cost.py`` compares them across methods);
     ``reason`` the kind of the event that ended the run (or ``too_many_switches``,
     ``integration_failed``); ``phases`` the :class:`Phase` list and ``events`` the (t [s], kind)
-    list, kinds of :data:`EVENT_KINDS` (``solver.analysis.trace`` samples them).
+    list, kinds of :data:`EVENT_KINDS` (``solver.analysis.phase_trace`` samples them).
 
     Every phase starts with the rules' ``rules.phase_start_action`` (fall, slip, steady motion or
     run), as in the compiled engine; only the integration and the event location differ. ``terms``:

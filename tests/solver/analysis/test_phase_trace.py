@@ -1,4 +1,4 @@
-"""``study trace`` and ``solver.analysis.trace``: one trajectory, sampled from the dense output of each phase.
+"""``study trace`` and ``solver.analysis.phase_trace``: one trajectory, sampled from the dense output of each phase.
 
 The trace is an independent integration (scipy DOP853, phase by phase) of the same physics as
 ``solver.simulate``; it must end where simulate ends, with the same outcome.
@@ -11,7 +11,7 @@ import pytest
 import xarray as xr
 
 from rimroll import solver
-from rimroll.solver.analysis.trace import SLIPPING, trace
+from rimroll.solver.analysis.phase_trace import SLIPPING, trace
 from rimroll.solver.engine import outcomes
 from rimroll.study import rim_trace as trace_module
 from rimroll.study.cli import main

@@ -1,6 +1,8 @@
 """The rolling-only conservative scene in heyoka's expression system: a peer of rimroll's engine.
 
-Used by the work-precision study (its integrator ``heyoka_taylor``) and by ``benchmarks/peers.py``.
+Used by the work-precision study (its integrator ``heyoka_taylor``) and by ``benchmarks/peers.py``; it
+imports the solver only. Installed with rimroll as ``rimroll.peer_models.heyoka_rolling`` (the folder
+``benchmarks/peer_models``), so the study finds it in any install.
 heyoka (https://bluescarni.github.io/heyoka.py, the extra ``rimroll[bench]``) is imported only when
 a model is built; this module imports without it, and :func:`available` says whether it is there.
 

@@ -9,7 +9,7 @@
   Whole eps are read from the grid; eps below one step are simulated on a stratified sample
   (``solver.predictability.section_uncertainty``), or, with ``eps_pairs = refined``, read for every
   grid point from an adaptive map of the section 2**n_fine times finer whose coarse lattice is the
-  grid (``workflows.adaptive``; ``solver.predictability.refined_uncertain``).
+  grid (``solver.analysis.adaptive_map``; ``solver.predictability.refined_uncertain``).
 - ``make-probability``: the probability of each outcome of a throw whose arriving state is
   normal around each nominal state of the (beta, omega1) section, with spread
   sigma * (sigma_beta, sigma_omega1, sigma_omega2, sigma_omega3), Wilson intervals and the
@@ -28,15 +28,16 @@ from matplotlib.patches import Rectangle
 from matplotlib.ticker import FixedLocator, FuncFormatter, NullLocator
 
 from rimroll import solver
+from rimroll.solver.analysis import adaptive_map
 from rimroll.solver.analysis import exponent_bootstrap as boot
 from rimroll.solver.analysis import predictability as pred
 from rimroll.solver.engine import outcomes
 from rimroll.solver.physics.params import TERM_KEYS
 from rimroll.study import cubeplots as C
+from rimroll.study import outcome_sections as sections
 from rimroll.study import plotting as P
 from rimroll.study.dataset import setting_of
 from rimroll.study.registry import Axis, ReferenceSpec, Study, Var, output_var, register
-from rimroll.workflows import adaptive, sections
 
 # ================================================================ outcome names and colours
 OUTCOME_NAMES = {code: meaning.split(":")[0] for code, meaning in solver.OUTCOME_MEANINGS.items()}
@@ -112,22 +113,22 @@ def _scene(coords, p, s):
 
 def _refined(beta, omega1, params, s, sim, eps):
     """``eps_pairs = refined``: the section on its grid refined 2**n_fine times, as an adaptive map whose
-    coarse lattice is the grid itself (``workflows.adaptive``), and every grid point's eps-uncertain flags
+    coarse lattice is the grid itself (``solver.analysis.adaptive_map``), and every grid point's eps-uncertain flags
     read from it (``predictability.refined_uncertain``). Returns (outcome, status, uncertain, eps_runs) on
     the grid; ``eps_runs``: fine states simulated in the k x k block at each grid point (itself excluded)."""
     k = 2 ** int(s["n_fine"])
     fb, fw = pred.refined_axis(beta[:, 0], k), pred.refined_axis(omega1[0], k)
-    keep = set(adaptive.NEEDED) | {"status"}
+    keep = set(adaptive_map.NEEDED) | {"status"}
 
     def cells(i, j):
         x = np.stack([fb[i], fw[j], np.full(i.size, s["omega2"]), np.full(i.size, s["omega3"])], axis=-1)
         return {name: v for name, v in solver.simulate(x, params, **sim).items() if name in keep}
     falls = (outcomes.FALL_IN, outcomes.FALL_OUT, outcomes.ON_RIM_AT_T_MAX)
-    fields, level = adaptive.adaptive_map(cells, (fb.size, fw.size), k, weight=params.m * params.g,
+    fields, level = adaptive_map.adaptive_map(cells, (fb.size, fw.size), k, weight=params.m * params.g,
                                           periodic_code=outcomes.PERIODIC_ROLLING, falls=falls,
                                           inner_neighbours=False, filled=("outcome",))
     fine = fields["outcome"]
-    simulated = np.pad(level != adaptive.FILLED, ((0, k - 1), (0, k - 1)))  # the last row/column: blocks of one
+    simulated = np.pad(level != adaptive_map.FILLED, ((0, k - 1), (0, k - 1)))  # the last row/column: blocks of one
     n_b, n_w = beta.shape
     runs = simulated.reshape(n_b, k, n_w, k).sum(axis=(1, 3)) - 1
     return fine[::k, ::k], fields["status"][::k, ::k], pred.refined_uncertain(fine, k, eps), runs.astype(np.int32)

@@ -1,15 +1,20 @@
 """The outcome sections of Figs. 11-13, shared by the studies that run them (fig11-13,
-predictability, work-precision): their default settings, the (beta, omega1) grid, and the four
-named scenes of ``solver.engine.scenes`` with the parameters and t_max each runs at.
+predictability, continuation, the cubes, dissipation-models, work-precision): their default settings,
+the (beta, omega1) grid, the four named scenes of ``solver.engine.scenes`` with the parameters and
+t_max each runs at, and the setting ``adaptive`` that computes a section as an adaptive map
+(``solver.analysis.adaptive_map``: its cost, chunks, the ``refine_level`` variable).
 
-Not a study family: it registers nothing, and the families import it rather than each other.
+Not a study: it registers nothing, and the study families import it rather than each other.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from rimroll import solver
+from rimroll.solver.analysis import adaptive_map
 from rimroll.solver.engine import scenes
 from rimroll.solver.physics import switching
 from rimroll.solver.physics.params import TERM_KEYS
@@ -133,3 +138,65 @@ def scene_params(p: solver.Params, s: dict, label) -> tuple[solver.Params, float
 SCENE_IGNORES = {k: "each of the four scenes sets its own mu and term parameters (k_r, k_d; the other terms off); "
                     "change mu_slip or k_dissipation" for k in ("mu", *TERM_KEYS)}
 """The physical parameters a study of the four named scenes ignores (``Study.ignores``)."""
+
+
+# ================================================================ adaptive maps of a section (setting adaptive)
+ADAPTIVE_SETTINGS = {"adaptive": False, "adaptive_coarse": adaptive_map.DEFAULT_COARSE}
+"""The settings of a study with adaptive maps (fig11-13, outcome-cube, continuation): off by default."""
+LEVEL_ATTRS = {
+    "units": "1",
+    "long_name": "refinement level at which this cell was simulated",
+    "comment": "adaptive maps (setting adaptive = 1, docs/outcome-studies.md#adaptive-maps): k >= 0: simulated on "
+               "the lattice of stride 2**k cells (0: the grid itself; the coarse level is log2(adaptive_coarse)); "
+               f"{adaptive_map.FILLED}: not simulated, filled from the corners of a uniform block (categorical and "
+               "integer variables from the nearest corner, floating-point ones by bilinear interpolation). Indicators "
+               "of refinement besides the class (outcome, on_rim_reason, slip_phases > 0): "
+               + ", ".join(f"{k}={v:g}" for k, v in adaptive_map.INDICATORS.items()) + ". A full map: 0 everywhere",
+}
+"""Attributes of the per-cell variable ``refine_level``."""
+
+
+def _coarse(s: dict) -> int:
+    return adaptive_map.check_coarse(s.get("adaptive_coarse", adaptive_map.DEFAULT_COARSE))
+
+
+def adaptive_cost_factor(s: dict) -> float:
+    """The cost model's multiplier of an adaptive map (``Study.cost_factor``): about 3 / adaptive_coarse of
+    a full map's cost (the 12 panels at the default stride 8: 10 % of the trajectories, a third of the
+    time: the cells simulated are the long ones), 1 for a full map."""
+    if not s.get("adaptive"):
+        return 1.0
+    return min(1.0, 3.0 / _coarse(s))
+
+
+def adaptive_axes(axes: Callable) -> Callable:
+    """A study's ``axes(settings)`` that first checks ``adaptive_coarse`` (a ValueError there is a user error
+    before any work, not a failed chunk)."""
+    def checked(s: dict):
+        _coarse(s)
+        return axes(s)
+    checked.__doc__ = axes.__doc__
+    return checked
+
+
+def adaptive_chunks(s: dict, full: dict) -> dict:
+    """The chunks of a study: ``full`` for a full map, the whole (beta, omega1) grid for an adaptive one."""
+    if s.get("adaptive"):
+        return {**full, "beta": int(s["n_beta"]), "omega1": int(s["n_omega1"])}
+    return full
+
+
+def map_section(run: Callable, beta: np.ndarray, omega1: np.ndarray, s: dict, weight: float, keep=None) -> dict:
+    """Every field of the (beta, omega1) grid of one chunk, plus ``refine_level``: every cell simulated
+    (setting adaptive off, ``refine_level`` 0), or an adaptive map (``adaptive_map.section`` at the stride
+    ``adaptive_coarse``).
+
+    ``run(beta, omega1) -> {field: values}``: ``solver.simulate`` of these states (1-D arrays);
+    ``beta``, ``omega1``: the chunk's coordinates broadcast to its shape; ``s``: the settings;
+    ``weight``: m g [N]; ``keep``: the fields the study stores (None: all).
+    """
+    if not s.get("adaptive"):
+        out = dict(run(beta, omega1))
+        out["refine_level"] = np.zeros(beta.shape, dtype=np.int8)
+        return out
+    return adaptive_map.section(run, beta, omega1, int(s["adaptive_coarse"]), weight, keep=keep)

@@ -23,7 +23,9 @@ What is filled: categorical and integer fields from the nearest corner, floating
 bilinear interpolation of the four corners (all four of one class). ``level`` says, per cell,
 at which stride it was simulated (0: the target grid, k: stride 2**k) or -1 (filled).
 
-Pure: the simulation is a callback ``run(i, j) -> {field: values}`` on flat cell indices.
+Pure: the simulation is a callback ``run(i, j) -> {field: values}`` on flat cell indices (a study
+passes in ``solver.simulate`` with its own scene and options); the study settings that switch it on
+(``adaptive``, ``adaptive_coarse``) are the study layer's, ``rimroll.study.outcome_sections``.
 """
 
 from __future__ import annotations
@@ -279,66 +281,21 @@ def adaptive_map(run: Callable, shape: tuple, coarse: int = DEFAULT_COARSE, *, w
     return grid.fields, grid.level
 
 
-SETTINGS = {"adaptive": False, "adaptive_coarse": DEFAULT_COARSE}
-"""The settings of a study with adaptive maps (fig11-13, outcome-cube): off by default."""
-LEVEL_ATTRS = {
-    "units": "1",
-    "long_name": "refinement level at which this cell was simulated",
-    "comment": "adaptive maps (setting adaptive = 1, docs/outcome-studies.md#adaptive-maps): k >= 0: simulated on "
-               "the lattice of stride 2**k cells (0: the grid itself; the coarse level is log2(adaptive_coarse)); "
-               f"{FILLED}: not simulated, filled from the corners of a uniform block (categorical and integer "
-               "variables from the nearest corner, floating-point ones by bilinear interpolation). Indicators of "
-               "refinement besides the class (outcome, on_rim_reason, slip_phases > 0): "
-               + ", ".join(f"{k}={v:g}" for k, v in INDICATORS.items()) + ". A full map: 0 everywhere",
-}
-"""Attributes of the per-cell variable ``refine_level``."""
-
-
-def cost_factor(s: dict) -> float:
-    """The cost model's multiplier of an adaptive map (``Study.cost_factor``): about 3 / adaptive_coarse of
-    a full map's cost (the 12 panels at the default stride 8: 10 % of the trajectories, a third of the
-    time: the cells simulated are the long ones), 1 for a full map."""
-    if not s.get("adaptive"):
-        return 1.0
-    return min(1.0, 3.0 / check_coarse(s.get("adaptive_coarse", DEFAULT_COARSE)))
-
-
-def checked_axes(axes: Callable) -> Callable:
-    """A study's ``axes(settings)`` that first checks ``adaptive_coarse`` (a ValueError there is a user error
-    before any work, not a failed chunk)."""
-    def checked(s: dict):
-        check_coarse(s.get("adaptive_coarse", DEFAULT_COARSE))
-        return axes(s)
-    checked.__doc__ = axes.__doc__
-    return checked
-
-
-def chunks(s: dict, full: dict) -> dict:
-    """The chunks of a study: ``full`` for a full map, the whole (beta, omega1) grid for an adaptive one."""
-    if s.get("adaptive"):
-        return {**full, "beta": int(s["n_beta"]), "omega1": int(s["n_omega1"])}
-    return full
-
-
 NEEDED = ("outcome", "on_rim_reason", "slip_phases", "revolutions", "half_period", "f2_min")
 """The fields the refinement reads (the class and the indicators), kept whatever a study stores."""
 
 
-def section(run: Callable, beta: np.ndarray, omega1: np.ndarray, s: dict, weight: float, keep=None) -> dict:
-    """Every field of the (beta, omega1) grid of one chunk, plus ``refine_level``.
+def section(run: Callable, beta: np.ndarray, omega1: np.ndarray, coarse: int, weight: float, keep=None) -> dict:
+    """Every field of one (beta, omega1) grid, plus ``refine_level``, from an adaptive map.
 
-    ``run(beta, omega1) -> {field: values}``: ``solver.simulate`` of these states (1-D arrays);
-    ``beta``, ``omega1``: the chunk's coordinates broadcast to its shape (leading axes of length 1);
-    ``s``: the settings (``adaptive``, ``adaptive_coarse``); ``weight``: m g [N]; ``keep``: the
-    fields the study stores (None: all; the others are not filled, which saves memory and time on
-    large grids). A full map (adaptive off) simulates every cell, its ``refine_level`` 0.
+    ``run(beta, omega1) -> {field: values}``: the simulation of these states (1-D arrays), passed in
+    (``solver.simulate`` with the study's scene, tolerances and options); ``beta``, ``omega1``: the
+    grid's coordinates broadcast to its shape (leading axes of length 1); ``coarse``: the stride of
+    the coarse lattice (a power of 2); ``weight``: m g [N]; ``keep``: the fields wanted (None: all;
+    the others are not filled, which saves memory and time on large grids).
     """
     from rimroll.solver.engine import outcomes
 
-    if not s.get("adaptive"):
-        out = dict(run(beta, omega1))
-        out["refine_level"] = np.zeros(beta.shape, dtype=np.int8)
-        return out
     shape = beta.shape
     b2, w2 = beta.reshape(shape[-2:]), omega1.reshape(shape[-2:])
     if beta.size != b2.size:
@@ -349,7 +306,7 @@ def section(run: Callable, beta: np.ndarray, omega1: np.ndarray, s: dict, weight
     def cells(i, j):
         out = run(b2[i, j], w2[i, j])
         return out if names is None else {k: v for k, v in out.items() if k in names}
-    fields, level = adaptive_map(cells, b2.shape, int(s["adaptive_coarse"]), weight=weight,
+    fields, level = adaptive_map(cells, b2.shape, int(coarse), weight=weight,
                                  periodic_code=outcomes.PERIODIC_ROLLING, falls=falls, filled=keep)
     out = {name: values.reshape(shape) for name, values in fields.items() if keep is None or name in keep}
     out["refine_level"] = level.reshape(shape)

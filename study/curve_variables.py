@@ -20,7 +20,7 @@ need a ``featureType`` the file is not) nor a CF-1.8 line geometry (its node coo
 count variable says the layout in words. Every variable opens with plain ``xarray``.
 
 A map without any boundary (one outcome everywhere, in every scene) gets no curve variables
-(netCDF has no fixed dimension of length 0). Shared by the outcome-section studies (fig11-13).
+(netCDF has no fixed dimension of length 0). Used by the outcome-section studies (fig11-13).
 """
 
 from __future__ import annotations
