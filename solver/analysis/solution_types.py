@@ -73,6 +73,7 @@ from rimroll.solver._arguments import positive_number, real_array, real_number, 
 from rimroll.solver._jit import vectorised
 from rimroll.solver.analysis import reduced, trajectory
 from rimroll.solver.engine import rules
+from rimroll.solver.engine.outcomes import code_table
 from rimroll.solver.physics import kinematics, rolling
 from rimroll.solver.physics.params import Params
 from rimroll.solver.physics.steady_motion import check_params
@@ -86,7 +87,7 @@ NON_PERIODIC_PENDULUM = 5
 PERIODIC = 6
 QUASI_PERIODIC = 7
 
-TYPE_MEANINGS = {
+TYPE_MEANINGS, TYPE_FLAG_VALUES, TYPE_FLAG_MEANINGS = code_table({
     UNDETERMINED: "undetermined: none of the types below resolved within t_max (slow orbit, failed integration)",
     TRIVIAL_EQUILIBRIUM: "trivial_equilibrium: cos(beta) = 0, omega1 = omega3 = 0 (46), ball on top or hanging",
     NONTRIVIAL_EQUILIBRIUM: "nontrivial_equilibrium: steady motion (47), omega1 = 0, "
@@ -101,24 +102,20 @@ TYPE_MEANINGS = {
               "with a rational rotation number",
     QUASI_PERIODIC: "quasi_periodic: omega1 keeps its sign, (omega2, omega3) turn by an irrational fraction of a "
                     "turn per revolution of beta (Props. 5, 7)",
-}
-TYPE_FLAG_VALUES = tuple(TYPE_MEANINGS)
-TYPE_FLAG_MEANINGS = " ".join(m.split(":")[0] for m in TYPE_MEANINGS.values())
+})
 
 NOT_A_CONNECTION = 0
 HOMOCLINIC = 1
 HETEROCLINIC = 2
 OTHER_END_UNRESOLVED = 3
-CONNECTION_MEANINGS = {
+CONNECTION_MEANINGS, CONNECTION_FLAG_VALUES, CONNECTION_FLAG_MEANINGS = code_table({
     NOT_A_CONNECTION: "not_a_connection: types other than 3 and 4",
     HOMOCLINIC: "homoclinic: the orbit crosses omega1 = 0 transversally, so by (61) both ends are the same "
                 "equilibrium (or the backward end is found to be it)",
     HETEROCLINIC: "heteroclinic: the backward solution tends to another equilibrium",
     OTHER_END_UNRESOLVED: "other_end_unresolved: the backward solution neither crosses omega1 = 0 nor reaches an "
                           "equilibrium within t_max",
-}
-CONNECTION_FLAG_VALUES = tuple(CONNECTION_MEANINGS)
-CONNECTION_FLAG_MEANINGS = " ".join(m.split(":")[0] for m in CONNECTION_MEANINGS.values())
+})
 
 DEFAULT_T_MAX = 20.0
 DEFAULT_EQ_TOL = 1e-9
