@@ -55,7 +55,7 @@ from __future__ import annotations
 import numpy as np
 
 from rimroll.solver import _jit
-from rimroll.solver._compile import kernel
+from rimroll.solver._compile import engine_kernel as kernel
 from rimroll.solver.engine import rules
 from rimroll.solver.engine.outcomes import (
     MAX_STEPS,

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rimroll.solver._compile import kernel
+from rimroll.solver._compile import engine_kernel
 from rimroll.solver.engine.stepper import (
     ACCEPTED,
     BUDGET_SPENT,
@@ -88,7 +88,7 @@ CHECK_EVERY = 8
 POWER_ITERATIONS = 12
 
 
-@kernel(inline=True)
+@engine_kernel(inline=True)
 def spectral_radius(J, m, x, tmp):
     """An estimate of the spectral radius [1/s] of J[:m, :m]: the geometric mean growth of the
     power iteration over its last half (the growth of ||J^k x|| tends to the spectral radius also
@@ -114,7 +114,7 @@ def spectral_radius(J, m, x, tmp):
     return np.exp(log_growth / (POWER_ITERATIONS - POWER_ITERATIONS // 2))
 
 
-@kernel(inline=True)
+@engine_kernel(inline=True)
 def lu_factor(J, h, m, LU, piv):
     """LU = I/(h gamma) - J[:m, :m] factored in place with partial pivoting (row swaps in ``piv``).
     False if a pivot is zero or not finite (the trial step is then cut)."""
@@ -148,7 +148,7 @@ def lu_factor(J, h, m, LU, piv):
     return True
 
 
-@kernel(inline=True)
+@engine_kernel(inline=True)
 def stage_solve(LU, piv, J, h, n, b):
     """b <- E^-1 b for E = I/(h gamma) - J, the first n - 1 components through the factors of
     :func:`lu_factor`, the last (a quadrature: column n - 1 of J is zero) by substitution."""
@@ -173,7 +173,7 @@ def stage_solve(LU, piv, J, h, n, b):
     b[m] = h * GAMMA * acc
 
 
-@kernel(inline=True, takes_functions=True)
+@engine_kernel(inline=True, takes_functions=True)
 def stage(rhs, s, y, h, n, model, R, LU, piv, J, tmp):
     """Stage s + 1 of the step: k = E^-1 (f(y + sum_j a_sj k_j) + sum_j c_sj k_j / h) into R[s], with
     the coefficients of row s of :data:`STAGE_A` and :data:`STAGE_C`; tmp keeps the argument of f."""
@@ -192,7 +192,7 @@ def stage(rhs, s, y, h, n, model, R, LU, piv, J, tmp):
     stage_solve(LU, piv, J, h, n, R[s])
 
 
-@kernel(inline=True, takes_functions=True)
+@engine_kernel(inline=True, takes_functions=True)
 def rodas_step(rhs, y, f, h, n, model, R, J, LU, piv, y_new, tmp):
     """One Rodas4 step of length h [s] from y with slope f and Jacobian J: the stages into R[0..5]
     (R[5] is the error estimate) and the new state into y_new. False if E is singular."""
@@ -208,7 +208,7 @@ def rodas_step(rhs, y, f, h, n, model, R, J, LU, piv, y_new, tmp):
     return True
 
 
-@kernel(inline=True)
+@engine_kernel(inline=True)
 def error_norm(R, y, y_new, n_err, rtol, atol):
     """RMS over the first n_err components of the error estimate k_6 scaled by
     atol[i] + rtol * max(|y_i|, |y_new_i|); the step is accepted when it is <= 1."""
@@ -219,7 +219,7 @@ def error_norm(R, y, y_new, n_err, rtol, atol):
     return np.sqrt(acc / n_err)
 
 
-@kernel(inline=True)
+@engine_kernel(inline=True)
 def dense_coefficients(R, y, y_new, h, n, Q):
     """The dense output of the accepted step as the engine's Q: y(theta) = y + h sum_q Q[:, q]
     theta^(q+1) (``stepper.dense_eval``), from Rodas' y + theta dy + theta (1 - theta)(d2 + theta d3)."""
@@ -233,7 +233,7 @@ def dense_coefficients(R, y, y_new, h, n, Q):
             Q[i, q] = 0.0
 
 
-@kernel(takes_functions=True)  # not inlined: one compiled copy, called once per step (the compile stays small)
+@engine_kernel(takes_functions=True)  # not inlined: one compiled copy, called once per step (the compile stays small)
 def attempt(rhs, n, control, model, arrays, work, fsal_row, t, h, after_reject, budget):
     """Try Rodas4 steps from (t, y), slope f, Jacobian work.J at y, first trial step h [s], until one
     is accepted: the contract of ``stepper.attempt`` (same codes and returns). ``n``: the number of

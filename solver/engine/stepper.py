@@ -23,7 +23,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from rimroll.solver._compile import kernel
+from rimroll.solver._compile import engine_kernel
 
 SAFETY = 0.9  # fraction of the optimal step actually taken
 MIN_FACTOR = 0.2  # largest decrease of h in one rejection (also the cut after a non-finite trial)
@@ -38,7 +38,7 @@ UNDERFLOW = 2
 NON_FINITE = 3
 
 
-@kernel(inline=True, takes_functions=True)
+@engine_kernel(inline=True, takes_functions=True)
 def rk_step(rhs, y, f, h, n, A, n_stages, K, y_new, tmp, p):
     """One explicit RK step from y with slope f = rhs(y): fills K[0..n_stages] and y_new.
 
@@ -59,7 +59,7 @@ def rk_step(rhs, y, f, h, n, A, n_stages, K, y_new, tmp, p):
         rhs(tmp, p, K, s)
 
 
-@kernel(inline=True)
+@engine_kernel(inline=True)
 def error_norm(K, E, err_mode, n_stages, h, y, y_new, n_err, rtol, atol):
     """Scaled norm of the local error estimate; the step is accepted when it is <= 1.
 
@@ -93,7 +93,7 @@ def error_norm(K, E, err_mode, n_stages, h, y, y_new, n_err, rtol, atol):
     return abs(h) * n5 / np.sqrt((n5 + 0.01 * n3) * n_err)
 
 
-@kernel(inline=True)
+@engine_kernel(inline=True)
 def step_factor(err, exponent, after_reject, max_factor):
     """Factor for the next step from the error norm of an accepted (err <= 1) or rejected step; at
     most ``max_factor`` (MAX_FACTOR for the explicit methods, ``rosenbrock.MAX_FACTOR`` for Rodas4)."""
@@ -109,13 +109,13 @@ def step_factor(err, exponent, after_reject, max_factor):
     return factor
 
 
-@kernel(inline=True)
+@engine_kernel(inline=True)
 def min_step(t):
     """Smallest step allowed at time t (MIN_STEP_ULPS ulps of t) [s]."""
     return MIN_STEP_ULPS * (np.nextafter(abs(t), np.inf) - abs(t))
 
 
-@kernel(takes_functions=True)
+@engine_kernel(takes_functions=True)
 def initial_step(rhs, y, f, n, n_err, error_order, rtol, atol, span, tmp, F1, p):
     """Hairer's starting step (Solving ODEs I, II.4; scipy ``select_initial_step``) [s].
 
@@ -152,7 +152,7 @@ def initial_step(rhs, y, f, n, n_err, error_order, rtol, atol, span, tmp, F1, p)
     return min(100.0 * h0, h1, span)
 
 
-@kernel(takes_functions=True)
+@engine_kernel(takes_functions=True)
 def dense_prepare(rhs, method, y, h, n, K, Q, tmp, p):
     """Dense output of the last step: extra stages (if the method has any), then Q = K^T P.
 
@@ -180,7 +180,7 @@ def dense_prepare(rhs, method, y, h, n, K, Q, tmp, p):
             Q[i, q] = acc
 
 
-@kernel
+@engine_kernel
 def dense_eval(theta, y, h, Q, n, n_poly, out):
     """The dense output at t + theta h (0 <= theta <= 1) into ``out[:n]``."""
     for i in range(n):
@@ -190,7 +190,7 @@ def dense_eval(theta, y, h, Q, n, n_poly, out):
         out[i] = y[i] + h * acc
 
 
-@kernel
+@engine_kernel
 def dense_slope(theta, Q, n, n_poly, out):
     """Time derivative of the dense output at t + theta h into ``out[:n]`` [units of y per s].
 
@@ -225,7 +225,7 @@ class Arrays(NamedTuple):
     tmp: np.ndarray
 
 
-@kernel(inline=True, takes_functions=True)
+@engine_kernel(inline=True, takes_functions=True)
 def attempt(rhs, method, control, p, arrays, t, h, after_reject, budget):
     """Try steps from (t, y), slope f = rhs(y), first trial step h [s], until one is accepted.
 

@@ -17,12 +17,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from rimroll.solver._jit import kernel
+from rimroll.solver._jit import physics_kernel
 from rimroll.solver.physics import kinematics, loads
 from rimroll.solver.physics.params import P_G, P_J, P_K_D, P_K_R, P_M, P_MU, P_R_BALL, P_R_RIM, P_RHO
 
 
-@kernel
+@physics_kernel
 def rolling_rhs(beta, omega1, omega2, omega3, p, load=None):
     """Right-hand side of the rolling equations (33)-(36) with dissipation (83), and the rates an
     external ``load`` adds (``solver.physics.loads``; None: none, and none of its code is compiled).
@@ -53,7 +53,7 @@ def rolling_rhs(beta, omega1, omega2, omega3, p, load=None):
     return beta_dot, omega1_dot, omega2_dot, omega3_dot
 
 
-@kernel
+@physics_kernel
 def normal_force(beta, omega1, omega3, p, load=None):
     """Normal contact force F2 of a rolling ball (31) [N], less the normal component of an external
     ``load``'s force; the ball separates where F2 < 0."""
@@ -68,7 +68,7 @@ def normal_force(beta, omega1, omega3, p, load=None):
     return F2
 
 
-@kernel
+@physics_kernel
 def normal_force_rate(beta, omega1, omega3, beta_dot, omega1_dot, omega3_dot, p):
     """Time derivative of the rolling normal force (31) along the rates given [N/s] (an external load's
     normal force is taken as constant over a step: the event locator then checks the dip on the
@@ -85,7 +85,7 @@ def normal_force_rate(beta, omega1, omega3, beta_dot, omega1_dot, omega3_dot, p)
     return d_beta * beta_dot - 2.0 * mr2 * omega1 / rho * omega1_dot + 2.0 * mr2 * omega3 * c / D * omega3_dot
 
 
-@kernel
+@physics_kernel
 def contact_forces(beta, omega1, omega2, omega3, p, load=None):
     """Contact force (F1, F2, F3) [N] of a rolling ball in the n-basis: (30)-(32) plus dissipation,
     plus what an external ``load`` adds (``solver.physics.loads.contact_forces``).
@@ -113,7 +113,7 @@ def contact_forces(beta, omega1, omega2, omega3, p, load=None):
     return F1, F2, F3
 
 
-@kernel
+@physics_kernel
 def friction_margin(beta, omega1, omega2, omega3, p, load=None):
     """Margin of the friction cone (39), mu F2 - sqrt(F1^2 + F3^2) [N]; rolling is valid where >= 0.
 
@@ -123,7 +123,7 @@ def friction_margin(beta, omega1, omega2, omega3, p, load=None):
     return p[P_MU] * F2 - np.sqrt(F1 * F1 + F3 * F3)
 
 
-@kernel
+@physics_kernel
 def contact_forces_rate(beta, omega1, omega2, omega3, beta_dot, omega1_dot, omega2_dot, omega3_dot, p):
     """Time derivative of the contact force (F1, F2, F3) of a rolling ball (``contact_forces``,
     without an external load) along the rates given [N/s]."""
@@ -144,7 +144,7 @@ def contact_forces_rate(beta, omega1, omega2, omega3, beta_dot, omega1_dot, omeg
     return dF1, dF2, dF3
 
 
-@kernel
+@physics_kernel
 def friction_margin_rate(beta, omega1, omega2, omega3, beta_dot, omega1_dot, omega2_dot, omega3_dot, p):
     """Time derivative of the friction margin (39), mu dF2/dt - d|F_t|/dt [N/s], along the rates given
     (no external load). It lets the event locator bound the margin between step ends as it bounds
@@ -156,7 +156,7 @@ def friction_margin_rate(beta, omega1, omega2, omega3, beta_dot, omega1_dot, ome
     return p[P_MU] * dF2 - (F1 * dF1 + F3 * dF3) / ft
 
 
-@kernel
+@physics_kernel
 def energy(beta, omega1, omega2, omega3, p):
     """Total mechanical energy of the rolling ball (60) [J], with potential m g rho sin(beta).
 
@@ -173,7 +173,7 @@ def energy(beta, omega1, omega2, omega3, p):
     )
 
 
-@kernel
+@physics_kernel
 def dissipated_power(omega1, omega2, omega3, p):
     """Power of the contact moment, M_C . omega [W] (<= 0): the rate dE/dt while rolling."""
     r = p[P_R_BALL]
