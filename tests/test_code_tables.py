@@ -36,20 +36,32 @@ def test_a_stored_file_reads_the_same_codes_and_flags(name, var, table):
 
 
 def test_a_table_gives_its_meanings_codes_and_names_in_order():
-    table = outcomes.code_table({0: "low: below the line", 3: "high: above it: far"})
-    assert table.meanings == {0: "low: below the line", 3: "high: above it: far"}
-    assert table.flag_values == (0, 3)
+    table = outcomes.code_table("""
+low: below the line
+high: above it: far,
+    and further
+""")
+    assert table.meanings == {0: "low: below the line", 1: "high: above it: far, and further"}
+    assert table.flag_values == (0, 1)
     assert table.flag_meanings == "low high"
     assert outcomes.flag_meanings(table.meanings) == table.flag_meanings
 
 
-@pytest.mark.parametrize("meanings, says", [
-    ({0: "no colon here"}, "'name: meaning'"),
-    ({0: "two words: a name that is not one word"}, "one-word name"),
-    ({"0": "zero: a string code"}, "an int code"),
-    ({0: "same: one", 1: "same: two"}, "names repeat"),
+def test_every_table_codes_its_constants_in_order():
+    assert (outcomes.FALL_IN, outcomes.STEADY_MOTION, outcomes.OK, outcomes.STIFF_SLIP, outcomes.STOPPED_EARLY) == (
+        0, 4, 0, 5, 4)
+    assert outcomes.OUTCOME_MEANINGS[outcomes.PERIODIC_ROLLING].startswith("periodic_rolling: ")
+    assert boundaries.BOUNDARY_MEANINGS[boundaries.SEPARATRIX_AND_DEADLOCK].startswith("separatrix_and_deadlock: ")
+    assert solution_types.TYPE_MEANINGS[solution_types.QUASI_PERIODIC].startswith("quasi_periodic: ")
+    assert solution_types.CONNECTION_MEANINGS[solution_types.OTHER_END_UNRESOLVED].startswith("other_end_unresolved")
+
+
+@pytest.mark.parametrize("text, says", [
+    ("no colon here", "'name: meaning'"),
+    ("two words: a name that is not one word", "one-word name"),
+    ("same: one\nsame: two", "names repeat"),
 ])
-def test_a_malformed_table_is_refused_in_one_line_naming_the_entry(meanings, says):
+def test_a_malformed_table_is_refused_in_one_line_naming_the_entry(text, says):
     with pytest.raises(ValueError, match=says) as err:
-        outcomes.code_table(meanings)
+        outcomes.code_table(text)
     assert "\n" not in str(err.value)
