@@ -47,8 +47,9 @@ import numpy as np
 from rimroll.solver._compile import engine_kernel
 from rimroll.solver.engine.outcomes import FALL_IN, FALL_OUT
 from rimroll.solver.physics import loads, rolling
+from rimroll.solver.physics.constants import constants
 from rimroll.solver.physics.flight import lands_inside
-from rimroll.solver.physics.params import P_G, P_J, P_K_R, P_R_BALL, P_R_RIM, P_RHO
+from rimroll.solver.physics.params import P_G, P_RHO
 
 STEADY_TOL = 1e-7
 """Largest relative residual of the rates (``steady_residual``) of a state on a steady motion."""
@@ -76,12 +77,11 @@ def rate_scale(beta, omega1, omega2, omega3, p, load=None):
     The sum of their magnitudes, with the gravity term taken at its largest, g / (r (1+j)), so
     that the scale does not vanish where cos(beta) = 0 (the trivial equilibrium (46)).
     """
-    r = p[P_R_BALL]
-    j = p[P_J]
+    r, R, rho, m, j, g, mu, k_r, k_d = constants(p)
     c = np.cos(beta)
-    D = p[P_R_RIM] - p[P_RHO] * c
+    D = R - rho * c
     scale = (np.abs(r * omega3 * omega3 * np.sin(beta) / D) + np.abs(j * r * omega2 * omega3 * c / ((1.0 + j) * D))
-             + p[P_G] / (r * (1.0 + j)) + np.abs(p[P_K_R] * omega1))
+             + g / (r * (1.0 + j)) + np.abs(k_r * omega1))
     if load is not None:
         scale = scale + np.abs(loads.rolling_rates(load, p)[0])
     return scale
