@@ -21,7 +21,7 @@ import numpy as np
 
 from rimroll.solver._jit import physics_kernel
 from rimroll.solver.physics import kinematics, loads
-from rimroll.solver.physics.constants import constants
+from rimroll.solver.physics.params import P_G, P_J, P_K_D, P_K_R, P_M, P_MU, P_R_BALL, P_R_RIM, P_RHO
 
 
 @physics_kernel
@@ -32,7 +32,8 @@ def free_rates(beta, omega1, omega2, omega3, u1, u3, p, load=None):
     friction [1/s^2] (contact moment M_C included); b = u_dot without friction [m/s^2]; F2 the
     normal force (41) [N]; with an external ``load`` (``solver.physics.loads.free_rates``) added.
     """
-    r, R, rho, m, j, g, mu, k_r, k_d = constants(p)
+    r = p[P_R_BALL]
+    j = p[P_J]
     s = np.sin(beta)
     c = np.cos(beta)
     V1 = u1 - r * omega3  # tangential velocity of the centre, n1 [m/s]
@@ -40,12 +41,12 @@ def free_rates(beta, omega1, omega2, omega3, u1, u3, p, load=None):
     alpha_dot, beta_dot = kinematics.angle_rates(beta, omega1, omega3, u1, u3, p)
     Om2 = alpha_dot * s  # n2, n3 components of the basis' angular velocity (11)
     Om3 = alpha_dot * c
-    a1 = -(Om2 * omega3 - Om3 * omega2) - (1.0 + j) / j * k_r * omega1
-    a2 = -(Om3 * omega1 - beta_dot * omega3) - k_d * omega2
-    a3 = -(beta_dot * omega2 - Om2 * omega1) - (1.0 + j) / j * k_r * omega3
+    a1 = -(Om2 * omega3 - Om3 * omega2) - (1.0 + j) / j * p[P_K_R] * omega1
+    a2 = -(Om3 * omega1 - beta_dot * omega3) - p[P_K_D] * omega2
+    a3 = -(beta_dot * omega2 - Om2 * omega1) - (1.0 + j) / j * p[P_K_R] * omega3
     b1 = r * a3 - Om2 * V3
-    b3 = -r * a1 - g * c + Om2 * V1
-    F2 = m * (Om3 * V1 - beta_dot * V3 + g * s)
+    b3 = -r * a1 - p[P_G] * c + Om2 * V1
+    F2 = p[P_M] * (Om3 * V1 - beta_dot * V3 + p[P_G] * s)
     if load is not None:
         da1, da2, da3, db1, db3, dF2 = loads.free_rates(load, p)
         a1 += da1
@@ -63,11 +64,10 @@ def newton_euler_rates(beta, omega1, omega2, omega3, u1, u3, F1, F3, p):
 
     Returns (beta_dot, omega1_dot, omega2_dot, omega3_dot, u1_dot, u3_dot).
     """
-    r, R, rho, m, j, g, mu, k_r, k_d = constants(p)
     beta_dot, a1, a2, a3, b1, b3, _ = free_rates(beta, omega1, omega2, omega3, u1, u3, p)
-    jm = j * m
-    jmr = jm * r
-    k = (1.0 + j) / jm
+    jm = p[P_J] * p[P_M]
+    jmr = jm * p[P_R_BALL]
+    k = (1.0 + p[P_J]) / jm
     return beta_dot, a1 - F3 / jmr, a2, a3 + F1 / jmr, b1 + k * F1, b3 + k * F3
 
 
@@ -78,14 +78,13 @@ def slipping_rhs(beta, omega1, omega2, omega3, u1, u3, p, load=None):
     Coulomb friction (29): (F1, F3) = -mu F2 (u1, u3) / |u|. Returns the six rates
     (beta_dot, omega1_dot, omega2_dot, omega3_dot, u1_dot, u3_dot).
     """
-    r, R, rho, m, j, g, mu, k_r, k_d = constants(p)
     beta_dot, a1, a2, a3, b1, b3, F2 = free_rates(beta, omega1, omega2, omega3, u1, u3, p, load)
     speed = np.sqrt(u1 * u1 + u3 * u3)
-    F1 = -mu * F2 * u1 / speed
-    F3 = -mu * F2 * u3 / speed
-    jm = j * m
-    jmr = jm * r
-    k = (1.0 + j) / jm
+    F1 = -p[P_MU] * F2 * u1 / speed
+    F3 = -p[P_MU] * F2 * u3 / speed
+    jm = p[P_J] * p[P_M]
+    jmr = jm * p[P_R_BALL]
+    k = (1.0 + p[P_J]) / jm
     return beta_dot, a1 - F3 / jmr, a2, a3 + F1 / jmr, b1 + k * F1, b3 + k * F3
 
 
@@ -102,14 +101,19 @@ def slipping_jacobian(beta, omega1, omega2, omega3, u1, u3, p, J):
     |B|/|u|), which is what makes (42) stiff for small slips: an implicit or linearly implicit
     (Rosenbrock) step of a slip phase solves with this matrix.
     """
-    r, R, rho, m, j, g, mu, k_r, k_d = constants(p)
-    kk = (1.0 + j) / j * k_r
-    kd = k_d
+    r = p[P_R_BALL]
+    rho = p[P_RHO]
+    j = p[P_J]
+    m = p[P_M]
+    g = p[P_G]
+    mu = p[P_MU]
+    kk = (1.0 + j) / j * p[P_K_R]
+    kd = p[P_K_D]
     jmr = j * m * r
     kf = (1.0 + j) / (j * m)
     s = np.sin(beta)
     c = np.cos(beta)
-    D = R - rho * c
+    D = p[P_R_RIM] - rho * c
     V1 = u1 - r * omega3
     V3 = u3 + r * omega1
     ad = V1 / D  # alpha_dot
@@ -159,11 +163,13 @@ def slipping_jacobian(beta, omega1, omega2, omega3, u1, u3, p, J):
 def slipping_normal_force(beta, omega1, omega3, u1, u3, p, load=None):
     """Normal contact force of a slipping ball (41) [N], less the normal component of an external
     ``load``'s force."""
-    r, R, rho, m, j, g, mu, k_r, k_d = constants(p)
+    r = p[P_R_BALL]
+    rho = p[P_RHO]
     c = np.cos(beta)
     V1 = u1 - r * omega3
     V3 = u3 + r * omega1
-    F2 = m * V1 * V1 * c / (R - rho * c) - m * V3 * V3 / rho + m * g * np.sin(beta)
+    m = p[P_M]
+    F2 = m * V1 * V1 * c / (p[P_R_RIM] - rho * c) - m * V3 * V3 / rho + m * p[P_G] * np.sin(beta)
     if load is not None:
         F2 -= load[4]
     return F2
@@ -172,13 +178,16 @@ def slipping_normal_force(beta, omega1, omega3, u1, u3, p, load=None):
 @physics_kernel
 def slipping_normal_force_rate(beta, omega1, omega3, u1, u3, beta_dot, omega1_dot, omega3_dot, u1_dot, u3_dot, p):
     """Time derivative of the slipping normal force (41) along the rates given [N/s]."""
-    r, R, rho, m, j, g, mu, k_r, k_d = constants(p)
+    r = p[P_R_BALL]
+    rho = p[P_RHO]
+    R = p[P_R_RIM]
     s = np.sin(beta)
     c = np.cos(beta)
     D = R - rho * c
     V1 = u1 - r * omega3
     V3 = u3 + r * omega1
-    d_beta = -V1 * V1 * s * R / (D * D) + g * c
+    m = p[P_M]
+    d_beta = -V1 * V1 * s * R / (D * D) + p[P_G] * c
     return m * (d_beta * beta_dot + 2.0 * V1 * c / D * (u1_dot - r * omega3_dot)
                 - 2.0 * V3 / rho * (u3_dot + r * omega1_dot))
 
@@ -190,9 +199,8 @@ def directional_limits(beta, omega1, omega2, omega3, p, load=None):
 
     The directional limit of u_dot from the direction phi is (B1 - C cos phi, B3 - C sin phi) (75).
     """
-    r, R, rho, m, j, g, mu, k_r, k_d = constants(p)
     _, _, _, _, b1, b3, F2 = free_rates(beta, omega1, omega2, omega3, 0.0, 0.0, p, load)
-    return b1, b3, mu * (1.0 + j) / (j * m) * F2
+    return b1, b3, p[P_MU] * (1.0 + p[P_J]) / (p[P_J] * p[P_M]) * F2
 
 
 @physics_kernel
@@ -218,11 +226,12 @@ def energy(beta, omega1, omega2, omega3, u1, u3, p):
 
     Equals the rolling energy (60) (with rho) at u = 0.
     """
-    r, R, rho, m, j, g, mu, k_r, k_d = constants(p)
+    r = p[P_R_BALL]
+    m = p[P_M]
     V1 = u1 - r * omega3
     V3 = u3 + r * omega1
     return (
         0.5 * m * (V1 * V1 + V3 * V3)
-        + 0.5 * j * m * r * r * (omega1 * omega1 + omega2 * omega2 + omega3 * omega3)
-        + m * g * rho * np.sin(beta)
+        + 0.5 * p[P_J] * m * r * r * (omega1 * omega1 + omega2 * omega2 + omega3 * omega3)
+        + m * p[P_G] * p[P_RHO] * np.sin(beta)
     )
