@@ -1,6 +1,6 @@
 """Compilation policy of the integration kernels (stepper, events, scenes).
 
-As ``solver._jit.kernel`` (nopython, ``nogil``, no reference counting, cached on disk,
+As ``solver._jit.physics_kernel`` (nopython, ``nogil``, no reference counting, cached on disk,
 ``RIMROLL_NO_JIT=1`` runs the Python source) but with numba's ``error_model="numpy"``: a division by zero gives inf/NaN,
 which the kernels turn into a ``status`` code for that lane, instead of raising
 ``ZeroDivisionError`` out of a whole chunk of trajectories. No ``fastmath``: event location and
@@ -17,16 +17,16 @@ import numba
 from rimroll.solver import _jit
 
 
-def kernel(func=None, *, inline=False, takes_functions=False, runtime=False):
+def engine_kernel(func=None, *, inline=False, takes_functions=False, runtime=False):
     """Compile ``func`` with numba (nopython, nogil, cache, error_model="numpy").
 
-    ``@kernel(inline=True)`` marks a small function on the per-step hot path (the RK step and
+    ``@engine_kernel(inline=True)`` marks a small function on the per-step hot path (the RK step and
     its right-hand side, the error norm and step factor, the grazing gate): numba inlines it
     into its callers at the IR level (``inline="always"``). LLVM does not inline these calls by
     itself (each array argument is passed as a struct of ~8 words), and the call overhead was
     ~20% of a rolling step. Inlined functions are still compiled (and callable) on their own.
 
-    ``@kernel(takes_functions=True)`` marks a function with a compiled function among its
+    ``@engine_kernel(takes_functions=True)`` marks a function with a compiled function among its
     arguments (a phase's rhs or event function): it is not cached on disk by itself. numba keys
     its cache entries on the argument types, and the type of a function argument names one
     process's function object: such an entry never hits in another process, and re-saving the
@@ -34,12 +34,12 @@ def kernel(func=None, *, inline=False, takes_functions=False, runtime=False):
     cached anyway, inside every cached kernel that calls it.
 
     Kernels are compiled without numba's runtime (``solver._jit.NO_REFCOUNT``: no reference
-    counting, no allocation). ``@kernel(runtime=True)`` keeps it for the functions that are also
+    counting, no allocation). ``@engine_kernel(runtime=True)`` keeps it for the functions that are also
     called with broadcast numpy arrays (the rules: the analysis of Theorem 1 calls them on arrays of
     states), where numba allocates the result.
     """
     if func is None:
-        return lambda f: kernel(f, inline=inline, takes_functions=takes_functions, runtime=runtime)
+        return lambda f: engine_kernel(f, inline=inline, takes_functions=takes_functions, runtime=runtime)
     if _jit._DISABLE:
         func.py_func = func
         return func

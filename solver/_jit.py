@@ -1,6 +1,6 @@
 """The one compilation policy of rimroll's kernels.
 
-``kernel`` compiles a pure function with numba (``nogil`` so dask threads run kernels in
+``physics_kernel`` compiles a pure physics function with numba (``nogil`` so dask threads run kernels in
 parallel, cached on disk so a fresh process loads machine code instead of recompiling: in a
 per-user directory keyed on all solver sources, see :func:`cache_dir`). The physics functions
 are written with numpy ufuncs and arithmetic only, so the original Python function
@@ -24,13 +24,13 @@ import numpy as np
 _DISABLE = os.environ.get("RIMROLL_NO_JIT", "") not in ("", "0")
 
 NO_REFCOUNT = {"_nrt": False}
-"""numba option of the engine's kernels (``solver._compile.kernel``): compile without numba's runtime
+"""numba option of the engine's kernels (``solver._compile.engine_kernel``): compile without numba's runtime
 (NRT). With it, every array view made and every array a function receives costs an atomic increment
 and decrement of its owner's reference count: 55-60 % of the engine's time on the Fig. 11 section
 went to those two instructions (``perf`` of the section), and the section ran 2-2.4x slower. The
 engine allocates nothing (its work arrays are made by ``simulate`` in Python and live while the
 kernel runs), which is all the runtime is needed for; the CUDA target has no runtime either, so
-the one source compiles alike for both. The physics kernels (:func:`kernel`) keep the runtime: they
+the one source compiles alike for both. The physics kernels (:func:`physics_kernel`) keep the runtime: they
 take and return numbers, and called with numpy arrays they build the broadcast result."""
 _SOURCES = pathlib.Path(__file__).resolve().parent
 
@@ -116,16 +116,21 @@ def njit_cached(func, **options):
     return dispatcher
 
 
-def kernel(func):
-    """Compile ``func`` with numba in nopython mode, nogil, cached on disk.
+def physics_kernel(func=None, *, inline=False):
+    """Compile a physics function ``func`` with numba in nopython mode, nogil, cached on disk, with numba's
+    runtime and its Python error model (a division by zero raises): it takes and returns numbers, and its
+    Python source broadcasts over numpy arrays (:func:`vectorised`).
 
-    Set the environment variable ``RIMROLL_NO_JIT=1`` to run the pure-Python source
-    instead (for debugging; slow).
+    ``@physics_kernel(inline=True)``: numba inlines it into its callers (``inline="always"``), for the small
+    helpers every equation calls (``params.constants``). Set the environment variable ``RIMROLL_NO_JIT=1`` to
+    run the pure-Python source instead (for debugging; slow).
     """
+    if func is None:
+        return lambda f: physics_kernel(f, inline=inline)
     if _DISABLE:
         func.py_func = func
         return func
-    return njit_cached(func, nogil=True)
+    return njit_cached(func, nogil=True, inline="always" if inline else "never")
 
 
 def vectorised(func):

@@ -47,27 +47,19 @@ from __future__ import annotations
 import numpy as np
 
 from rimroll.solver.engine import outcomes
+from rimroll.solver.engine.outcomes import code_table
 
-NOT_BOUNDARY = 0
-DEADLOCK = 1
-SEPARATRIX = 2
-SLIPPING_INDUCED = 3
-UNDETERMINED = 4
-SEPARATRIX_AND_DEADLOCK = 5
-
-BOUNDARY_MEANINGS = {
-    NOT_BOUNDARY: "not_boundary: not next to a periodic/fall boundary",
-    DEADLOCK: "deadlock: F2_min of the periodic orbits decreases continuously to 0 at the boundary",
-    SEPARATRIX: "separatrix: the half period grows toward the boundary (orbits near a saddle's separatrix)",
-    SLIPPING_INDUCED: "slipping_induced: the falling side would roll periodically without slipping "
-                      "(friction cone (39))",
-    UNDETERMINED: "undetermined: a periodic/fall boundary whose type the grid does not resolve",
-    SEPARATRIX_AND_DEADLOCK: "separatrix_and_deadlock: the band between the cell and its neighbour, thinner than a "
-                             "grid step, holds a separatrix (half period -> inf) and beyond it the deadlock "
-                             "boundary (F2_min -> 0) where periodic rolling ends",
-}
-BOUNDARY_FLAG_VALUES = tuple(BOUNDARY_MEANINGS)
-BOUNDARY_FLAG_MEANINGS = " ".join(m.split(":")[0] for m in BOUNDARY_MEANINGS.values())
+BOUNDARY_TYPES = code_table("""
+not_boundary: not next to a periodic/fall boundary
+deadlock: F2_min of the periodic orbits decreases continuously to 0 at the boundary
+separatrix: the half period grows toward the boundary (orbits near a saddle's separatrix)
+slipping_induced: the falling side would roll periodically without slipping (friction cone (39))
+undetermined: a periodic/fall boundary whose type the grid does not resolve
+separatrix_and_deadlock: the band between the cell and its neighbour, thinner than a grid step, holds a separatrix
+    (half period -> inf) and beyond it the deadlock boundary (F2_min -> 0) where periodic rolling ends
+""")
+BOUNDARY_MEANINGS, BOUNDARY_FLAG_VALUES, BOUNDARY_FLAG_MEANINGS = BOUNDARY_TYPES
+NOT_BOUNDARY, DEADLOCK, SEPARATRIX, SLIPPING_INDUCED, UNDETERMINED, SEPARATRIX_AND_DEADLOCK = BOUNDARY_FLAG_VALUES
 
 DEFAULTS = {
     "f2_rel": 0.1,  # F2_min(P) <= 0.1 m g: the contact is nearly lost somewhere on the orbit

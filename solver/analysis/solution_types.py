@@ -73,52 +73,37 @@ from rimroll.solver._arguments import positive_number, real_array, real_number, 
 from rimroll.solver._jit import vectorised
 from rimroll.solver.analysis import reduced, trajectory
 from rimroll.solver.engine import rules
+from rimroll.solver.engine.outcomes import code_table
 from rimroll.solver.physics import kinematics, rolling
 from rimroll.solver.physics.params import Params
 from rimroll.solver.physics.steady_motion import check_params
 
-UNDETERMINED = 0
-TRIVIAL_EQUILIBRIUM = 1
-NONTRIVIAL_EQUILIBRIUM = 2
-TRIVIAL_CONNECTION = 3
-NONTRIVIAL_CONNECTION = 4
-NON_PERIODIC_PENDULUM = 5
-PERIODIC = 6
-QUASI_PERIODIC = 7
+TYPES = code_table("""
+undetermined: none of the types below resolved within t_max (slow orbit, failed integration)
+trivial_equilibrium: cos(beta) = 0, omega1 = omega3 = 0 (46), ball on top or hanging
+nontrivial_equilibrium: steady motion (47), omega1 = 0, omega2 = omega20(beta, omega3) (48)
+trivial_connection: tends to the unstable ball-on-top equilibrium x0+ (46) at its rate sqrt(g/(rho (1+j)));
+    homoclinic or heteroclinic
+nontrivial_connection: tends to a saddle steady motion (47) at the rate sqrt(h) of (54); homoclinic or heteroclinic
+non_periodic_pendulum: omega2 = omega3 = 0 and E > m g rho, omega1 keeps its sign (Prop. 6)
+periodic: two transversal zeros of omega1, period 2 (t2 - t1) (Prop. 4), or a rotation of beta with a rational
+    rotation number
+quasi_periodic: omega1 keeps its sign, (omega2, omega3) turn by an irrational fraction of a turn per revolution of
+    beta (Props. 5, 7)
+""")
+TYPE_MEANINGS, TYPE_FLAG_VALUES, TYPE_FLAG_MEANINGS = TYPES
+(UNDETERMINED, TRIVIAL_EQUILIBRIUM, NONTRIVIAL_EQUILIBRIUM, TRIVIAL_CONNECTION, NONTRIVIAL_CONNECTION,
+ NON_PERIODIC_PENDULUM, PERIODIC, QUASI_PERIODIC) = TYPE_FLAG_VALUES
 
-TYPE_MEANINGS = {
-    UNDETERMINED: "undetermined: none of the types below resolved within t_max (slow orbit, failed integration)",
-    TRIVIAL_EQUILIBRIUM: "trivial_equilibrium: cos(beta) = 0, omega1 = omega3 = 0 (46), ball on top or hanging",
-    NONTRIVIAL_EQUILIBRIUM: "nontrivial_equilibrium: steady motion (47), omega1 = 0, "
-                            "omega2 = omega20(beta, omega3) (48)",
-    TRIVIAL_CONNECTION: "trivial_connection: tends to the unstable ball-on-top equilibrium x0+ (46) at its rate "
-                        "sqrt(g/(rho (1+j))); homoclinic or heteroclinic",
-    NONTRIVIAL_CONNECTION: "nontrivial_connection: tends to a saddle steady motion (47) at the rate sqrt(h) of (54); "
-                           "homoclinic or heteroclinic",
-    NON_PERIODIC_PENDULUM: "non_periodic_pendulum: omega2 = omega3 = 0 and E > m g rho, omega1 keeps its sign "
-                           "(Prop. 6)",
-    PERIODIC: "periodic: two transversal zeros of omega1, period 2 (t2 - t1) (Prop. 4), or a rotation of beta "
-              "with a rational rotation number",
-    QUASI_PERIODIC: "quasi_periodic: omega1 keeps its sign, (omega2, omega3) turn by an irrational fraction of a "
-                    "turn per revolution of beta (Props. 5, 7)",
-}
-TYPE_FLAG_VALUES = tuple(TYPE_MEANINGS)
-TYPE_FLAG_MEANINGS = " ".join(m.split(":")[0] for m in TYPE_MEANINGS.values())
-
-NOT_A_CONNECTION = 0
-HOMOCLINIC = 1
-HETEROCLINIC = 2
-OTHER_END_UNRESOLVED = 3
-CONNECTION_MEANINGS = {
-    NOT_A_CONNECTION: "not_a_connection: types other than 3 and 4",
-    HOMOCLINIC: "homoclinic: the orbit crosses omega1 = 0 transversally, so by (61) both ends are the same "
-                "equilibrium (or the backward end is found to be it)",
-    HETEROCLINIC: "heteroclinic: the backward solution tends to another equilibrium",
-    OTHER_END_UNRESOLVED: "other_end_unresolved: the backward solution neither crosses omega1 = 0 nor reaches an "
-                          "equilibrium within t_max",
-}
-CONNECTION_FLAG_VALUES = tuple(CONNECTION_MEANINGS)
-CONNECTION_FLAG_MEANINGS = " ".join(m.split(":")[0] for m in CONNECTION_MEANINGS.values())
+CONNECTIONS = code_table("""
+not_a_connection: types other than 3 and 4
+homoclinic: the orbit crosses omega1 = 0 transversally, so by (61) both ends are the same equilibrium (or the
+    backward end is found to be it)
+heteroclinic: the backward solution tends to another equilibrium
+other_end_unresolved: the backward solution neither crosses omega1 = 0 nor reaches an equilibrium within t_max
+""")
+CONNECTION_MEANINGS, CONNECTION_FLAG_VALUES, CONNECTION_FLAG_MEANINGS = CONNECTIONS
+NOT_A_CONNECTION, HOMOCLINIC, HETEROCLINIC, OTHER_END_UNRESOLVED = CONNECTION_FLAG_VALUES
 
 DEFAULT_T_MAX = 20.0
 DEFAULT_EQ_TOL = 1e-9

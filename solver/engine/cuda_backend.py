@@ -123,10 +123,11 @@ else:
 def launcher(scene: Scene, method: str):
     """The Python source of the kernel of a scene and method: one trajectory per thread.
 
-    ``launch(states, m, p, t_max, rtol, atol, max_steps, max_switches, switches, sw, res_f, res_i)`` (the
+    ``launch(states, m, p, t_max, rtol, atol, max_steps, max_switches, switches, switch_tol, float_results,
+    int_results)`` (the
     fields of ``kernels.Limits`` as scalars, its two booleans as the bits of ``switches``: 1 periodic,
     2 stiff_slips): thread k < m integrates row k of ``states`` (m, 4) and
-    writes rows k of ``res_f`` (m, N_RF) and ``res_i`` (m, N_RI), exactly as the CPU scene kernels
+    writes rows k of ``float_results`` (m, N_RF) and ``int_results`` (m, N_RI), exactly as the CPU scene kernels
     do for one row.
     """
     trajectory = kernels.trajectory  # the CPU engine's trajectory body
@@ -142,7 +143,8 @@ def launcher(scene: Scene, method: str):
     # the Rosenbrock arrays of slip phases (kernels.Work): 1 x 1 where the scene never slips
     n_ro, n_j = (rosenbrock.N_ROWS, N_MAX) if slips else (1, 1)
 
-    def launch(states, m, p, t_max, rtol, atol, max_steps, max_switches, switches, sw, res_f, res_i):
+    def launch(states, m, p, t_max, rtol, atol, max_steps, max_switches, switches, switch_tol, float_results,
+               int_results):
         k = cuda.grid(1)
         if k >= m:
             return
@@ -179,11 +181,11 @@ def launcher(scene: Scene, method: str):
         else:
             model = Model(native(p), None, False)
         if slips:  # a constant of the kernel: numba compiles one of the two calls
-            trajectory(native(sw), native(states[k]), model, method, limits, work,
-                       native(res_f[k]), native(res_i[k]))
+            trajectory(native(switch_tol), native(states[k]), model, method, limits, work,
+                       native(float_results[k]), native(int_results[k]))
         else:  # rolling only: no switching tolerances, no slipping code
-            trajectory(None, native(states[k]), model, method, limits, work, native(res_f[k]),
-                       native(res_i[k]))
+            trajectory(None, native(states[k]), model, method, limits, work, native(float_results[k]),
+                       native(int_results[k]))
 
     launch.__qualname__ = launch.__name__ = f"launch_{scene.kernel}_{method}"
     return launch
@@ -291,9 +293,9 @@ def release_buffers() -> None:
         _SLOTS = []
 
 
-def run(scene: Scene, method: str, states: np.ndarray, p: np.ndarray, limits: kernels.Limits, sw: np.ndarray,
-        res_f: np.ndarray, res_i: np.ndarray, max_batch: int | None = None) -> None:
-    """Simulate the rows of ``states`` (m, 4) on the device; results into ``res_f``, ``res_i``.
+def run(scene: Scene, method: str, states: np.ndarray, p: np.ndarray, limits: kernels.Limits, switch_tol: np.ndarray,
+        float_results: np.ndarray, int_results: np.ndarray, max_batch: int | None = None) -> None:
+    """Simulate the rows of ``states`` (m, 4) on the device; results into ``float_results``, ``int_results``.
 
     The arguments are those of the CPU scene kernels (``kernels.SCENE_KERNELS``), the method by
     name. Batches as :func:`batch_size` says, double-buffered on two streams with pinned host buffers.
@@ -309,7 +311,7 @@ def run(scene: Scene, method: str, states: np.ndarray, p: np.ndarray, limits: ke
         batch = batch_size(m, free, max_batch)
         slots = _slots(batch)
         d_p = cuda.to_device(np.ascontiguousarray(p, dtype=np.float64), stream=slots[0].stream)
-        d_sw = cuda.to_device(np.ascontiguousarray(sw, dtype=np.float64), stream=slots[0].stream)
+        d_switch_tol = cuda.to_device(np.ascontiguousarray(switch_tol, dtype=np.float64), stream=slots[0].stream)
         switches = (1 if limits.periodic else 0) | (2 if limits.stiff_slips else 0)  # launch's flag bits
         slots[0].stream.synchronize()  # the parameters are on the device before any launch
 
@@ -317,8 +319,8 @@ def run(scene: Scene, method: str, states: np.ndarray, p: np.ndarray, limits: ke
             if slot.rows is not None:
                 slot.stream.synchronize()
                 lo, hi = slot.rows
-                res_f[lo:hi] = slot.h_f[: hi - lo]
-                res_i[lo:hi] = slot.h_i[: hi - lo]
+                float_results[lo:hi] = slot.h_f[: hi - lo]
+                int_results[lo:hi] = slot.h_i[: hi - lo]
                 slot.rows = None
 
         try:
@@ -330,7 +332,7 @@ def run(scene: Scene, method: str, states: np.ndarray, p: np.ndarray, limits: ke
                 slot.h_states[:n] = states[lo:hi]
                 slot.d_states[:n].copy_to_device(slot.h_states[:n], stream=slot.stream)
                 launch = _configure(k, -(-n // THREADS_PER_BLOCK), slot.stream)
-                launch(slot.d_states, n, d_p, *limits[:5], switches, d_sw, slot.d_f, slot.d_i)
+                launch(slot.d_states, n, d_p, *limits[:5], switches, d_switch_tol, slot.d_f, slot.d_i)
                 slot.d_f[:n].copy_to_host(slot.h_f[:n], stream=slot.stream)
                 slot.d_i[:n].copy_to_host(slot.h_i[:n], stream=slot.stream)
                 slot.rows = (lo, hi)

@@ -1,7 +1,7 @@
 """Event location on the dense output of an accepted step: the one place where events are found.
 
 The locator knows no physics: it is handed the event function of a phase as a compiled function
-``events(y, f, p, aux, g, gr)`` (values of every event at state y into g, their time
+``events(y, f, p, event_tol, g, gr)`` (values of every event at state y into g, their time
 derivatives along the rates f into gr, NaN where not available) and the phase's event table
 (``direction``, ``track_min``, ``active`` arrays; see ``solver.engine.system``).
 
@@ -48,7 +48,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from rimroll.solver._compile import kernel
+from rimroll.solver._compile import engine_kernel
 from rimroll.solver.engine.stepper import dense_eval, dense_slope
 
 EVENT_SAMPLES = 4  # sign comparisons per step for events without a derivative
@@ -94,7 +94,7 @@ class Tracking(NamedTuple):
     mins: np.ndarray
 
 
-@kernel
+@engine_kernel
 def initial_signs(g, direction, sign):
     """Signs of the event values at the start of a phase (see the module rules)."""
     for e in range(g.shape[0]):
@@ -106,7 +106,7 @@ def initial_signs(g, direction, sign):
             sign[e] = -direction[e]
 
 
-@kernel
+@engine_kernel
 def update_signs(g, sign, skip):
     """Record the sign of every nonzero event value except event ``skip``."""
     for e in range(g.shape[0]):
@@ -117,7 +117,7 @@ def update_signs(g, sign, skip):
                 sign[e] = -1
 
 
-@kernel
+@engine_kernel
 def fires(e, sign, value, active, direction):
     """Whether event e fires at a state where its value is ``value``."""
     if not active[e] or sign[e] == 0 or not (value > 0.0 or value < 0.0):
@@ -128,14 +128,14 @@ def fires(e, sign, value, active, direction):
     return direction[e] == 0 or direction[e] == s
 
 
-@kernel(inline=True)
+@engine_kernel(inline=True)
 def hermite_coefficients(a, b, da, db):
     """(a2, a3) of the cubic Hermite interpolant a + da theta + a2 theta^2 + a3 theta^3 on [0, 1]
     with values a, b and theta-slopes da, db at its ends."""
     return 3.0 * (b - a) - 2.0 * da - db, 2.0 * (a - b) + da + db
 
 
-@kernel(inline=True)
+@engine_kernel(inline=True)
 def hermite(a, b, da, db):
     """The cubic Hermite interpolant on theta in [0, 1] of values a, b and theta-slopes da, db.
 
@@ -169,7 +169,7 @@ def hermite(a, b, da, db):
     return lo, th_lo, a3
 
 
-@kernel(inline=True)
+@engine_kernel(inline=True)
 def trough_possible(g0, r0, g1, r1, h, h_prev, third_prev, mid_err, rtol):
     """The gate of a tracked event on a step of length h [s] (see the module rules).
 
@@ -195,7 +195,7 @@ def trough_possible(g0, r0, g1, r1, h, h_prev, third_prev, mid_err, rtol):
     return not (lo - margin > 0.0), lo, th_lo, third
 
 
-@kernel
+@engine_kernel
 def hermite_at(g0, r0, g1, r1, h, theta):
     """The cubic Hermite interpolant of values g0, g1 and time derivatives r0, r1 on a step of
     length h [s], at theta in [0, 1]."""
@@ -204,19 +204,19 @@ def hermite_at(g0, r0, g1, r1, h, theta):
     return g0 + theta * (da + theta * (a2 + theta * a3))
 
 
-@kernel(takes_functions=True)
-def value_at(events, e, theta, dense, p, aux, scratch):
+@engine_kernel(takes_functions=True)
+def value_at(events, e, theta, dense, p, event_tol, scratch):
     """Value of event e on the dense output at theta (the state into scratch.tmp, its slope into
     scratch.slope, every event's value and rate into scratch.g, scratch.gr)."""
     n_poly = dense.Q.shape[1]
     dense_eval(theta, dense.y, dense.h, dense.Q, dense.n, n_poly, scratch.tmp)
     dense_slope(theta, dense.Q, dense.n, n_poly, scratch.slope)
-    events(scratch.tmp, scratch.slope, p, aux, scratch.g, scratch.gr)
+    events(scratch.tmp, scratch.slope, p, event_tol, scratch.g, scratch.gr)
     return scratch.g[e]
 
 
-@kernel(takes_functions=True)
-def locate(events, e, a, ga, b, gb, dense, p, aux, scratch):
+@engine_kernel(takes_functions=True)
+def locate(events, e, a, ga, b, gb, dense, p, event_tol, scratch):
     """Root of event e on the dense output in theta in [a, b], ga pre-crossing (or 0), gb post.
 
     Safeguarded Newton: each evaluation of the event on the dense output also gives its time
@@ -241,7 +241,7 @@ def locate(events, e, a, ga, b, gb, dense, p, aux, scratch):
             c = 0.5 * (a + b)
             if not (c > a and c < b):
                 break
-        gc = value_at(events, e, c, dense, p, aux, scratch)
+        gc = value_at(events, e, c, dense, p, event_tol, scratch)
         if gc == 0.0:
             return c
         if (gc > 0.0) == (gb > 0.0):
@@ -268,8 +268,8 @@ def locate(events, e, a, ga, b, gb, dense, p, aux, scratch):
     return b
 
 
-@kernel(takes_functions=True)
-def minimum(events, e, a, b, start, sgn, dense, p, aux, scratch):
+@engine_kernel(takes_functions=True)
+def minimum(events, e, a, b, start, sgn, dense, p, event_tol, scratch):
     """Local minimum of sgn * (event e) on the dense output over theta in [a, b], from ``start``.
 
     Brent's method (golden section with parabolic steps; Brent, Algorithms for Minimization
@@ -277,7 +277,7 @@ def minimum(events, e, a, b, start, sgn, dense, p, aux, scratch):
     the end values are compared too, so a minimum at an end of [a, b] is found as well.
     """
     x = min(max(start, a), b)
-    fx = sgn * value_at(events, e, x, dense, p, aux, scratch)
+    fx = sgn * value_at(events, e, x, dense, p, event_tol, scratch)
     w = x
     v = x
     fw = fx
@@ -312,7 +312,7 @@ def minimum(events, e, a, b, start, sgn, dense, p, aux, scratch):
             step = (lo - x) if x >= mid else (hi - x)
             d = _GOLDEN * step
         u = x + d if abs(d) >= tol1 else x + (tol1 if d > 0.0 else -tol1)
-        fu = sgn * value_at(events, e, u, dense, p, aux, scratch)
+        fu = sgn * value_at(events, e, u, dense, p, event_tol, scratch)
         if fu <= fx:
             if u >= x:
                 lo = x
@@ -338,15 +338,15 @@ def minimum(events, e, a, b, start, sgn, dense, p, aux, scratch):
                 v = u
                 fv = fu
     for th in (a, b):
-        f_end = sgn * value_at(events, e, th, dense, p, aux, scratch)
+        f_end = sgn * value_at(events, e, th, dense, p, event_tol, scratch)
         if f_end < fx:
             x = th
             fx = f_end
     return x, fx
 
 
-@kernel(takes_functions=True)
-def next_event(events, table, tracking, theta0, g0, g1, gr1, dense, p, aux, scratch):
+@engine_kernel(takes_functions=True)
+def next_event(events, table, tracking, theta0, g0, g1, gr1, dense, p, event_tol, scratch):
     """Earliest event of an accepted step in theta in (theta0, 1] (see the module rules).
 
     ``table``: the phase's event table (``active``, ``direction``, ``track_min`` arrays);
@@ -356,11 +356,11 @@ def next_event(events, table, tracking, theta0, g0, g1, gr1, dense, p, aux, scra
     (theta = 1). Returns (event index or -1, theta of the event, or 1.0). With no event, the signs
     are updated to the step end.
     """
-    best, best_theta = _tracked_minima(events, table, tracking, theta0, g0, dense, p, aux, scratch)
+    best, best_theta = _tracked_minima(events, table, tracking, theta0, g0, dense, p, event_tol, scratch)
     # sign changes at the step end
     for e in range(g0.shape[0]):
         if fires(e, tracking.sign, g1[e], table.active, table.direction):
-            root = locate(events, e, theta0, g0[e], 1.0, g1[e], dense, p, aux, scratch)
+            root = locate(events, e, theta0, g0[e], 1.0, g1[e], dense, p, event_tol, scratch)
             if root < best_theta or (root == best_theta and e < best):
                 best = e
                 best_theta = root
@@ -370,7 +370,7 @@ def next_event(events, table, tracking, theta0, g0, g1, gr1, dense, p, aux, scra
         if table.active[e] and not np.isfinite(gr1[e]):
             sampled = True
     if sampled:
-        e, theta = _sampled(events, table, tracking.sign, theta0, g0, gr1, best_theta, dense, p, aux, scratch)
+        e, theta = _sampled(events, table, tracking.sign, theta0, g0, gr1, best_theta, dense, p, event_tol, scratch)
         if e >= 0:
             best = e
             best_theta = theta
@@ -380,8 +380,8 @@ def next_event(events, table, tracking, theta0, g0, g1, gr1, dense, p, aux, scra
     return best, best_theta
 
 
-@kernel(inline=True, takes_functions=True)
-def _tracked_minima(events, table, tracking, theta0, g0, dense, p, aux, scratch):
+@engine_kernel(inline=True, takes_functions=True)
+def _tracked_minima(events, table, tracking, theta0, g0, dense, p, event_tol, scratch):
     """Tracked events the gate asks about: the event is decided at its minimum over (theta0, 1].
     Returns (the earliest firing event or -1, its theta or 2.0)."""
     best = -1
@@ -391,13 +391,13 @@ def _tracked_minima(events, table, tracking, theta0, g0, dense, p, aux, scratch)
         if not (table.active[e] and table.track_min[e] and tracking.search[e]):
             continue
         sgn = -1.0 if sign[e] < 0 else 1.0
-        th, val = minimum(events, e, theta0, 1.0, max(tracking.th_min[e], theta0), sgn, dense, p, aux,
+        th, val = minimum(events, e, theta0, 1.0, max(tracking.th_min[e], theta0), sgn, dense, p, event_tol,
                           scratch)
         gm = sgn * val
         if fires(e, sign, gm, table.active, table.direction):
             root = theta0
             if th > theta0:
-                root = locate(events, e, theta0, g0[e], th, gm, dense, p, aux, scratch)
+                root = locate(events, e, theta0, g0[e], th, gm, dense, p, event_tol, scratch)
             if root < best_theta:
                 best = e
                 best_theta = root
@@ -406,8 +406,8 @@ def _tracked_minima(events, table, tracking, theta0, g0, dense, p, aux, scratch)
     return best, best_theta
 
 
-@kernel(inline=True, takes_functions=True)
-def _sampled(events, table, sign, theta0, g0, gr1, limit, dense, p, aux, scratch):
+@engine_kernel(inline=True, takes_functions=True)
+def _sampled(events, table, sign, theta0, g0, gr1, limit, dense, p, event_tol, scratch):
     """Events without a derivative: their signs compared at EVENT_SAMPLES points of the step before
     theta = limit. Returns the earliest event firing before limit and its theta, or (-1, limit)."""
     best = -1
@@ -427,12 +427,12 @@ def _sampled(events, table, sign, theta0, g0, gr1, limit, dense, p, aux, scratch
             break
         dense_eval(th_hi, dense.y, dense.h, dense.Q, dense.n, n_poly, scratch.tmp)
         dense_slope(th_hi, dense.Q, dense.n, n_poly, scratch.slope)
-        events(scratch.tmp, scratch.slope, p, aux, g_hi, scratch.gr)
+        events(scratch.tmp, scratch.slope, p, event_tol, g_hi, scratch.gr)
         hit = False
         for e in range(n_ev):
             if table.active[e] and not np.isfinite(gr1[e]) and fires(e, sign, g_hi[e], table.active,
                                                                       table.direction):
-                root = locate(events, e, th_lo, g_lo[e], th_hi, g_hi[e], dense, p, aux, scratch)
+                root = locate(events, e, th_lo, g_lo[e], th_hi, g_hi[e], dense, p, event_tol, scratch)
                 if root < best_theta:
                     best = e
                     best_theta = root

@@ -37,8 +37,8 @@ locator's records (``events.Dense``, ``events.Scratch``, ``events.Tracking``).
 
 Every failure is recorded in ``status``; nothing raises. A step budget spent mostly in slip
 phases is ``stiff_slip`` rather than ``max_steps`` (``RI_N_SLIP_STEPS`` counts those steps). Results go to one row of
-``res_f``
-(float64, ``RF_*`` columns) and ``res_i`` (int64, ``RI_*``).
+``float_results``
+(float64, ``RF_*`` columns) and ``int_results`` (int64, ``RI_*``).
 """
 
 from __future__ import annotations
@@ -50,7 +50,7 @@ from numba import types
 from numba.extending import overload
 
 from rimroll.solver import _jit
-from rimroll.solver._compile import kernel
+from rimroll.solver._compile import engine_kernel
 from rimroll.solver.engine import rosenbrock, rules, system
 from rimroll.solver.engine.events import (
     Dense,
@@ -105,7 +105,7 @@ from rimroll.solver.physics import rolling, slipping
 from rimroll.solver.physics.params import P_G, P_M, P_RHO
 from rimroll.solver.physics.switching import SW_U_STOP, enter_slipping, try_return
 
-# Result columns (solver.engine.outputs): float64 outputs in res_f, integer ones in res_i.
+# Result columns (solver.engine.outputs): float64 outputs in float_results, integer ones in int_results.
 RF_T_END, RF_F2_MIN, RF_HALF_PERIOD = column("t_end"), column("f2_min"), column("half_period")
 RF_REVOLUTIONS, RF_SLIP_TIME, RF_ENERGY_DRIFT = column("revolutions"), column("slip_time"), column("energy_drift")
 RF_BETA, RF_OMEGA1, RF_OMEGA2, RF_OMEGA3 = (column(f"{x}_end") for x in ("beta", "omega1", "omega2", "omega3"))
@@ -168,7 +168,7 @@ class Limits(NamedTuple):
     stiff_slips: bool = True
 
 
-@kernel(inline=True)
+@engine_kernel(inline=True)
 def scratch_of(work):
     """The locator's scratch arrays inside the work arrays."""
     W = work.W
@@ -176,8 +176,8 @@ def scratch_of(work):
     return Scratch(W[W_TMP], W[W_SLOPE], G[G_TMP], G[G_RTMP], G[G_LO], G[G_HI])
 
 
-@kernel(inline=True, takes_functions=True)
-def begin_phase(rhs, events, aux, phase, model, work, t, rtol):
+@engine_kernel(inline=True, takes_functions=True)
+def begin_phase(rhs, events, event_tol, phase, model, work, t, rtol):
     """Slopes, event values and signs at the start of a phase from W[W_Y] at time t [s]; the omega1
     crossing count starts at 1 if the phase starts on a transversal zero of omega1 (conservative
     rolling). False if the slopes are not finite."""
@@ -191,7 +191,7 @@ def begin_phase(rhs, events, aux, phase, model, work, t, rtol):
         f[i] = K[0, i]
         if not np.isfinite(f[i]):
             return False
-    events(y, f, model, aux, G[G_G], G[G_GR])
+    events(y, f, model, event_tol, G[G_G], G[G_GR])
     initial_signs(G[G_G], phase.direction, work.sign)
     for e in range(N_EVENTS):
         G[G_THIRD, e] = np.nan
@@ -204,8 +204,8 @@ def begin_phase(rhs, events, aux, phase, model, work, t, rtol):
     return True
 
 
-@kernel(inline=True, takes_functions=True)
-def gate(rhs, events, aux, phase, model, method, rtol, h, h_prev, work, prepared):
+@engine_kernel(inline=True, takes_functions=True)
+def gate(rhs, events, event_tol, phase, model, method, rtol, h, h_prev, work, prepared):
     """Does the accepted step of length h [s] need its dense output searched for events? (the
     grazing gate of ``solver.engine.events``). ``prepared``: the step's dense output is in work.Q
     already (a Rosenbrock step). Returns (searched, dense output prepared); sets ``work.search``,
@@ -231,7 +231,7 @@ def gate(rhs, events, aux, phase, model, method, rtol, h, h_prev, work, prepared
                     dense_prepare(rhs, method, W[W_Y], h, phase.n, work.K, work.Q, W[W_TMP], model)
                     prepared = True
                 dense = Dense(W[W_Y], h, 0.0, work.Q, phase.n)
-                g_mid = value_at(events, e, 0.5, dense, model, aux, scratch_of(work))
+                g_mid = value_at(events, e, 0.5, dense, model, event_tol, scratch_of(work))
                 mid_err = abs(g_mid - hermite_at(g[e], gr[e], g1[e], gr1[e], h, 0.5))
             want, lo, th_lo, third = trough_possible(g[e], gr[e], g1[e], gr1[e], h, h_prev, G[G_THIRD, e], mid_err,
                                                      rtol)
@@ -246,8 +246,8 @@ def gate(rhs, events, aux, phase, model, method, rtol, h, h_prev, work, prepared
     return searched, prepared
 
 
-@kernel(takes_functions=True)
-def act_on_events(events, aux, ret, phase, model, limits, work, t, h, res_f, res_i):
+@engine_kernel(takes_functions=True)
+def act_on_events(events, event_tol, return_tol, phase, model, limits, work, t, h, float_results, int_results):
     """The events of an accepted step from t [s] of length h [s], in time order, each with its
     action (the phase's event table): fall, periodic orbit, slip, return to rolling or an omega1
     crossing counted. Returns (END_* of the phase, or END_NONE if the step is taken in full; the
@@ -266,7 +266,8 @@ def act_on_events(events, aux, ret, phase, model, limits, work, t, h, res_f, res
     for e in range(N_EVENTS):
         g_ev[e] = G[G_G, e]
     while True:
-        ev, theta = next_event(events, phase, tracking, theta0, g_ev, G[G_G1], G[G_GR1], dense, model, aux, scratch)
+        ev, theta = next_event(events, phase, tracking, theta0, g_ev, G[G_G1], G[G_GR1], dense, model, event_tol,
+                               scratch)
         if ev < 0:
             return END_NONE, t, dt_return
         if theta >= 1.0:
@@ -274,13 +275,13 @@ def act_on_events(events, aux, ret, phase, model, limits, work, t, h, res_f, res
                 y_ev[i] = W[W_Y_NEW, i]
         else:
             dense_eval(theta, y, h, work.Q, n, work.Q.shape[1], y_ev)
-        events(y_ev, W[W_SLOPE], model, aux, g_ev, G[G_RTMP])
+        events(y_ev, W[W_SLOPE], model, event_tol, g_ev, G[G_RTMP])
         t_ev = t + theta * h
         act = phase.action[ev]
-        if ret is not None and model.slipping:  # (ret is None: rolling only, numba drops the slipping actions)
-            end, dt_return = slipping_action(act, y_ev, model, ret, limits.t_max - t_ev, work, res_i)
+        if return_tol is not None and model.slipping:  # (None: rolling only, numba drops the slipping actions)
+            end, dt_return = slipping_action(act, y_ev, model, return_tol, limits.t_max - t_ev, work, int_results)
         else:
-            end = rolling_action(act, y_ev, model, limits.rtol, t_ev, work, res_f, res_i)
+            end = rolling_action(act, y_ev, model, limits.rtol, t_ev, work, float_results, int_results)
         if end != END_NONE:
             for i in range(n):
                 y[i] = y_ev[i]
@@ -292,8 +293,8 @@ def act_on_events(events, aux, ret, phase, model, limits, work, t, h, res_f, res
         theta0 = theta
 
 
-@kernel(inline=True)
-def rolling_action(act, y_ev, model, rtol, t_ev, work, res_f, res_i):
+@engine_kernel(inline=True)
+def rolling_action(act, y_ev, model, rtol, t_ev, work, float_results, int_results):
     """The action of a rolling event at the state y_ev, time t_ev [s]: END_FALL (outcome by free
     flight), END_SWITCH (the ball starts to slip), END_PERIODIC (a second transversal omega1 zero)
     or END_NONE (a first one counted)."""
@@ -301,7 +302,7 @@ def rolling_action(act, y_ev, model, rtol, t_ev, work, res_f, res_i):
     if act == ACT_FALL:
         if G[G_EV, EV_FALL] < G[G_MIN, EV_FALL]:
             G[G_MIN, EV_FALL] = G[G_EV, EV_FALL]
-        res_i[RI_OUTCOME] = rules.fall_outcome(y_ev[0], y_ev[1], y_ev[3], 0.0, 0.0, model.p)
+        int_results[RI_OUTCOME] = rules.fall_outcome(y_ev[0], y_ev[1], y_ev[3], 0.0, 0.0, model.p)
         return END_FALL
     if act == ACT_SLIP:
         return END_SWITCH
@@ -311,13 +312,13 @@ def rolling_action(act, y_ev, model, rtol, t_ev, work, res_f, res_i):
         if G[G_CROSS, 0] == 1.0:
             G[G_CROSS, 1] = t_ev
         else:
-            res_f[RF_HALF_PERIOD] = t_ev - G[G_CROSS, 1]
+            float_results[RF_HALF_PERIOD] = t_ev - G[G_CROSS, 1]
             return END_PERIODIC
     return END_NONE
 
 
-@kernel(inline=True)
-def slipping_action(act, y_ev, model, sw, t_left, work, res_i):
+@engine_kernel(inline=True)
+def slipping_action(act, y_ev, model, switch_tol, t_left, work, int_results):
     """The action of a slipping event at the state y_ev, t_left [s] before t_max: END_FALL
     (outcome by free flight), END_SWITCH (the return rule lets the ball roll again: its rolling
     state in W[W_Y_RET]) or END_NONE. Returns (end, the time of the return [s] or -1)."""
@@ -325,51 +326,51 @@ def slipping_action(act, y_ev, model, sw, t_left, work, res_i):
     if act == ACT_FALL:
         if G[G_EV, EV_FALL] < G[G_MIN, EV_FALL]:
             G[G_MIN, EV_FALL] = G[G_EV, EV_FALL]
-        res_i[RI_OUTCOME] = rules.fall_outcome(y_ev[0], y_ev[1], y_ev[3], y_ev[I_U1], y_ev[I_U3], model.p)
+        int_results[RI_OUTCOME] = rules.fall_outcome(y_ev[0], y_ev[1], y_ev[3], y_ev[I_U1], y_ev[I_U3], model.p)
         return END_FALL, -1.0
     if act == ACT_RETURN:
-        dt_return = try_return(y_ev, model.p, sw, t_left, work.W[W_Y_RET], model.load_fn)
+        dt_return = try_return(y_ev, model.p, switch_tol, t_left, work.W[W_Y_RET], model.load_fn)
         if dt_return >= 0.0:
             return END_SWITCH, dt_return
         return END_NONE, dt_return
     return END_NONE, -1.0
 
 
-@kernel(inline=True)
-def slip_end_cap(y, f, sw):
+@engine_kernel(inline=True)
+def slip_end_cap(y, f, switch_tol):
     """Largest step [s] of a slipping phase whose slip speed u falls: the time for u to fall to half
     the return threshold u_stop at its present rate (so that a large implicit step cannot pass
     u = 0, where the slip direction of (42) is undefined); infinite while u grows."""
     u = np.hypot(y[system.I_U1], y[system.I_U3])
     rate = (y[system.I_U1] * f[system.I_U1] + y[system.I_U3] * f[system.I_U3]) / u
-    u_stop = sw[SW_U_STOP]
+    u_stop = switch_tol[SW_U_STOP]
     if rate < 0.0 and u > u_stop:
         return (u - 0.5 * u_stop) / -rate
     return np.inf
 
 
-@kernel(takes_functions=True)
-def stiff_attempt(rhs, ret, control, model, method, arrays, work, t, h, after_reject, budget):
+@engine_kernel(takes_functions=True)
+def stiff_attempt(rhs, return_tol, control, model, method, arrays, work, t, h, after_reject, budget):
     """A Rosenbrock step attempt of a slipping phase (``rosenbrock.attempt``) with the Jacobian of
     (42) at the step's start, the step capped by :func:`slip_end_cap`. Returns rosenbrock.attempt's
     tuple and the stiffness (``rosenbrock.stiffness`` of the slip-velocity block) [1/s]."""
     y = arrays.y
     system.slipping_jacobian(y, model, work.J, work.R, rosenbrock.ROW_JAC, work.W[W_SLOPE])
-    h = min(h, slip_end_cap(y, arrays.f, ret))
+    h = min(h, slip_end_cap(y, arrays.f, return_tol))
     code, h, h_next, attempts, last = rosenbrock.attempt(rhs, system.N_SLIPPING, control, model, arrays, work,
                                                          method.n_stages, t, h, after_reject, budget)
     return code, h, h_next, attempts, last, slip_stiffness(work)
 
 
-@kernel(inline=True)
+@engine_kernel(inline=True)
 def slip_stiffness(work):
     """The spectral radius [1/s] of the slipping Jacobian in work.J (``rosenbrock.spectral_radius``)."""
     return rosenbrock.spectral_radius(work.J, system.N_SLIPPING - 1, work.R[rosenbrock.ROW_JAC],
                                       work.R[rosenbrock.ROW_JAC + 1])
 
 
-@kernel
-def first_return(y, h, n, t, model, sw, t_max, work):
+@engine_kernel
+def first_return(y, h, n, t, model, switch_tol, t_max, work):
     """The first point of a slipping step from (t [s], y) of length h [s], whose end meets the
     return rule (``switching.try_return``), where the rule is met: bisection (40 halvings of h) on
     the step's dense output (work.Q), so that the return does not wait for the end of a long
@@ -383,7 +384,7 @@ def first_return(y, h, n, t, model, sw, t_max, work):
     for _ in range(40):
         mid = 0.5 * (lo + hi)
         dense_eval(mid, y, h, work.Q, n, n_poly, y_at)
-        if try_return(y_at, model.p, sw, t_max - t - mid * h, W[W_Y_RET], model.load_fn) >= 0.0:
+        if try_return(y_at, model.p, switch_tol, t_max - t - mid * h, W[W_Y_RET], model.load_fn) >= 0.0:
             hi = mid
         else:
             lo = mid
@@ -395,10 +396,10 @@ def first_return(y, h, n, t, model, sw, t_max, work):
         for i in range(n):
             y[i] = W[W_Y_NEW, i]
     t = t + hi * h
-    return t, try_return(y, model.p, sw, t_max - t, W[W_Y_RET], model.load_fn)
+    return t, try_return(y, model.p, switch_tol, t_max - t, W[W_Y_RET], model.load_fn)
 
 
-@kernel
+@engine_kernel
 def next_slip_mode(stiff, rho, h, h_next, y, model, work, since_check):
     """Rosenbrock (True) or explicit steps next in a slipping phase, and the explicit steps since the
     last look at the stiffness. After a Rosenbrock step: explicit once the next step h_next [s] times
@@ -414,17 +415,17 @@ def next_slip_mode(stiff, rho, h, h_next, y, model, work, since_check):
     return h * slip_stiffness(work) > rosenbrock.EXPLICIT_LIMIT, 0
 
 
-@kernel(takes_functions=True)
-def run_phase(rhs, events, aux, ret, phase, model, method, limits, work, res_f, res_i):
-    """Run one phase from the state W[W_Y] at time res_f[RF_T_END] to its terminal event.
+@engine_kernel(takes_functions=True)
+def run_phase(rhs, events, event_tol, return_tol, phase, model, method, limits, work, float_results, int_results):
+    """Run one phase from the state W[W_Y] at time float_results[RF_T_END] to its terminal event.
 
-    rhs, events: the phase's right-hand side and event function (``solver.engine.system``); aux:
+    rhs, events: the phase's right-hand side and event function (``solver.engine.system``); event_tol:
     what ``events`` takes besides the state (the switching tolerances in scenes that slip, else
-    None); ret: the switching tolerances of the return rule in a slipping phase, None in a rolling
+    None); return_tol: the switching tolerances of the return rule in a slipping phase, None in a rolling
     one; phase: its ``system.Phase`` (event table, tolerances). Returns (how the phase ends: END_*,
     the time of a return to rolling [s] or -1). On END_SWITCH of a slipping phase W[W_Y_RET]
-    holds the rolling state of the return; on END_FALL res_i[RI_OUTCOME] is set; on END_PERIODIC
-    res_f[RF_HALF_PERIOD]; on END_FAILED res_i[RI_STATUS].
+    holds the rolling state of the return; on END_FALL int_results[RI_OUTCOME] is set; on END_PERIODIC
+    float_results[RF_HALF_PERIOD]; on END_FAILED int_results[RI_STATUS].
     """
     W = work.W
     G = work.G
@@ -434,13 +435,13 @@ def run_phase(rhs, events, aux, ret, phase, model, method, limits, work, res_f, 
     y_new = W[W_Y_NEW]
     f = W[W_F]
     f_new = W[W_F_NEW]
-    t = res_f[RF_T_END]
+    t = float_results[RF_T_END]
     t_max = limits.t_max
     rtol = limits.rtol
-    n_steps = res_i[RI_N_STEPS]
-    n_searched = res_i[RI_N_SEARCHED]
-    if not begin_phase(rhs, events, aux, phase, model, work, t, rtol):
-        res_i[RI_STATUS] = NON_FINITE
+    n_steps = int_results[RI_N_STEPS]
+    n_searched = int_results[RI_N_SEARCHED]
+    if not begin_phase(rhs, events, event_tol, phase, model, work, t, rtol):
+        int_results[RI_STATUS] = NON_FINITE
         return END_FAILED, -1.0
     control = Control(n, n - 1, rtol, phase.atol, t_max)
     arrays = Arrays(y, f, K, y_new, W[W_TMP])
@@ -453,43 +454,44 @@ def run_phase(rhs, events, aux, ret, phase, model, method, limits, work, res_f, 
     since_check = np.int64(0)  # int64, not Literal[int]: one compiled callee
     while t < t_max:
         stiff = False
-        if ret is not None:
+        if return_tol is not None:
             if model.slipping:
                 stiff = stiff_mode
         rho = 0.0
         if stiff:
-            code, h, h_next, attempts, last, rho = stiff_attempt(rhs, ret, control, model, method, arrays, work,
+            code, h, h_next, attempts, last, rho = stiff_attempt(rhs, return_tol, control, model, method, arrays, work,
                                                                  t, h, after_reject, limits.max_steps - n_steps)
         else:
             code, h, h_next, attempts, last = attempt(rhs, method, control, model, arrays, t, h, after_reject,
                                                       limits.max_steps - n_steps)
         n_steps += attempts
         if code != ACCEPTED:
-            res_i[RI_STATUS] = MAX_STEPS if code == BUDGET_SPENT else (
+            int_results[RI_STATUS] = MAX_STEPS if code == BUDGET_SPENT else (
                 STEP_SIZE_UNDERFLOW if code == UNDERFLOW else NON_FINITE)
             end = END_FAILED
             break
         for i in range(n):  # the FSAL slope of y_new (the slope of y is in K[0])
             f_new[i] = K[method.n_stages, i]
-        events(y_new, f_new, model, aux, G[G_G1], G[G_GR1])
-        searched, prepared = gate(rhs, events, aux, phase, model, method, rtol, h, h_prev, work, stiff)
+        events(y_new, f_new, model, event_tol, G[G_G1], G[G_GR1])
+        searched, prepared = gate(rhs, events, event_tol, phase, model, method, rtol, h, h_prev, work, stiff)
         h_prev = h
         if searched:
             n_searched += 1
             if not prepared:
                 dense_prepare(rhs, method, y, h, n, K, work.Q, W[W_TMP], model)
                 prepared = True
-            end, t, dt_return = act_on_events(events, aux, ret, phase, model, limits, work, t, h, res_f, res_i)
+            end, t, dt_return = act_on_events(events, event_tol, return_tol, phase, model, limits, work, t, h,
+                                              float_results, int_results)
             if end != END_NONE:
                 break
             end = END_T_MAX
         else:
             update_signs(G[G_G1], work.sign, np.int64(-1))
-        if ret is not None and model.slipping:  # the return rule (switching.try_return) met within the step?
-            if try_return(y_new, model.p, ret, t_max - t - h, W[W_Y_RET], model.load_fn) >= 0.0:
+        if return_tol is not None and model.slipping:  # the return rule (switching.try_return) met within the step?
+            if try_return(y_new, model.p, return_tol, t_max - t - h, W[W_Y_RET], model.load_fn) >= 0.0:
                 if not prepared:
                     dense_prepare(rhs, method, y, h, n, K, work.Q, W[W_TMP], model)
-                t, dt_return = first_return(y, h, n, t, model, ret, t_max, work)
+                t, dt_return = first_return(y, h, n, t, model, return_tol, t_max, work)
                 end = END_SWITCH
                 break
         # the step is taken in full
@@ -502,44 +504,44 @@ def run_phase(rhs, events, aux, ret, phase, model, method, limits, work, res_f, 
             G[G_GR, e] = G[G_GR1, e]
         if work.sign[EV_FALL] > 0 and G[G_G1, EV_FALL] < G[G_MIN, EV_FALL]:
             G[G_MIN, EV_FALL] = G[G_G1, EV_FALL]
-        if ret is not None and model.slipping and limits.stiff_slips:
+        if return_tol is not None and model.slipping and limits.stiff_slips:
             stiff_mode, since_check = next_slip_mode(stiff, rho, h, h_next, y, model, work, since_check)
         h = h_next
         after_reject = False
-    res_f[RF_T_END] = t
-    res_i[RI_N_STEPS] = n_steps
-    res_i[RI_N_SEARCHED] = n_searched
+    float_results[RF_T_END] = t
+    int_results[RI_N_STEPS] = n_steps
+    int_results[RI_N_SEARCHED] = n_searched
     return end, dt_return
 
 
-def scene_phase(sw, phase, model, method, limits, work, res_f, res_i):
+def scene_phase(switch_tol, phase, model, method, limits, work, float_results, int_results):
     """One phase of a trajectory (:func:`run_phase`) with the systems of the scene: in a rolling-only
-    scene (sw None) the rolling system and no return rule; in a scene that slips one step loop for
+    scene (switch_tol None) the rolling system and no return rule; in a scene that slips one step loop for
     both phases (``system.hybrid_rhs``: ``model.slipping`` says which). Compiled code takes the
-    choice from the type of ``sw`` (:func:`_scene_phase`), so each kernel holds one step loop."""
-    if sw is None:
+    choice from the type of ``switch_tol`` (:func:`_scene_phase`), so each kernel holds one step loop."""
+    if switch_tol is None:
         return run_phase(system.rolling_rhs, system.rolling_events, None, None, phase, model, method, limits, work,
-                         res_f, res_i)
-    return run_phase(system.hybrid_rhs, system.hybrid_events, sw, sw, phase, model, method, limits, work, res_f,
-                     res_i)
+                         float_results, int_results)
+    return run_phase(system.hybrid_rhs, system.hybrid_events, switch_tol, switch_tol, phase, model, method, limits,
+                     work, float_results, int_results)
 
 
 @overload(scene_phase, jit_options={"nogil": True, **_jit.NO_REFCOUNT})
-def _scene_phase(sw, phase, model, method, limits, work, res_f, res_i):
-    if isinstance(sw, (types.NoneType, types.Omitted)):
-        def rolling_only(sw, phase, model, method, limits, work, res_f, res_i):
+def _scene_phase(switch_tol, phase, model, method, limits, work, float_results, int_results):
+    if isinstance(switch_tol, (types.NoneType, types.Omitted)):
+        def rolling_only(switch_tol, phase, model, method, limits, work, float_results, int_results):
             return run_phase(system.rolling_rhs, system.rolling_events, None, None, phase, model, method, limits,
-                             work, res_f, res_i)
+                             work, float_results, int_results)
         return rolling_only
 
-    def hybrid(sw, phase, model, method, limits, work, res_f, res_i):
-        return run_phase(system.hybrid_rhs, system.hybrid_events, sw, sw, phase, model, method, limits, work, res_f,
-                         res_i)
+    def hybrid(switch_tol, phase, model, method, limits, work, float_results, int_results):
+        return run_phase(system.hybrid_rhs, system.hybrid_events, switch_tol, switch_tol, phase, model, method, limits,
+                         work, float_results, int_results)
     return hybrid
 
 
-@kernel(inline=True)
-def begin_trajectory(x0, p, work, res_f, res_i):
+@engine_kernel(inline=True)
+def begin_trajectory(x0, p, work, float_results, int_results):
     """Reset the work arrays and the result row for a trajectory from the rolling state x0;
     returns its energy (60) [J]."""
     y = work.W[W_Y]
@@ -548,18 +550,18 @@ def begin_trajectory(x0, p, work, res_f, res_i):
     y[4] = 0.0
     for e in range(N_EVENTS):
         work.G[G_MIN, e] = np.inf
-    res_f[RF_T_END] = 0.0
-    res_f[RF_HALF_PERIOD] = np.nan
-    res_i[RI_OUTCOME] = ON_RIM_AT_T_MAX
-    res_i[RI_STATUS] = OK
-    res_i[RI_N_STEPS] = 0
-    res_i[RI_N_SEARCHED] = 0
-    res_i[RI_N_SLIP_STEPS] = 0
+    float_results[RF_T_END] = 0.0
+    float_results[RF_HALF_PERIOD] = np.nan
+    int_results[RI_OUTCOME] = ON_RIM_AT_T_MAX
+    int_results[RI_STATUS] = OK
+    int_results[RI_N_STEPS] = 0
+    int_results[RI_N_SEARCHED] = 0
+    int_results[RI_N_SLIP_STEPS] = 0
     return system.rolling_energy(y, p)
 
 
-@kernel(inline=True)
-def start_action(sw, rolling_phase, first, y, model, mins):
+@engine_kernel(inline=True)
+def start_action(switch_tol, rolling_phase, first, y, model, mins):
     """The rules' action at the start of a phase (``rules.phase_start_action``), or -1 when the
     state or its normal force is not finite; lowers the running minimum of F2."""
     n = N_ROLLING if rolling_phase else N_SLIPPING
@@ -571,7 +573,7 @@ def start_action(sw, rolling_phase, first, y, model, mins):
     if rolling_phase:
         load = system.rolling_load(model, y)
         f2 = rolling.normal_force(y[0], y[1], y[3], p, load)
-        margin = rolling.friction_margin(y[0], y[1], y[2], y[3], p, load) if sw is not None else 1.0
+        margin = rolling.friction_margin(y[0], y[1], y[2], y[3], p, load) if switch_tol is not None else 1.0
         steady = first and rules.on_steady_motion(y[0], y[1], y[2], y[3], p, load)
     else:
         f2 = slipping.slipping_normal_force(y[0], y[1], y[3], y[I_U1], y[I_U3], p, system.slipping_load(model, y))
@@ -581,16 +583,16 @@ def start_action(sw, rolling_phase, first, y, model, mins):
         return -1
     if f2 < mins[EV_FALL]:
         mins[EV_FALL] = f2
-    return rules.phase_start_action(rolling_phase, sw is not None, first, f2, margin, steady)
+    return rules.phase_start_action(rolling_phase, switch_tol is not None, first, f2, margin, steady)
 
 
-@kernel(inline=True)
-def record(rolling_phase, y, p, E0, slip_time, t_slip0, slip_phases, work, res_f, res_i):
+@engine_kernel(inline=True)
+def record(rolling_phase, y, p, E0, slip_time, t_slip0, slip_phases, work, float_results, int_results):
     """The result row at the end of a trajectory: status stiff_slip for a budget spent mostly in
     slip phases, F2's minimum, revolutions, time slipping, energy drift and the final state."""
-    if res_i[RI_STATUS] == MAX_STEPS and 2 * res_i[RI_N_SLIP_STEPS] >= res_i[RI_N_STEPS]:
-        res_i[RI_STATUS] = STIFF_SLIP  # the budget went on stiff slip phases (docs/outcome-engine.md)
-    t = res_f[RF_T_END]
+    if int_results[RI_STATUS] == MAX_STEPS and 2 * int_results[RI_N_SLIP_STEPS] >= int_results[RI_N_STEPS]:
+        int_results[RI_STATUS] = STIFF_SLIP  # the budget went on stiff slip phases (docs/outcome-engine.md)
+    t = float_results[RF_T_END]
     if rolling_phase:
         E1 = system.rolling_energy(y, p)
         n = N_ROLLING
@@ -599,29 +601,29 @@ def record(rolling_phase, y, p, E0, slip_time, t_slip0, slip_phases, work, res_f
         E1 = system.slipping_energy(y, p)
         n = N_SLIPPING
     scale = max(abs(E0), p[P_M] * p[P_G] * p[P_RHO])
-    res_f[RF_F2_MIN] = work.G[G_MIN, EV_FALL]
-    res_f[RF_REVOLUTIONS] = y[n - 1] / (2.0 * np.pi)
-    res_f[RF_SLIP_TIME] = slip_time
-    res_f[RF_ENERGY_DRIFT] = abs(E1 - E0) / scale
-    res_f[RF_BETA] = y[0]
-    res_f[RF_OMEGA1] = y[1]
-    res_f[RF_OMEGA2] = y[2]
-    res_f[RF_OMEGA3] = y[3]
-    res_f[RF_U1] = 0.0 if rolling_phase else y[I_U1]
-    res_f[RF_U3] = 0.0 if rolling_phase else y[I_U3]
-    res_i[RI_SLIP_PHASES] = slip_phases
+    float_results[RF_F2_MIN] = work.G[G_MIN, EV_FALL]
+    float_results[RF_REVOLUTIONS] = y[n - 1] / (2.0 * np.pi)
+    float_results[RF_SLIP_TIME] = slip_time
+    float_results[RF_ENERGY_DRIFT] = abs(E1 - E0) / scale
+    float_results[RF_BETA] = y[0]
+    float_results[RF_OMEGA1] = y[1]
+    float_results[RF_OMEGA2] = y[2]
+    float_results[RF_OMEGA3] = y[3]
+    float_results[RF_U1] = 0.0 if rolling_phase else y[I_U1]
+    float_results[RF_U3] = 0.0 if rolling_phase else y[I_U3]
+    int_results[RI_SLIP_PHASES] = slip_phases
 
 
-@kernel(inline=True)
-def trajectory(sw, x0, model, method, limits, work, res_f, res_i):
-    """One trajectory from the rolling initial state x0 in the scene: sw, the switching tolerances
+@engine_kernel(inline=True)
+def trajectory(switch_tol, x0, model, method, limits, work, float_results, int_results):
+    """One trajectory from the rolling initial state x0 in the scene: switch_tol, the switching tolerances
     of a scene that slips (None: rolling only; numba then compiles no slipping code); periodic
     rolling is detected where ``limits.periodic``."""
     W = work.W
     y = W[W_Y]
-    roll, slip = system.phases(sw, limits.periodic, limits.atol, work.active, W[W_ATOL_ROLL], W[W_ATOL_SLIP])
+    roll, slip = system.phases(switch_tol, limits.periodic, limits.atol, work.active, W[W_ATOL_ROLL], W[W_ATOL_SLIP])
     p = model.p
-    E0 = begin_trajectory(x0, p, work, res_f, res_i)
+    E0 = begin_trajectory(x0, p, work, float_results, int_results)
     rolling_phase = True
     first = True
     switches = 0
@@ -630,54 +632,54 @@ def trajectory(sw, x0, model, method, limits, work, res_f, res_i):
     t_slip0 = 0.0
     dt_return = -1.0
     while True:
-        start = start_action(sw, rolling_phase, first, y, model, work.G[G_MIN])
+        start = start_action(switch_tol, rolling_phase, first, y, model, work.G[G_MIN])
         first = False
         if start < 0:
-            res_i[RI_STATUS] = NON_FINITE
+            int_results[RI_STATUS] = NON_FINITE
             break
         if start == rules.FALL:
             if rolling_phase:
-                res_i[RI_OUTCOME] = rules.fall_outcome(y[0], y[1], y[3], 0.0, 0.0, p)
+                int_results[RI_OUTCOME] = rules.fall_outcome(y[0], y[1], y[3], 0.0, 0.0, p)
             else:
-                res_i[RI_OUTCOME] = rules.fall_outcome(y[0], y[1], y[3], y[I_U1], y[I_U3], p)
+                int_results[RI_OUTCOME] = rules.fall_outcome(y[0], y[1], y[3], y[I_U1], y[I_U3], p)
             break
         if start == rules.STEADY:
-            res_i[RI_OUTCOME] = STEADY_MOTION
+            int_results[RI_OUTCOME] = STEADY_MOTION
             break
         if start == rules.RUN:
-            if res_f[RF_T_END] >= limits.t_max:
+            if float_results[RF_T_END] >= limits.t_max:
                 break
             # ---------------- one phase to its terminal event ----------------
-            steps_before = res_i[RI_N_STEPS]
+            steps_before = int_results[RI_N_STEPS]
             phase = roll if rolling_phase else slip
-            end, dt_return = scene_phase(sw, phase, system.Model(p, model.load_fn, not rolling_phase), method, limits,
-                                         work, res_f, res_i)
+            end, dt_return = scene_phase(switch_tol, phase, system.Model(p, model.load_fn, not rolling_phase), method,
+                                         limits, work, float_results, int_results)
             if not rolling_phase:
-                res_i[RI_N_SLIP_STEPS] += res_i[RI_N_STEPS] - steps_before
+                int_results[RI_N_SLIP_STEPS] += int_results[RI_N_STEPS] - steps_before
             if end == END_PERIODIC:
-                res_i[RI_OUTCOME] = PERIODIC_ROLLING
+                int_results[RI_OUTCOME] = PERIODIC_ROLLING
                 break
             if end != END_SWITCH:
                 break
         # ---------------- the switch: start == SLIP, or a phase ended at END_SWITCH ----------------
-        if sw is None:
+        if switch_tol is None:
             break  # unreachable: a rolling-only trajectory never switches
         switches += 1
         if switches > limits.max_switches:
-            res_i[RI_STATUS] = TOO_MANY_SWITCHES
+            int_results[RI_STATUS] = TOO_MANY_SWITCHES
             break
         if rolling_phase:
-            enter_slipping(y, p, sw, model.load_fn)
+            enter_slipping(y, p, switch_tol, model.load_fn)
             rolling_phase = False
             slip_phases += 1
-            t_slip0 = res_f[RF_T_END]
+            t_slip0 = float_results[RF_T_END]
         else:
             for i in range(N_ROLLING):
                 y[i] = W[W_Y_RET, i]
-            res_f[RF_T_END] += dt_return
-            slip_time += res_f[RF_T_END] - t_slip0
+            float_results[RF_T_END] += dt_return
+            slip_time += float_results[RF_T_END] - t_slip0
             rolling_phase = True
-    record(rolling_phase, y, p, E0, slip_time, t_slip0, slip_phases, work, res_f, res_i)
+    record(rolling_phase, y, p, E0, slip_time, t_slip0, slip_phases, work, float_results, int_results)
 
 
 def new_work(method) -> Work:
@@ -689,28 +691,28 @@ def new_work(method) -> Work:
                 np.zeros((N_MAX, N_MAX)), np.zeros((N_MAX, N_MAX)), np.zeros(N_MAX, dtype=np.int64))
 
 
-@kernel(inline=True)
-def run_scene(sw, states, model, method, limits, work, res_f, res_i):
-    """Simulate every row of ``states`` (m, 4) in the scene (sw: None for rolling only) with the work
-    arrays ``work`` (:func:`new_work`); results into the rows of res_f, res_i. Inlined into the scene
+@engine_kernel(inline=True)
+def run_scene(switch_tol, states, model, method, limits, work, float_results, int_results):
+    """Simulate every row of ``states`` (m, 4) in the scene (switch_tol: None for rolling only) with the work
+    arrays ``work`` (:func:`new_work`); results into the rows of float_results, int_results. Inlined into the scene
     kernels."""
     for k in range(states.shape[0]):
-        trajectory(sw, states[k], model, method, limits, work, res_f[k], res_i[k])
+        trajectory(switch_tol, states[k], model, method, limits, work, float_results[k], int_results[k])
 
 
-@kernel
-def scene_rolling(states, p, sw, method, limits, work, res_f, res_i):
-    """Scenes with mu = inf (sw is None): every row of ``states`` (see :func:`run_scene`)."""
-    run_scene(sw, states, system.Model(p, None, False), method, limits, work, res_f, res_i)
+@engine_kernel
+def scene_rolling(states, p, switch_tol, method, limits, work, float_results, int_results):
+    """Scenes with mu = inf (switch_tol is None): every row of ``states`` (see :func:`run_scene`)."""
+    run_scene(switch_tol, states, system.Model(p, None, False), method, limits, work, float_results, int_results)
 
 
-@kernel
-def scene_hybrid(states, p, sw, method, limits, work, res_f, res_i):
+@engine_kernel
+def scene_hybrid(states, p, switch_tol, method, limits, work, float_results, int_results):
     """Scenes with finite mu (rolling and slipping): every row of ``states`` (see :func:`run_scene`)."""
-    run_scene(sw, states, system.Model(p, None, False), method, limits, work, res_f, res_i)
+    run_scene(switch_tol, states, system.Model(p, None, False), method, limits, work, float_results, int_results)
 
 
 SCENE_KERNELS = {kernel.py_func.__name__: kernel for kernel in (scene_rolling, scene_hybrid)}
 """The kernel of each scene by name (``SCENE_KERNELS[scene.kernel]``, ``solver.engine.scenes``):
-(states, p, sw, method, limits, work, res_f, res_i) with ``method`` a ``tableaus.Method``, ``limits`` a
-:class:`Limits` and ``work`` the arrays of :func:`new_work`."""
+(states, p, switch_tol, method, limits, work, float_results, int_results) with ``method`` a ``tableaus.Method``,
+``limits`` a :class:`Limits` and ``work`` the arrays of :func:`new_work`."""

@@ -2,7 +2,7 @@
 tolerance a regression check allows.
 
 Everything that handles an output reads it from :data:`OUTPUTS`: the result columns of the scene
-kernels (:data:`FLOAT_COLUMNS`, :data:`INT_COLUMNS`: a kernel writes ``res_f[column("t_end")]``),
+kernels (:data:`FLOAT_COLUMNS`, :data:`INT_COLUMNS`: a kernel writes ``float_results[column("t_end")]``),
 ``simulate``'s result dict, the variables of every study that stores them
 (``rimroll.study.registry.output_var``) and ``study verify``'s comparison. Adding an output means one
 entry here and the line of the kernel that writes it.
@@ -41,7 +41,7 @@ class Output:
 
     @property
     def flag_meanings(self) -> str | None:
-        return None if self.meanings is None else " ".join(m.split(":")[0] for m in self.meanings.values())
+        return None if self.meanings is None else outcomes.flag_meanings(self.meanings)
 
 
 OUTPUTS = (
@@ -89,13 +89,13 @@ OUTPUTS = (
 )
 BY_NAME = {o.name: o for o in OUTPUTS}
 FLOAT_COLUMNS = tuple(o.name for o in OUTPUTS if o.in_kernel and o.dtype == "float64")
-"""The float64 result columns of the kernels (``res_f``), by name in column order."""
+"""The float64 result columns of the kernels (``float_results``), by name in column order."""
 INT_COLUMNS = tuple(o.name for o in OUTPUTS if o.in_kernel and o.dtype != "float64")
-"""The int64 result columns of the kernels (``res_i``), by name in column order."""
+"""The int64 result columns of the kernels (``int_results``), by name in column order."""
 
 
 def column(name: str) -> int:
-    """The result column of a kernel output (in ``res_f`` for float64 outputs, else ``res_i``)."""
+    """The result column of a kernel output (in ``float_results`` for float64 outputs, else ``int_results``)."""
     columns = FLOAT_COLUMNS if BY_NAME[name].dtype == "float64" else INT_COLUMNS
     return columns.index(name)
 

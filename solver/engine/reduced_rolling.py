@@ -55,7 +55,7 @@ from __future__ import annotations
 import numpy as np
 
 from rimroll.solver import _jit
-from rimroll.solver._compile import kernel
+from rimroll.solver._compile import engine_kernel as kernel
 from rimroll.solver.engine import rules
 from rimroll.solver.engine.outcomes import (
     MAX_STEPS,
@@ -84,7 +84,7 @@ GL_NODES = 10
 
 
 def _helper(func):
-    """Compile a helper of the kernel: as ``solver._compile.kernel`` (nopython, nogil, cached on disk, numpy
+    """Compile a helper of the kernel: as ``solver._compile.engine_kernel`` (nopython, nogil, cached on disk, numpy
     error model, no reference counting: the helpers allocate nothing) and without the CPython and cfunc
     wrappers, which only a call from Python needs and which cost a good part of each helper's compile;
     ``RIMROLL_NO_JIT=1``: the Python source."""

@@ -26,17 +26,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from rimroll.solver._compile import kernel
-from rimroll.solver.engine.stepper import (
-    ACCEPTED,
-    BUDGET_SPENT,
-    MAX_NONFINITE_RETRIES,
-    MIN_FACTOR,
-    NON_FINITE,
-    UNDERFLOW,
-    min_step,
-    step_factor,
-)
+from rimroll.solver._compile import engine_kernel
+from rimroll.solver.engine.stepper import ACCEPTED, Stepping, accept_reject
 
 GAMMA = 0.25
 A21 = 1.544
@@ -88,7 +79,7 @@ CHECK_EVERY = 8
 POWER_ITERATIONS = 12
 
 
-@kernel(inline=True)
+@engine_kernel(inline=True)
 def spectral_radius(J, m, x, tmp):
     """An estimate of the spectral radius [1/s] of J[:m, :m]: the geometric mean growth of the
     power iteration over its last half (the growth of ||J^k x|| tends to the spectral radius also
@@ -114,7 +105,7 @@ def spectral_radius(J, m, x, tmp):
     return np.exp(log_growth / (POWER_ITERATIONS - POWER_ITERATIONS // 2))
 
 
-@kernel(inline=True)
+@engine_kernel(inline=True)
 def lu_factor(J, h, m, LU, piv):
     """LU = I/(h gamma) - J[:m, :m] factored in place with partial pivoting (row swaps in ``piv``).
     False if a pivot is zero or not finite (the trial step is then cut)."""
@@ -148,7 +139,7 @@ def lu_factor(J, h, m, LU, piv):
     return True
 
 
-@kernel(inline=True)
+@engine_kernel(inline=True)
 def stage_solve(LU, piv, J, h, n, b):
     """b <- E^-1 b for E = I/(h gamma) - J, the first n - 1 components through the factors of
     :func:`lu_factor`, the last (a quadrature: column n - 1 of J is zero) by substitution."""
@@ -173,7 +164,7 @@ def stage_solve(LU, piv, J, h, n, b):
     b[m] = h * GAMMA * acc
 
 
-@kernel(inline=True, takes_functions=True)
+@engine_kernel(inline=True, takes_functions=True)
 def stage(rhs, s, y, h, n, model, R, LU, piv, J, tmp):
     """Stage s + 1 of the step: k = E^-1 (f(y + sum_j a_sj k_j) + sum_j c_sj k_j / h) into R[s], with
     the coefficients of row s of :data:`STAGE_A` and :data:`STAGE_C`; tmp keeps the argument of f."""
@@ -192,7 +183,7 @@ def stage(rhs, s, y, h, n, model, R, LU, piv, J, tmp):
     stage_solve(LU, piv, J, h, n, R[s])
 
 
-@kernel(inline=True, takes_functions=True)
+@engine_kernel(inline=True, takes_functions=True)
 def rodas_step(rhs, y, f, h, n, model, R, J, LU, piv, y_new, tmp):
     """One Rodas4 step of length h [s] from y with slope f and Jacobian J: the stages into R[0..5]
     (R[5] is the error estimate) and the new state into y_new. False if E is singular."""
@@ -208,7 +199,7 @@ def rodas_step(rhs, y, f, h, n, model, R, J, LU, piv, y_new, tmp):
     return True
 
 
-@kernel(inline=True)
+@engine_kernel(inline=True)
 def error_norm(R, y, y_new, n_err, rtol, atol):
     """RMS over the first n_err components of the error estimate k_6 scaled by
     atol[i] + rtol * max(|y_i|, |y_new_i|); the step is accepted when it is <= 1."""
@@ -219,7 +210,7 @@ def error_norm(R, y, y_new, n_err, rtol, atol):
     return np.sqrt(acc / n_err)
 
 
-@kernel(inline=True)
+@engine_kernel(inline=True)
 def dense_coefficients(R, y, y_new, h, n, Q):
     """The dense output of the accepted step as the engine's Q: y(theta) = y + h sum_q Q[:, q]
     theta^(q+1) (``stepper.dense_eval``), from Rodas' y + theta dy + theta (1 - theta)(d2 + theta d3)."""
@@ -233,58 +224,29 @@ def dense_coefficients(R, y, y_new, h, n, Q):
             Q[i, q] = 0.0
 
 
-@kernel(takes_functions=True)  # not inlined: one compiled copy, called once per step (the compile stays small)
+@engine_kernel(inline=True, takes_functions=True)
+def rodas_trial(rhs, n, stepping, control, model, arrays, work, h):
+    """One trial Rodas4 step of length h [s] (:func:`rodas_step`, stages in work.R) and the slope of its end
+    into K[stepping.fsal_row]; returns its error norm (:func:`error_norm`), inf where E is singular."""
+    y, f, K, y_new, tmp = arrays
+    if not rodas_step(rhs, y, f, h, n, model, work.R, work.J, work.LU, work.piv, y_new, tmp):
+        return np.inf
+    rhs(y_new, model, K, stepping.fsal_row)
+    return error_norm(work.R, y, y_new, control.n_err, control.rtol, control.atol)
+
+
+@engine_kernel(takes_functions=True)  # not inlined: one compiled copy, called once per step (the compile stays small)
 def attempt(rhs, n, control, model, arrays, work, fsal_row, t, h, after_reject, budget):
     """Try Rodas4 steps from (t, y), slope f, Jacobian work.J at y, first trial step h [s], until one
-    is accepted: the contract of ``stepper.attempt`` (same codes and returns). ``n``: the number of
-    components (a compile-time constant where the caller can make it one: the loops then unroll);
+    is accepted: ``stepper.accept_reject`` with :func:`rodas_trial` (same codes and returns). ``n``: the
+    number of components (a compile-time constant where the caller can make it one: the loops then unroll);
     ``work``: the stages R (N_ROWS, n), the Jacobian J and LU (n, n), the pivots piv and the dense
     output Q (n, >= 3) (``kernels.Work``). On ACCEPTED, y_new holds the step's end, K[fsal_row] its
     slope f(y_new) (where the explicit methods keep theirs) and Q the dense output (no
     ``stepper.dense_prepare`` needed)."""
-    R = work.R
-    t_end = control.t_end
-    y, f, K, y_new, tmp = arrays
-    attempts = 0
-    n_bad = 0
-    code = ACCEPTED
-    last = False
-    h_next = h
-    while True:
-        if attempts >= budget:
-            code = BUDGET_SPENT
-            break
-        last = h >= t_end - t
-        if last:
-            h = t_end - t
-        if not (h >= min_step(t)):
-            code = UNDERFLOW
-            break
-        attempts += 1
-        err = np.inf
-        if rodas_step(rhs, y, f, h, n, model, R, work.J, work.LU, work.piv, y_new, tmp):
-            rhs(y_new, model, K, fsal_row)
-            err = error_norm(R, y, y_new, control.n_err, control.rtol, control.atol)
-        finite = np.isfinite(err)
-        for i in range(n):
-            if not np.isfinite(y_new[i]) or not np.isfinite(K[fsal_row, i]):
-                finite = False
-        if not finite:
-            n_bad += 1
-            if n_bad > MAX_NONFINITE_RETRIES:
-                code = NON_FINITE
-                break
-            h *= MIN_FACTOR
-            after_reject = True
-            continue
-        n_bad = 0
-        if err > 1.0:
-            h *= step_factor(err, ERROR_EXPONENT, after_reject, MAX_FACTOR)
-            after_reject = True
-            continue
-        h_next = h * step_factor(err, ERROR_EXPONENT, after_reject, MAX_FACTOR)
-        break
-    if code != ACCEPTED:
-        return code, h, h, attempts, False
-    dense_coefficients(R, y, y_new, h, n, work.Q)
+    stepping = Stepping(None, fsal_row, ERROR_EXPONENT, MAX_FACTOR)
+    code, h, h_next, attempts, last = accept_reject(rodas_trial, rhs, n, stepping, control, model, arrays, work, t,
+                                                    h, after_reject, budget)
+    if code == ACCEPTED:
+        dense_coefficients(work.R, arrays.y, arrays.y_new, h, n, work.Q)
     return code, h, h_next, attempts, last

@@ -44,11 +44,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from rimroll.solver._compile import kernel
+from rimroll.solver._compile import engine_kernel
 from rimroll.solver.engine.outcomes import FALL_IN, FALL_OUT
 from rimroll.solver.physics import loads, rolling
+from rimroll.solver.physics.constants import constants
 from rimroll.solver.physics.flight import lands_inside
-from rimroll.solver.physics.params import P_G, P_J, P_K_R, P_R_BALL, P_R_RIM, P_RHO
+from rimroll.solver.physics.params import P_G, P_RHO
 
 STEADY_TOL = 1e-7
 """Largest relative residual of the rates (``steady_residual``) of a state on a steady motion."""
@@ -62,32 +63,31 @@ SLIP = 2
 STEADY = 3
 
 
-@kernel(runtime=True)
+@engine_kernel(runtime=True)
 def omega_scale(omega1, omega2, omega3, p):
     """max(|omega1|, |omega2|, |omega3|, sqrt(g/rho)) [1/s]: the size of the angular velocities."""
     return np.maximum(np.maximum(np.abs(omega1), np.abs(omega2)),
                       np.maximum(np.abs(omega3), np.sqrt(p[P_G] / p[P_RHO])))
 
 
-@kernel(runtime=True)
+@engine_kernel(runtime=True)
 def rate_scale(beta, omega1, omega2, omega3, p, load=None):
     """Size of the terms of omega1_dot (33) with dissipation (83) and an external ``load`` [1/s^2].
 
     The sum of their magnitudes, with the gravity term taken at its largest, g / (r (1+j)), so
     that the scale does not vanish where cos(beta) = 0 (the trivial equilibrium (46)).
     """
-    r = p[P_R_BALL]
-    j = p[P_J]
+    r, R, rho, m, j, g, mu, k_r, k_d = constants(p)
     c = np.cos(beta)
-    D = p[P_R_RIM] - p[P_RHO] * c
+    D = R - rho * c
     scale = (np.abs(r * omega3 * omega3 * np.sin(beta) / D) + np.abs(j * r * omega2 * omega3 * c / ((1.0 + j) * D))
-             + p[P_G] / (r * (1.0 + j)) + np.abs(p[P_K_R] * omega1))
+             + g / (r * (1.0 + j)) + np.abs(k_r * omega1))
     if load is not None:
         scale = scale + np.abs(loads.rolling_rates(load, p)[0])
     return scale
 
 
-@kernel(runtime=True)
+@engine_kernel(runtime=True)
 def steady_residual(beta, omega1, omega2, omega3, p, load=None):
     """Relative size of the rates of the rolling state (dimensionless); 0 on an equilibrium.
 
@@ -102,14 +102,14 @@ def steady_residual(beta, omega1, omega2, omega3, p, load=None):
                       np.maximum(np.abs(d2) / (s * s), np.abs(d3) / (s * s)))
 
 
-@kernel(runtime=True)
+@engine_kernel(runtime=True)
 def on_steady_motion(beta, omega1, omega2, omega3, p, load=None):
     """Whether the rolling state is an equilibrium of (33)-(36)/(83) (and an external ``load``) to
     within STEADY_TOL."""
     return steady_residual(beta, omega1, omega2, omega3, p, load) <= STEADY_TOL
 
 
-@kernel(runtime=True)
+@engine_kernel(runtime=True)
 def transversal_omega1_zero(beta, omega1, omega2, omega3, p, rtol, load=None):
     """Whether an omega1 zero at this rolling state crosses transversally at tolerance rtol (with an
     external ``load``, if any)."""
@@ -117,7 +117,7 @@ def transversal_omega1_zero(beta, omega1, omega2, omega3, p, rtol, load=None):
     return np.abs(d1) > TRANSVERSAL_RTOL_FACTOR * rtol * rate_scale(beta, omega1, omega2, omega3, p, load)
 
 
-@kernel(runtime=True)
+@engine_kernel(runtime=True)
 def phase_start_action(rolling_phase, hybrid, first, f2, friction_margin, steady):
     """What happens at the start of a phase, in the rules' order.
 
@@ -135,7 +135,7 @@ def phase_start_action(rolling_phase, hybrid, first, f2, friction_margin, steady
     return RUN
 
 
-@kernel(runtime=True)
+@engine_kernel(runtime=True)
 def fall_outcome(beta, omega1, omega3, u1, u3, p):
     """FALL_IN or FALL_OUT by free flight from the separation state (u1 = u3 = 0 when rolling)."""
     if lands_inside(beta, omega1, omega3, u1, u3, p):

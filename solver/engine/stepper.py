@@ -8,9 +8,10 @@ State vectors are preallocated float64 arrays; ``n`` is the number of live compo
 first ``n_err`` of them enter the error norm (a quadrature stored last, like the cyclic angle
 of the ball, does not steer the step size).
 
-:func:`attempt` is the step attempt: it tries steps from (t, y) until one is accepted,
-rejecting on the error norm and cutting the step after a non-finite trial, and reports a step
-budget spent or a step-size underflow instead of looping.
+:func:`accept_reject` is the step attempt of both step types (an explicit step here, a Rosenbrock step in
+``solver.engine.rosenbrock``, passed in as its trial function): it tries steps from (t, y) until one is
+accepted, rejecting on the error norm and cutting the step after a non-finite trial, and reports a step
+budget spent or a step-size underflow instead of looping; :func:`attempt` is its explicit form.
 
 Step-size control is the classic one of Hairer, Norsett & Wanner (Solving ODEs I, II.4), as in
 ``scipy.integrate.RK45``: ``h_new = h * clip(SAFETY * err^(-1/(q+1)), MIN_FACTOR, MAX_FACTOR)``
@@ -23,7 +24,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from rimroll.solver._compile import kernel
+from rimroll.solver._compile import engine_kernel
 
 SAFETY = 0.9  # fraction of the optimal step actually taken
 MIN_FACTOR = 0.2  # largest decrease of h in one rejection (also the cut after a non-finite trial)
@@ -38,7 +39,7 @@ UNDERFLOW = 2
 NON_FINITE = 3
 
 
-@kernel(inline=True, takes_functions=True)
+@engine_kernel(inline=True, takes_functions=True)
 def rk_step(rhs, y, f, h, n, A, n_stages, K, y_new, tmp, p):
     """One explicit RK step from y with slope f = rhs(y): fills K[0..n_stages] and y_new.
 
@@ -59,7 +60,7 @@ def rk_step(rhs, y, f, h, n, A, n_stages, K, y_new, tmp, p):
         rhs(tmp, p, K, s)
 
 
-@kernel(inline=True)
+@engine_kernel(inline=True)
 def error_norm(K, E, err_mode, n_stages, h, y, y_new, n_err, rtol, atol):
     """Scaled norm of the local error estimate; the step is accepted when it is <= 1.
 
@@ -93,7 +94,7 @@ def error_norm(K, E, err_mode, n_stages, h, y, y_new, n_err, rtol, atol):
     return abs(h) * n5 / np.sqrt((n5 + 0.01 * n3) * n_err)
 
 
-@kernel(inline=True)
+@engine_kernel(inline=True)
 def step_factor(err, exponent, after_reject, max_factor):
     """Factor for the next step from the error norm of an accepted (err <= 1) or rejected step; at
     most ``max_factor`` (MAX_FACTOR for the explicit methods, ``rosenbrock.MAX_FACTOR`` for Rodas4)."""
@@ -109,13 +110,13 @@ def step_factor(err, exponent, after_reject, max_factor):
     return factor
 
 
-@kernel(inline=True)
+@engine_kernel(inline=True)
 def min_step(t):
     """Smallest step allowed at time t (MIN_STEP_ULPS ulps of t) [s]."""
     return MIN_STEP_ULPS * (np.nextafter(abs(t), np.inf) - abs(t))
 
 
-@kernel(takes_functions=True)
+@engine_kernel(takes_functions=True)
 def initial_step(rhs, y, f, n, n_err, error_order, rtol, atol, span, tmp, F1, p):
     """Hairer's starting step (Solving ODEs I, II.4; scipy ``select_initial_step``) [s].
 
@@ -152,7 +153,7 @@ def initial_step(rhs, y, f, n, n_err, error_order, rtol, atol, span, tmp, F1, p)
     return min(100.0 * h0, h1, span)
 
 
-@kernel(takes_functions=True)
+@engine_kernel(takes_functions=True)
 def dense_prepare(rhs, method, y, h, n, K, Q, tmp, p):
     """Dense output of the last step: extra stages (if the method has any), then Q = K^T P.
 
@@ -180,7 +181,7 @@ def dense_prepare(rhs, method, y, h, n, K, Q, tmp, p):
             Q[i, q] = acc
 
 
-@kernel
+@engine_kernel
 def dense_eval(theta, y, h, Q, n, n_poly, out):
     """The dense output at t + theta h (0 <= theta <= 1) into ``out[:n]``."""
     for i in range(n):
@@ -190,7 +191,7 @@ def dense_eval(theta, y, h, Q, n, n_poly, out):
         out[i] = y[i] + h * acc
 
 
-@kernel
+@engine_kernel
 def dense_slope(theta, Q, n, n_poly, out):
     """Time derivative of the dense output at t + theta h into ``out[:n]`` [units of y per s].
 
@@ -225,24 +226,48 @@ class Arrays(NamedTuple):
     tmp: np.ndarray
 
 
-@kernel(inline=True, takes_functions=True)
-def attempt(rhs, method, control, p, arrays, t, h, after_reject, budget):
-    """Try steps from (t, y), slope f = rhs(y), first trial step h [s], until one is accepted.
+class Stepping(NamedTuple):
+    """What the accept/reject loop (:func:`accept_reject`) needs of a step type: its ``method`` (a
+    ``tableaus.Method``, or None where the trial needs none), the row of K that holds the slope f(y_new) of a
+    trial (``fsal_row``), the step-size exponent -1/(q+1) of its error estimator of order q and its largest
+    growth of h per accepted step."""
 
-    ``method``: the :class:`~rimroll.solver.engine.tableaus.Method` record; ``control``: a
-    :class:`Control`; ``arrays``: the :class:`Arrays` of the step. A trial is rejected when its error norm exceeds 1
-    (the step shrinks by
-    ``step_factor``) or when anything in it is not finite (the step shrinks by MIN_FACTOR, at most
-    MAX_NONFINITE_RETRIES times in a row). The step never passes t_end. Returns
-    (code, h_taken, h_next, attempts, last): code ACCEPTED (y_new, K hold the step; K[n_stages]
-    is f(y_new)), BUDGET_SPENT (``budget`` attempts made), UNDERFLOW (h below ``min_step(t)``)
-    or NON_FINITE; ``last`` says the step ends at t_end.
-    """
-    n = control.n
-    t_end = control.t_end
+    method: object
+    fsal_row: int
+    exponent: float
+    max_factor: float
+
+
+@engine_kernel(inline=True, takes_functions=True)
+def rk_trial(rhs, n, stepping, control, p, arrays, work, h):
+    """One trial step of an explicit method (:func:`rk_step`) of length h [s]; returns its error norm
+    (:func:`error_norm`). ``work`` is unused (the Rosenbrock trial's arrays)."""
+    method = stepping.method
     y, f, K, y_new, tmp = arrays
-    n_stages = method.n_stages
-    exponent = -1.0 / (method.error_order + 1.0)
+    rk_step(rhs, y, f, h, n, method.A, method.n_stages, K, y_new, tmp, p)
+    return error_norm(K, method.E, method.err_mode, method.n_stages, h, y, y_new, control.n_err, control.rtol,
+                      control.atol)
+
+
+@engine_kernel(inline=True, takes_functions=True)
+def accept_reject(trial, rhs, n, stepping, control, p, arrays, work, t, h, after_reject, budget):
+    """Try steps from (t, y), slope f = rhs(y), first trial step h [s], until one is accepted: the one
+    accept/reject loop of both step types.
+
+    ``trial(rhs, n, stepping, control, p, arrays, work, h)`` takes one trial step of length h into
+    ``arrays.y_new`` (and its slope f(y_new) into K[stepping.fsal_row]) and returns its error norm
+    (:func:`rk_trial`, ``rosenbrock.rodas_trial``); ``stepping``: a :class:`Stepping`; ``control``: a
+    :class:`Control`; ``arrays``: the :class:`Arrays` of the step; ``n``: the number of components. A trial
+    is rejected when its error norm exceeds 1 (the step shrinks by ``step_factor``) or when anything in it
+    is not finite (the step shrinks by MIN_FACTOR, at most MAX_NONFINITE_RETRIES times in a row). The step
+    never passes t_end. Returns (code, h_taken, h_next, attempts, last): code ACCEPTED (y_new and the stages
+    hold the step), BUDGET_SPENT (``budget`` attempts made), UNDERFLOW (h below ``min_step(t)``) or
+    NON_FINITE; ``last`` says the step ends at t_end.
+    """
+    t_end = control.t_end
+    y_new = arrays.y_new
+    K = arrays.K
+    fsal_row = stepping.fsal_row
     attempts = 0
     n_bad = 0
     code = ACCEPTED
@@ -259,12 +284,10 @@ def attempt(rhs, method, control, p, arrays, t, h, after_reject, budget):
             code = UNDERFLOW
             break
         attempts += 1
-        rk_step(rhs, y, f, h, n, method.A, n_stages, K, y_new, tmp, p)
-        err = error_norm(K, method.E, method.err_mode, n_stages, h, y, y_new, control.n_err, control.rtol,
-                         control.atol)
+        err = trial(rhs, n, stepping, control, p, arrays, work, h)
         finite = np.isfinite(err)
         for i in range(n):
-            if not np.isfinite(y_new[i]) or not np.isfinite(K[n_stages, i]):
+            if not np.isfinite(y_new[i]) or not np.isfinite(K[fsal_row, i]):
                 finite = False
         if not finite:
             n_bad += 1
@@ -276,11 +299,20 @@ def attempt(rhs, method, control, p, arrays, t, h, after_reject, budget):
             continue
         n_bad = 0
         if err > 1.0:
-            h *= step_factor(err, exponent, after_reject, MAX_FACTOR)
+            h *= step_factor(err, stepping.exponent, after_reject, stepping.max_factor)
             after_reject = True
             continue
-        h_next = h * step_factor(err, exponent, after_reject, MAX_FACTOR)
+        h_next = h * step_factor(err, stepping.exponent, after_reject, stepping.max_factor)
         break
     if code != ACCEPTED:
         return code, h, h, attempts, False
     return code, h, h_next, attempts, last
+
+
+@engine_kernel(inline=True, takes_functions=True)
+def attempt(rhs, method, control, p, arrays, t, h, after_reject, budget):
+    """Try explicit steps of ``method`` (the :class:`~rimroll.solver.engine.tableaus.Method` record) from
+    (t, y) until one is accepted (:func:`accept_reject` with :func:`rk_trial`): on ACCEPTED y_new and K hold
+    the step, K[n_stages] is f(y_new). ``control``: a :class:`Control`; ``arrays``: the :class:`Arrays`."""
+    stepping = Stepping(method, method.n_stages, -1.0 / (method.error_order + 1.0), MAX_FACTOR)
+    return accept_reject(rk_trial, rhs, control.n, stepping, control, p, arrays, None, t, h, after_reject, budget)

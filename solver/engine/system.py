@@ -12,10 +12,10 @@ comes from ``solver.kinematics`` (19)-(20).
 
 Per phase, ``*_rhs(y, model, K, s)`` writes the rates of y into row s of the 2-D array K (the one
 right-hand side of the phase; ``model``: a :class:`Model`, the parameters and the scene's external
-load), and ``*_events(y, f, model, aux, g, gr)`` writes the event values
+load), and ``*_events(y, f, model, switch_tol, g, gr)`` writes the event values
 into g and their time derivatives (along the rates f) into gr; a derivative that is not available
-cheaply is NaN. ``aux`` is the switching-tolerance vector of ``solver.physics.switching`` in
-scenes that slip and None in rolling-only ones: numba prunes a branch on ``aux is None`` before it
+cheaply is NaN. ``switch_tol`` is the switching-tolerance vector of ``solver.physics.switching`` in
+scenes that slip and None in rolling-only ones: numba prunes a branch on ``switch_tol is None`` before it
 compiles, so a rolling-only kernel holds no friction cone and no slipping code at all.
 
 The event tables (declared data, read by the engine and the locator):
@@ -48,7 +48,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from rimroll.solver._compile import kernel
+from rimroll.solver._compile import engine_kernel
 from rimroll.solver.physics import kinematics, loads, rolling, slipping
 from rimroll.solver.physics.switching import SW_DELTA, SW_U_STOP
 
@@ -93,13 +93,13 @@ class Model(NamedTuple):
     slipping: bool
 
 
-@kernel(inline=True)
+@engine_kernel(inline=True)
 def rolling_load(model, y):
     """The load of the scene's terms at the rolling state y (None in a scene without terms)."""
     return loads.at(model.load_fn, y[0], y[1], y[2], y[3], 0.0, 0.0, model.p)
 
 
-@kernel(inline=True)
+@engine_kernel(inline=True)
 def slipping_load(model, y):
     """The load of the scene's terms at the slipping state y (None in a scene without terms)."""
     return loads.at(model.load_fn, y[0], y[1], y[2], y[3], y[I_U1], y[I_U3], model.p)
@@ -118,39 +118,39 @@ class Phase(NamedTuple):
     atol: np.ndarray
 
 
-@kernel(inline=True)
-def phases(sw, conservative, atol, active, atol_roll, atol_slip):
-    """The rolling and slipping :class:`Phase` of the scene (sw: the switching tolerances of a scene
+@engine_kernel(inline=True)
+def phases(switch_tol, conservative, atol, active, atol_roll, atol_slip):
+    """The rolling and slipping :class:`Phase` of the scene (switch_tol: the switching tolerances of a scene
     that slips, None if it only rolls): fills the bool array ``active`` (2, N_EVENTS) and the
     tolerance vectors ``atol_roll``, ``atol_slip``."""
-    rolling_active(sw is not None, conservative, active[0])
-    slipping_active(sw is not None, conservative, active[1])
+    rolling_active(switch_tol is not None, conservative, active[0])
+    slipping_active(switch_tol is not None, conservative, active[1])
     rolling_atol(atol, atol_roll)
-    if sw is not None:
-        slipping_atol(atol, sw, atol_slip)
+    if switch_tol is not None:
+        slipping_atol(atol, switch_tol, atol_slip)
     return (Phase(N_ROLLING, ROLLING_DIRECTION, ROLLING_TRACK_MIN, ROLLING_ACTION, active[0], atol_roll),
             Phase(N_SLIPPING, SLIPPING_DIRECTION, SLIPPING_TRACK_MIN, SLIPPING_ACTION, active[1], atol_slip))
 
 
-@kernel
+@engine_kernel
 def rolling_atol(atol, out):
     """Absolute tolerances of the rolling components into ``out``: atol for each [their units]."""
     for i in range(N_ROLLING):
         out[i] = atol
 
 
-@kernel
-def slipping_atol(atol, sw, out):
+@engine_kernel
+def slipping_atol(atol, switch_tol, out):
     """Absolute tolerances of the slipping components into ``out``: atol, and for u1, u3
     min(atol, U_ATOL_FRACTION * delta) [m/s]."""
     for i in range(N_SLIPPING):
         out[i] = atol
-    u_atol = min(atol, U_ATOL_FRACTION * sw[SW_DELTA])
+    u_atol = min(atol, U_ATOL_FRACTION * switch_tol[SW_DELTA])
     out[I_U1] = u_atol
     out[I_U3] = u_atol
 
 
-@kernel
+@engine_kernel
 def rolling_active(hybrid, conservative, out):
     """Active rolling events of a scene into the bool array ``out`` (N_EVENTS)."""
     out[EV_FALL] = True
@@ -158,7 +158,7 @@ def rolling_active(hybrid, conservative, out):
     out[EV_OMEGA1] = conservative
 
 
-@kernel
+@engine_kernel
 def slipping_active(hybrid, conservative, out):
     """Active slipping events of a scene into the bool array ``out`` (N_EVENTS)."""
     out[EV_FALL] = True
@@ -166,7 +166,7 @@ def slipping_active(hybrid, conservative, out):
     out[EV_OMEGA1] = False
 
 
-@kernel(inline=True)
+@engine_kernel(inline=True)
 def rolling_rhs(y, model, K, s):
     """Rates of the rolling state y, (33)-(36)/(83) with the scene's load and alpha_dot (19), into
     row s of K."""
@@ -183,7 +183,7 @@ def rolling_rhs(y, model, K, s):
     K[s, 4] = alpha_dot
 
 
-@kernel(inline=True)
+@engine_kernel(inline=True)
 def slipping_rhs(y, model, K, s):
     """Rates of the slipping state y, (42) with the scene's load and alpha_dot (19), into row s of K."""
     beta = y[0]
@@ -203,10 +203,10 @@ def slipping_rhs(y, model, K, s):
     K[s, 6] = alpha_dot
 
 
-@kernel(inline=True)
-def rolling_events(y, f, model, aux, g, gr):
+@engine_kernel(inline=True)
+def rolling_events(y, f, model, switch_tol, g, gr):
     """Rolling event values into g, their time derivatives along the rates f into gr (see the table);
-    the friction margin only where the ball can slip (aux not None). With an external load the
+    the friction margin only where the ball can slip (switch_tol not None). With an external load the
     derivatives of what it adds are central differences along f (:func:`_rolling_event_rates`)."""
     beta = y[0]
     w1 = y[1]
@@ -215,14 +215,14 @@ def rolling_events(y, f, model, aux, g, gr):
     load = rolling_load(model, y)
     g[EV_FALL] = rolling.normal_force(beta, w1, w3, p, load)
     gr[EV_FALL] = rolling.normal_force_rate(beta, w1, w3, f[0], f[1], f[3], p)
-    if aux is not None:
+    if switch_tol is not None:
         g[EV_SWITCH] = rolling.friction_margin(beta, w1, y[2], w3, p, load)
         gr[EV_SWITCH] = rolling.friction_margin_rate(beta, w1, y[2], w3, f[0], f[1], f[2], f[3], p)
     else:
         g[EV_SWITCH] = 1.0
         gr[EV_SWITCH] = 0.0
     if load is not None:
-        _rolling_event_rates(y, f, model, aux, gr)
+        _rolling_event_rates(y, f, model, switch_tol, gr)
     g[EV_OMEGA1] = w1
     gr[EV_OMEGA1] = f[1]
 
@@ -232,8 +232,8 @@ FD_STEP = 1e-6
 rolling events' rates in a scene with an external load (whose own rates the loads do not give)."""
 
 
-@kernel(inline=True)
-def _rolling_event_rates(y, f, model, aux, gr):
+@engine_kernel(inline=True)
+def _rolling_event_rates(y, f, model, switch_tol, gr):
     """Adds to the analytic rates of F2 and of the friction margin (of the equations without the
     load, along the rates f) the rates of what the load adds to them, by central differences along f.
     Only the load's part is differenced: it is exactly zero for a load of zero strength, which then
@@ -248,15 +248,15 @@ def _rolling_event_rates(y, f, model, aux, gr):
     gr[EV_FALL] += ((rolling.normal_force(b0, w10, w30, p, load0) - rolling.normal_force(b0, w10, w30, p))
                     - (rolling.normal_force(b1, w11, w31, p, load1) - rolling.normal_force(b1, w11, w31, p))
                     ) / (2.0 * dt)
-    if aux is not None:
+    if switch_tol is not None:
         gr[EV_SWITCH] += ((rolling.friction_margin(b0, w10, w20, w30, p, load0)
                            - rolling.friction_margin(b0, w10, w20, w30, p))
                           - (rolling.friction_margin(b1, w11, w21, w31, p, load1)
                              - rolling.friction_margin(b1, w11, w21, w31, p))) / (2.0 * dt)
 
 
-@kernel(inline=True)
-def slipping_events(y, f, model, aux, g, gr):
+@engine_kernel(inline=True)
+def slipping_events(y, f, model, switch_tol, g, gr):
     """Slipping event values into g, their time derivatives along the rates f into gr (see the table)."""
     u1 = y[I_U1]
     u3 = y[I_U3]
@@ -265,13 +265,13 @@ def slipping_events(y, f, model, aux, g, gr):
     gr[EV_FALL] = slipping.slipping_normal_force_rate(y[0], y[1], y[3], u1, u3, f[0], f[1], f[3], f[I_U1],
                                                       f[I_U3], p)
     u = np.hypot(u1, u3)
-    g[EV_SWITCH] = u - aux[SW_U_STOP]
+    g[EV_SWITCH] = u - switch_tol[SW_U_STOP]
     gr[EV_SWITCH] = (u1 * f[I_U1] + u3 * f[I_U3]) / u
     g[EV_OMEGA1] = 0.0
     gr[EV_OMEGA1] = 0.0
 
 
-@kernel(inline=True)
+@engine_kernel(inline=True)
 def load_rates(y, model, R, row):
     """What the scene's load adds to the slipping rates at y, into R[row, :N_SLIPPING - 1]: (42) with
     the load minus (42) without it (exact zeros for a load of zero strength)."""
@@ -287,7 +287,7 @@ def load_rates(y, model, R, row):
         R[row, i] = with_load[i] - without[i]
 
 
-@kernel(inline=True)
+@engine_kernel(inline=True)
 def slipping_jacobian(y, model, J, R, row, tmp):
     """Jacobian of the slipping rates of :func:`slipping_rhs` at y into J[:7, :7]: the analytic one
     of (42) (``slipping.slipping_jacobian``), plus, in a scene with terms, forward differences of
@@ -309,7 +309,7 @@ def slipping_jacobian(y, model, J, R, row, tmp):
             tmp[k] = y[k]
 
 
-@kernel(inline=True)
+@engine_kernel(inline=True)
 def hybrid_rhs(y, model, K, s):
     """Rates of the phase ``model.slipping`` says: one step loop serves both phases of a scene that
     slips (compiled once, not once per phase)."""
@@ -319,22 +319,22 @@ def hybrid_rhs(y, model, K, s):
         rolling_rhs(y, model, K, s)
 
 
-@kernel(inline=True)
-def hybrid_events(y, f, model, aux, g, gr):
+@engine_kernel(inline=True)
+def hybrid_events(y, f, model, switch_tol, g, gr):
     """Event values of the phase ``model.slipping`` says (see :func:`hybrid_rhs`)."""
     if model.slipping:
-        slipping_events(y, f, model, aux, g, gr)
+        slipping_events(y, f, model, switch_tol, g, gr)
     else:
-        rolling_events(y, f, model, aux, g, gr)
+        rolling_events(y, f, model, switch_tol, g, gr)
 
 
-@kernel
+@engine_kernel
 def rolling_energy(y, p):
     """Mechanical energy of the rolling state [J]: (60) with m g rho sin(beta)."""
     return rolling.energy(y[0], y[1], y[2], y[3], p)
 
 
-@kernel
+@engine_kernel
 def slipping_energy(y, p):
     """Mechanical energy of the slipping state [J] (equals (60) at u = 0)."""
     return slipping.energy(y[0], y[1], y[2], y[3], y[I_U1], y[I_U3], p)

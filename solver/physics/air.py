@@ -25,18 +25,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from rimroll.solver._jit import kernel
+from rimroll.solver._jit import physics_kernel
 from rimroll.solver.physics.params import P_C_DRAG, P_M, P_R_BALL, P_RHO_AIR
 
 
-@kernel
+@physics_kernel
 def drag_rate(p):
     """k = rho_air C_D pi r^2 / (2 m) [1/m]: the drag deceleration of the centre is k |v|^2."""
     r = p[P_R_BALL]
     return 0.5 * p[P_RHO_AIR] * p[P_C_DRAG] * np.pi * r * r / p[P_M]
 
 
-@kernel
+@physics_kernel
 def air_drag(beta, omega1, omega2, omega3, u1, u3, p):
     """Quadratic air drag on the centre as a load: (0, 0, 0, F1, 0, F3) [N m, N] with
     F = -m k |V| V, V = (u1 - r omega3, 0, u3 + r omega1) [m/s] the velocity of the centre in the

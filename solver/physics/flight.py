@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rimroll.solver._compile import kernel
+from rimroll.solver._compile import engine_kernel
 from rimroll.solver.physics import air, kinematics
 from rimroll.solver.physics.params import P_G, P_R_RIM
 
@@ -30,7 +30,7 @@ MAX_FLIGHT_STEPS = 1 << 20
 has not landed by then falls at its terminal speed almost straight down: the landing is taken where it is."""
 
 
-@kernel
+@engine_kernel
 def landing_time(z, v_z, g):
     """First time [s] >= 0 at which z + v_z t - g t^2 / 2 <= 0 while descending (0 if z <= 0)."""
     if z <= 0.0:
@@ -41,7 +41,7 @@ def landing_time(z, v_z, g):
     return 2.0 * z / (root - v_z)  # same root, without cancellation
 
 
-@kernel
+@engine_kernel
 def landing_distance(beta, omega1, omega3, u1, u3, p):
     """Horizontal distance [m] of the centre from the rim's axis where the flight reaches z = 0."""
     d, z = kinematics.centre_position(beta, p)
@@ -55,20 +55,20 @@ def landing_distance(beta, omega1, omega3, u1, u3, p):
     return np.sqrt(x * x + yt * yt)
 
 
-@kernel
+@engine_kernel
 def lands_inside(beta, omega1, omega3, u1, u3, p):
     """Whether a ball separating from the rim in the given state comes down inside the rim (a score)."""
     return landing_distance(beta, omega1, omega3, u1, u3, p) < p[P_R_RIM]
 
 
-@kernel
+@engine_kernel
 def drag_acceleration(vx, vy, vz, k, g):
     """Acceleration [m/s^2] of the centre in flight: gravity -g along z and the drag -k |v| v."""
     c = -k * np.sqrt(vx * vx + vy * vy + vz * vz)
     return c * vx, c * vy, c * vz - g
 
 
-@kernel
+@engine_kernel
 def drag_step(x, y, z, vx, vy, vz, h, k, g):
     """One classical Runge-Kutta step of length h [s] of the flight with drag; the new
     (x, y, z [m], vx, vy, vz [m/s])."""
@@ -86,7 +86,7 @@ def drag_step(x, y, z, vx, vy, vz, h, k, g):
             vy + s * (a1y + 2.0 * a2y + 2.0 * a3y + a4y), vz + s * (a1z + 2.0 * a2z + 2.0 * a3z + a4z))
 
 
-@kernel
+@engine_kernel
 def hermite(q0, dq0, q1, dq1, h, theta):
     """The cubic through q0, q1 [m] with slopes dq0, dq1 [m/s] over a step h [s], at theta in [0, 1]."""
     t2 = theta * theta
@@ -95,7 +95,7 @@ def hermite(q0, dq0, q1, dq1, h, theta):
             + (t3 - t2) * h * dq1)
 
 
-@kernel
+@engine_kernel
 def drag_landing_distance(d, z, v_rad, v_z, v_tan, k, g):
     """Horizontal distance [m] of the centre from the rim's axis where a flight under gravity g
     [m/s^2] and the drag -k |v| v (k [1/m]) from height z, distance d [m] and velocity (radial,

@@ -9,29 +9,29 @@ from __future__ import annotations
 
 import numpy as np
 
-from rimroll.solver._jit import kernel
+from rimroll.solver._jit import physics_kernel
 from rimroll.solver.physics.params import P_R_BALL, P_R_RIM, P_RHO
 
 
-@kernel
+@physics_kernel
 def alpha_rate(beta, omega3, u1, p):
     """Rate of the angle around the rim (19): alpha_dot = (u1 - r omega3) / (R - rho cos beta) [rad/s]."""
     return (u1 - p[P_R_BALL] * omega3) / (p[P_R_RIM] - p[P_RHO] * np.cos(beta))
 
 
-@kernel
+@physics_kernel
 def beta_rate(omega1, u3, p):
     """Rate of the height angle (20): beta_dot = (u3 + r omega1) / rho [rad/s]."""
     return (u3 + p[P_R_BALL] * omega1) / p[P_RHO]
 
 
-@kernel
+@physics_kernel
 def angle_rates(beta, omega1, omega3, u1, u3, p):
     """Rates of the contact angles (19)-(20): (alpha_dot, beta_dot) [rad/s]."""
     return alpha_rate(beta, omega3, u1, p), beta_rate(omega1, u3, p)
 
 
-@kernel
+@physics_kernel
 def centre_position(beta, p):
     """Ball centre in cylindrical coordinates about the rim's axis (12): (d, z) [m].
 
@@ -42,7 +42,7 @@ def centre_position(beta, p):
     return p[P_R_RIM] - rho * np.cos(beta), rho * np.sin(beta)
 
 
-@kernel
+@physics_kernel
 def centre_velocity(beta, omega1, omega3, u1, u3, p):
     """Velocity of the ball centre (13): (radial, vertical, tangential) components [m/s].
 

@@ -27,8 +27,8 @@ from __future__ import annotations
 from numba import types
 from numba.extending import overload
 
-from rimroll.solver._jit import kernel
-from rimroll.solver.physics.params import P_J, P_K_D, P_K_R, P_M, P_R_BALL
+from rimroll.solver._jit import physics_kernel
+from rimroll.solver.physics.constants import constants
 
 
 def at(load_fn, beta, omega1, omega2, omega3, u1, u3, p):
@@ -53,61 +53,54 @@ def _at(load_fn, beta, omega1, omega2, omega3, u1, u3, p):
     return call
 
 
-@kernel
+@physics_kernel
 def rolling_rates(load, p):
     """What the load adds to (omega1_dot, omega2_dot, omega3_dot) of a rolling ball [1/s^2]."""
+    r, R, rho, m, j, g, mu, k_r, k_d = constants(p)
     M1, M2, M3, F1, F2, F3 = load
-    m = p[P_M]
-    r = p[P_R_BALL]
-    j = p[P_J]
     roll = (1.0 + j) * m * r
     return M1 / (roll * r) + F3 / roll, M2 / (j * m * r * r), M3 / (roll * r) - F1 / roll
 
 
-@kernel
+@physics_kernel
 def contact_forces(load, p):
     """What the load adds to the contact force (F1, F2, F3) of a rolling ball [N]: the friction that
     keeps the contact point at rest, and the normal force."""
+    r, R, rho, m, j, g, mu, k_r, k_d = constants(p)
     M1, M2, M3, F1, F2, F3 = load
-    m = p[P_M]
-    r = p[P_R_BALL]
-    j = p[P_J]
     da1 = M1 / (j * m * r * r)
     da3 = M3 / (j * m * r * r)
     k = j * m / (1.0 + j)
     return -k * (r * da3 + F1 / m), -F2, -k * (-r * da1 + F3 / m)
 
 
-@kernel
+@physics_kernel
 def free_rates(load, p):
     """What the load adds to the rates of a slipping ball without friction (``slipping.free_rates``):
     (da1, da2, da3 [1/s^2], db1, db3 [m/s^2], dF2 [N])."""
+    r, R, rho, m, j, g, mu, k_r, k_d = constants(p)
     M1, M2, M3, F1, F2, F3 = load
-    m = p[P_M]
-    r = p[P_R_BALL]
-    jmr2 = p[P_J] * m * r * r
+    jmr2 = j * m * r * r
     da1 = M1 / jmr2
     da3 = M3 / jmr2
     return da1, M2 / jmr2, da3, r * da3 + F1 / m, -r * da1 + F3 / m, -F2
 
 
-@kernel
+@physics_kernel
 def power(load, omega1, omega2, omega3, v1, v2, v3):
     """The power of the load [W]: M . omega + F . v with v the velocity of the centre (n-basis, m/s)."""
     M1, M2, M3, F1, F2, F3 = load
     return M1 * omega1 + M2 * omega2 + M3 * omega3 + F1 * v1 + F2 * v2 + F3 * v3
 
 
-@kernel
+@physics_kernel
 def contact_moment(beta, omega1, omega2, omega3, u1, u3, p):
     """The contact moment of (83) as a load: M = -((1+j) m r^2 k_r omega1, j m r^2 k_d omega2,
     (1+j) m r^2 k_r omega3) [N m], no force. rimroll builds it into the rolling and slipping
     equations themselves (``rolling.rolling_rhs``, ``slipping.free_rates``); as a load it checks
     the load machinery against them."""
-    m = p[P_M]
-    r = p[P_R_BALL]
-    j = p[P_J]
+    r, R, rho, m, j, g, mu, k_r, k_d = constants(p)
     mr2 = m * r * r
-    return (-(1.0 + j) * mr2 * p[P_K_R] * omega1, -j * mr2 * p[P_K_D] * omega2, -(1.0 + j) * mr2 * p[P_K_R] * omega3,
+    return (-(1.0 + j) * mr2 * k_r * omega1, -j * mr2 * k_d * omega2, -(1.0 + j) * mr2 * k_r * omega3,
             0.0, 0.0, 0.0)
 

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rimroll.solver._jit import kernel
+from rimroll.solver._jit import physics_kernel
 from rimroll.solver.physics import slipping
 from rimroll.solver.physics.params import P_C_D, P_C_R
 
@@ -40,7 +40,7 @@ OMEGA_SMOOTH = 1e-2
 """Angular velocity [1/s] below which the dry resistances are smoothed (see the module's text)."""
 
 
-@kernel
+@physics_kernel
 def coulomb_rolling(beta, omega1, omega2, omega3, u1, u3, p):
     """The Coulomb rolling-resistance moment as a load (``solver.physics.loads``):
     M = -c_r F2 (omega1, 0, omega3) / sqrt(omega1^2 + omega3^2 + OMEGA_SMOOTH^2) [N m], no force.
@@ -51,7 +51,7 @@ def coulomb_rolling(beta, omega1, omega2, omega3, u1, u3, p):
     return k * omega1, 0.0, k * omega3, 0.0, 0.0, 0.0
 
 
-@kernel
+@physics_kernel
 def coulomb_drilling(beta, omega1, omega2, omega3, u1, u3, p):
     """The Coulomb drilling-resistance moment as a load: M = (0, -c_d F2 omega2 / sqrt(omega2^2 +
     OMEGA_SMOOTH^2), 0) [N m], no force. c_d = p[P_C_D] [m]; F2 [N] the normal force of the state."""

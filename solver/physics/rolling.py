@@ -17,23 +17,20 @@ from __future__ import annotations
 
 import numpy as np
 
-from rimroll.solver._jit import kernel
+from rimroll.solver._jit import physics_kernel
 from rimroll.solver.physics import kinematics, loads
-from rimroll.solver.physics.params import P_G, P_J, P_K_D, P_K_R, P_M, P_MU, P_R_BALL, P_R_RIM, P_RHO
+from rimroll.solver.physics.constants import constants
+from rimroll.solver.physics.params import P_MU
 
 
-@kernel
+@physics_kernel
 def rolling_rhs(beta, omega1, omega2, omega3, p, load=None):
     """Right-hand side of the rolling equations (33)-(36) with dissipation (83), and the rates an
     external ``load`` adds (``solver.physics.loads``; None: none, and none of its code is compiled).
 
     Returns (beta_dot [rad/s], omega1_dot, omega2_dot, omega3_dot [1/s^2]).
     """
-    r = p[P_R_BALL]
-    R = p[P_R_RIM]
-    rho = p[P_RHO]
-    j = p[P_J]
-    g = p[P_G]
+    r, R, rho, m, j, g, mu, k_r, k_d = constants(p)
     s = np.sin(beta)
     c = np.cos(beta)
     D = R - rho * c
@@ -41,10 +38,10 @@ def rolling_rhs(beta, omega1, omega2, omega3, p, load=None):
     omega1_dot = (
         ((1.0 + j) * r * omega3 * omega3 * s - j * r * omega2 * omega3 * c) / ((1.0 + j) * D)
         - g * c / (r * (1.0 + j))
-        - p[P_K_R] * omega1
+        - k_r * omega1
     )
-    omega2_dot = r * R * omega1 * omega3 / (rho * D) - p[P_K_D] * omega2
-    omega3_dot = -r * omega1 * omega3 * s / D - j * r * omega1 * omega2 / (rho * (1.0 + j)) - p[P_K_R] * omega3
+    omega2_dot = r * R * omega1 * omega3 / (rho * D) - k_d * omega2
+    omega3_dot = -r * omega1 * omega3 * s / D - j * r * omega1 * omega2 / (rho * (1.0 + j)) - k_r * omega3
     if load is not None:
         e1, e2, e3 = loads.rolling_rates(load, p)
         omega1_dot += e1
@@ -53,57 +50,49 @@ def rolling_rhs(beta, omega1, omega2, omega3, p, load=None):
     return beta_dot, omega1_dot, omega2_dot, omega3_dot
 
 
-@kernel
+@physics_kernel
 def normal_force(beta, omega1, omega3, p, load=None):
     """Normal contact force F2 of a rolling ball (31) [N], less the normal component of an external
     ``load``'s force; the ball separates where F2 < 0."""
-    r = p[P_R_BALL]
-    rho = p[P_RHO]
+    r, R, rho, m, j, g, mu, k_r, k_d = constants(p)
     c = np.cos(beta)
-    m = p[P_M]
-    F2 = (m * r * r * omega3 * omega3 * c / (p[P_R_RIM] - rho * c) - m * r * r * omega1 * omega1 / rho
-          + m * p[P_G] * np.sin(beta))
+    F2 = (m * r * r * omega3 * omega3 * c / (R - rho * c) - m * r * r * omega1 * omega1 / rho
+          + m * g * np.sin(beta))
     if load is not None:
         F2 -= load[4]
     return F2
 
 
-@kernel
+@physics_kernel
 def normal_force_rate(beta, omega1, omega3, beta_dot, omega1_dot, omega3_dot, p):
     """Time derivative of the rolling normal force (31) along the rates given [N/s] (an external load's
     normal force is taken as constant over a step: the event locator then checks the dip on the
     dense output, ``solver.engine.events``)."""
-    r = p[P_R_BALL]
-    rho = p[P_RHO]
-    R = p[P_R_RIM]
+    r, R, rho, m, j, g, mu, k_r, k_d = constants(p)
     s = np.sin(beta)
     c = np.cos(beta)
-    m = p[P_M]
     D = R - rho * c
     mr2 = m * r * r
-    d_beta = -mr2 * omega3 * omega3 * s * R / (D * D) + m * p[P_G] * c
+    d_beta = -mr2 * omega3 * omega3 * s * R / (D * D) + m * g * c
     return d_beta * beta_dot - 2.0 * mr2 * omega1 / rho * omega1_dot + 2.0 * mr2 * omega3 * c / D * omega3_dot
 
 
-@kernel
+@physics_kernel
 def contact_forces(beta, omega1, omega2, omega3, p, load=None):
     """Contact force (F1, F2, F3) [N] of a rolling ball in the n-basis: (30)-(32) plus dissipation,
     plus what an external ``load`` adds (``solver.physics.loads.contact_forces``).
 
     F1, F3 are the friction components, F2 the normal force.
     """
-    r = p[P_R_BALL]
-    rho = p[P_RHO]
-    j = p[P_J]
-    m = p[P_M]
+    r, R, rho, m, j, g, mu, k_r, k_d = constants(p)
     c = np.cos(beta)
-    D = p[P_R_RIM] - rho * c
-    F1 = j * m * r * r * omega1 * omega2 / (rho * (1.0 + j)) + m * r * p[P_K_R] * omega3
+    D = R - rho * c
+    F1 = j * m * r * r * omega1 * omega2 / (rho * (1.0 + j)) + m * r * k_r * omega3
     F2 = normal_force(beta, omega1, omega3, p)
     F3 = (
-        j * m * p[P_G] * c / (1.0 + j)
+        j * m * g * c / (1.0 + j)
         - j * m * r * r * omega2 * omega3 * c / ((1.0 + j) * D)
-        - m * r * p[P_K_R] * omega1
+        - m * r * k_r * omega1
     )
     if load is not None:
         d1, d2, d3 = loads.contact_forces(load, p)
@@ -113,7 +102,7 @@ def contact_forces(beta, omega1, omega2, omega3, p, load=None):
     return F1, F2, F3
 
 
-@kernel
+@physics_kernel
 def friction_margin(beta, omega1, omega2, omega3, p, load=None):
     """Margin of the friction cone (39), mu F2 - sqrt(F1^2 + F3^2) [N]; rolling is valid where >= 0.
 
@@ -123,28 +112,24 @@ def friction_margin(beta, omega1, omega2, omega3, p, load=None):
     return p[P_MU] * F2 - np.sqrt(F1 * F1 + F3 * F3)
 
 
-@kernel
+@physics_kernel
 def contact_forces_rate(beta, omega1, omega2, omega3, beta_dot, omega1_dot, omega2_dot, omega3_dot, p):
     """Time derivative of the contact force (F1, F2, F3) of a rolling ball (``contact_forces``,
     without an external load) along the rates given [N/s]."""
-    r = p[P_R_BALL]
-    rho = p[P_RHO]
-    R = p[P_R_RIM]
-    j = p[P_J]
-    m = p[P_M]
+    r, R, rho, m, j, g, mu, k_r, k_d = constants(p)
     s = np.sin(beta)
     c = np.cos(beta)
     D = R - rho * c
     k = j * m * r * r / (1.0 + j)
-    dF1 = k / rho * (omega1_dot * omega2 + omega1 * omega2_dot) + m * r * p[P_K_R] * omega3_dot
+    dF1 = k / rho * (omega1_dot * omega2 + omega1 * omega2_dot) + m * r * k_r * omega3_dot
     dF2 = normal_force_rate(beta, omega1, omega3, beta_dot, omega1_dot, omega3_dot, p)
-    dF3 = (-j * m * p[P_G] * s * beta_dot / (1.0 + j)
+    dF3 = (-j * m * g * s * beta_dot / (1.0 + j)
            - k * ((omega2_dot * omega3 + omega2 * omega3_dot) * c / D - omega2 * omega3 * s * R * beta_dot / (D * D))
-           - m * r * p[P_K_R] * omega1_dot)
+           - m * r * k_r * omega1_dot)
     return dF1, dF2, dF3
 
 
-@kernel
+@physics_kernel
 def friction_margin_rate(beta, omega1, omega2, omega3, beta_dot, omega1_dot, omega2_dot, omega3_dot, p):
     """Time derivative of the friction margin (39), mu dF2/dt - d|F_t|/dt [N/s], along the rates given
     (no external load). It lets the event locator bound the margin between step ends as it bounds
@@ -156,27 +141,23 @@ def friction_margin_rate(beta, omega1, omega2, omega3, beta_dot, omega1_dot, ome
     return p[P_MU] * dF2 - (F1 * dF1 + F3 * dF3) / ft
 
 
-@kernel
+@physics_kernel
 def energy(beta, omega1, omega2, omega3, p):
     """Total mechanical energy of the rolling ball (60) [J], with potential m g rho sin(beta).
 
     (60) as printed has m g r sin(beta); the centre's height is rho sin(beta) (12), and that is
     the potential the rolling equations conserve (docs/outcome-studies.md, end of "Rules").
     """
-    r = p[P_R_BALL]
-    m = p[P_M]
-    j = p[P_J]
+    r, R, rho, m, j, g, mu, k_r, k_d = constants(p)
     return (
         0.5 * m * j * r * r * omega2 * omega2
         + 0.5 * m * (1.0 + j) * r * r * (omega1 * omega1 + omega3 * omega3)
-        + m * p[P_G] * p[P_RHO] * np.sin(beta)
+        + m * g * rho * np.sin(beta)
     )
 
 
-@kernel
+@physics_kernel
 def dissipated_power(omega1, omega2, omega3, p):
     """Power of the contact moment, M_C . omega [W] (<= 0): the rate dE/dt while rolling."""
-    r = p[P_R_BALL]
-    m = p[P_M]
-    j = p[P_J]
-    return -m * r * r * ((1.0 + j) * p[P_K_R] * (omega1 * omega1 + omega3 * omega3) + j * p[P_K_D] * omega2 * omega2)
+    r, R, rho, m, j, g, mu, k_r, k_d = constants(p)
+    return -m * r * r * ((1.0 + j) * k_r * (omega1 * omega1 + omega3 * omega3) + j * k_d * omega2 * omega2)

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import math
 
-from rimroll.solver._jit import kernel
+from rimroll.solver._jit import physics_kernel as kernel
 
 LIFT_SLOPE = 1.5
 """dC_L/dS below the knee of the fit (Sawicki, Hubbard and Stronge 2003)."""

@@ -19,12 +19,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from rimroll.solver._jit import kernel
+from rimroll.solver._jit import physics_kernel
 from rimroll.solver.physics import kinematics, loads
 from rimroll.solver.physics.params import P_G, P_J, P_K_D, P_K_R, P_M, P_MU, P_R_BALL, P_R_RIM, P_RHO
 
 
-@kernel
+@physics_kernel
 def free_rates(beta, omega1, omega2, omega3, u1, u3, p, load=None):
     """Rates of the state without friction force, and the normal force.
 
@@ -58,7 +58,7 @@ def free_rates(beta, omega1, omega2, omega3, u1, u3, p, load=None):
     return beta_dot, a1, a2, a3, b1, b3, F2
 
 
-@kernel
+@physics_kernel
 def newton_euler_rates(beta, omega1, omega2, omega3, u1, u3, F1, F3, p):
     """Rates of y under a given friction force (F1, F3) [N] at the contact point.
 
@@ -71,7 +71,7 @@ def newton_euler_rates(beta, omega1, omega2, omega3, u1, u3, F1, F3, p):
     return beta_dot, a1 - F3 / jmr, a2, a3 + F1 / jmr, b1 + k * F1, b3 + k * F3
 
 
-@kernel
+@physics_kernel
 def slipping_rhs(beta, omega1, omega2, omega3, u1, u3, p, load=None):
     """Right-hand side of the slipping equations (42) with dissipation and an external ``load``, for u != 0.
 
@@ -88,7 +88,7 @@ def slipping_rhs(beta, omega1, omega2, omega3, u1, u3, p, load=None):
     return beta_dot, a1 - F3 / jmr, a2, a3 + F1 / jmr, b1 + k * F1, b3 + k * F3
 
 
-@kernel
+@physics_kernel
 def slipping_jacobian(beta, omega1, omega2, omega3, u1, u3, p, J):
     """Jacobian of the slipping equations (42) (no external load) into J[:7, :7].
 
@@ -159,7 +159,7 @@ def slipping_jacobian(beta, omega1, omega2, omega3, u1, u3, p, J):
         J[i, 6] = 0.0
 
 
-@kernel
+@physics_kernel
 def slipping_normal_force(beta, omega1, omega3, u1, u3, p, load=None):
     """Normal contact force of a slipping ball (41) [N], less the normal component of an external
     ``load``'s force."""
@@ -175,7 +175,7 @@ def slipping_normal_force(beta, omega1, omega3, u1, u3, p, load=None):
     return F2
 
 
-@kernel
+@physics_kernel
 def slipping_normal_force_rate(beta, omega1, omega3, u1, u3, beta_dot, omega1_dot, omega3_dot, u1_dot, u3_dot, p):
     """Time derivative of the slipping normal force (41) along the rates given [N/s]."""
     r = p[P_R_BALL]
@@ -192,7 +192,7 @@ def slipping_normal_force_rate(beta, omega1, omega3, u1, u3, beta_dot, omega1_do
                 - 2.0 * V3 / rho * (u3_dot + r * omega1_dot))
 
 
-@kernel
+@physics_kernel
 def directional_limits(beta, omega1, omega2, omega3, p, load=None):
     """B1, B3 [m/s^2] and C [m/s^2] of (76) at a rolling state (dissipation and an external ``load``
     included).
@@ -203,14 +203,14 @@ def directional_limits(beta, omega1, omega2, omega3, p, load=None):
     return b1, b3, p[P_MU] * (1.0 + p[P_J]) / (p[P_J] * p[P_M]) * F2
 
 
-@kernel
+@physics_kernel
 def limit_direction(beta, omega1, omega2, omega3, p, load=None):
     """The limit direction phi1 = atan2(B3, B1) of (81) [rad]; phi2 = phi1 + pi."""
     b1, b3, _ = directional_limits(beta, omega1, omega2, omega3, p, load)
     return np.arctan2(b3, b1)
 
 
-@kernel
+@physics_kernel
 def radial_slip_rate(beta, omega1, omega2, omega3, phi, p, load=None):
     """Directional limit of the slip speed's rate, u_dot*(x, phi) of (79) [m/s^2].
 
@@ -220,7 +220,7 @@ def radial_slip_rate(beta, omega1, omega2, omega3, phi, p, load=None):
     return b1 * np.cos(phi) + b3 * np.sin(phi) - C
 
 
-@kernel
+@physics_kernel
 def energy(beta, omega1, omega2, omega3, u1, u3, p):
     """Total mechanical energy of a slipping ball [J]: (1/2) m |v_G|^2 + (1/2) j m r^2 |omega|^2 + m g rho sin(beta).
 

@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rimroll.solver._compile import kernel
+from rimroll.solver._compile import engine_kernel
 from rimroll.solver.physics import kinematics, loads, rolling, slipping
 from rimroll.solver.physics.params import P_J, P_M, P_R_BALL
 
@@ -83,8 +83,8 @@ def default_tolerances(**changes) -> np.ndarray:
     return out
 
 
-@kernel(takes_functions=True)
-def enter_slipping(y, p, sw, load_fn=None):
+@engine_kernel(takes_functions=True)
+def enter_slipping(y, p, switch_tol, load_fn=None):
     """Rolling layout (beta, w1, w2, w3, alpha) -> slipping layout with u = delta e(phi1), in place.
 
     The slip is launched by the tangential contact impulse J = j m delta e(phi1) / (1 + j) that
@@ -97,7 +97,7 @@ def enter_slipping(y, p, sw, load_fn=None):
     """
     load = loads.at(load_fn, y[0], y[1], y[2], y[3], 0.0, 0.0, p)
     phi1 = slipping.limit_direction(y[0], y[1], y[2], y[3], p, load)
-    delta = sw[SW_DELTA]
+    delta = switch_tol[SW_DELTA]
     c = np.cos(phi1)
     s = np.sin(phi1)
     spin = delta / ((1.0 + p[P_J]) * p[P_R_BALL])
@@ -108,13 +108,13 @@ def enter_slipping(y, p, sw, load_fn=None):
     y[5] = delta * s
 
 
-@kernel
+@engine_kernel
 def _wrap(angle):
     """angle wrapped to [-pi, pi)."""
     return (angle + np.pi) % (2.0 * np.pi) - np.pi
 
 
-@kernel
+@engine_kernel
 def _rate_phi1(y, p, load=None):
     """u_dot*(x, phi1) = |B| - C (79) [m/s^2], computed as -(1+j)/(j m) times the friction margin (39).
 
@@ -127,8 +127,8 @@ def _rate_phi1(y, p, load=None):
     return -(1.0 + p[P_J]) / (p[P_J] * p[P_M]) * margin
 
 
-@kernel(takes_functions=True)
-def stop_slip_rate(y, p, sw, load_fn=None):
+@engine_kernel(takes_functions=True)
+def stop_slip_rate(y, p, switch_tol, load_fn=None):
     """u_dot* (79) [m/s^2] along the limit direction the slip returns by, or 0.0 if no return now.
 
     A negative value means: the slip reaches 0 within dt_max (see the module docstring).
@@ -137,7 +137,7 @@ def stop_slip_rate(y, p, sw, load_fn=None):
     u1 = y[4]
     u3 = y[5]
     u = np.hypot(u1, u3)
-    if u > sw[SW_U_STOP]:
+    if u > switch_tol[SW_U_STOP]:
         return 0.0, False
     phi = np.arctan2(u3, u1)
     load = loads.at(load_fn, y[0], y[1], y[2], y[3], 0.0, 0.0, p)  # the directional limits: at u = 0
@@ -148,28 +148,28 @@ def stop_slip_rate(y, p, sw, load_fn=None):
     rate1 = _rate_phi1(y, p, load)
     rate2 = slipping.radial_slip_rate(y[0], y[1], y[2], y[3], phi1 + np.pi, p, load)
     rate = rate1 if along1 else rate2
-    fast = -rate * sw[SW_DT_MAX] >= u
-    if min(d1, d2) <= sw[SW_PHI_TOL] and rate < 0.0 and fast:
+    fast = -rate * switch_tol[SW_DT_MAX] >= u
+    if min(d1, d2) <= switch_tol[SW_PHI_TOL] and rate < 0.0 and fast:
         return rate, along1
-    if u <= sw[SW_U_FLOOR]:
+    if u <= switch_tol[SW_U_FLOOR]:
         rate_far = rate2 if along1 else rate1
         if rate_far < rate:
             rate = rate_far
             along1 = not along1
-        if rate < 0.0 and -rate * sw[SW_DT_MAX] >= u:
+        if rate < 0.0 and -rate * switch_tol[SW_DT_MAX] >= u:
             return rate, along1
     return 0.0, False
 
 
-@kernel(takes_functions=True)
-def try_return(y, p, sw, t_left, out, load_fn=None):
+@engine_kernel(takes_functions=True)
+def try_return(y, p, switch_tol, t_left, out, load_fn=None):
     """The slipping -> rolling map, if the return rule allows it now.
 
     On success writes the rolling state (beta, w1, w2, w3, alpha) into ``out`` and returns the
     time advanced (>= 0) [s]; returns -1.0 when slipping goes on. ``load_fn``: the scene's external
     load (``solver.physics.loads.at``), None if it has none.
     """
-    rate, along1 = stop_slip_rate(y, p, sw, load_fn)
+    rate, along1 = stop_slip_rate(y, p, switch_tol, load_fn)
     if not rate < 0.0:
         return -1.0
     for i in range(7):
@@ -181,7 +181,7 @@ def try_return(y, p, sw, t_left, out, load_fn=None):
     return dt
 
 
-@kernel
+@engine_kernel
 def leave_slipping(y, p, rate, t_left, load=None):
     """Slipping layout -> rolling layout, in place, after the extrapolated time u / (-rate).
 

@@ -162,7 +162,7 @@ def test_the_cache_index_of_the_scene_kernel_is_found_after_a_run():
 
 
 def test_functions_taking_compiled_functions_are_not_cached_on_their_own():
-    """Their cache key would name one process's function object (see solver._compile.kernel)."""
+    """Their cache key would name one process's function object (see solver._compile.engine_kernel)."""
     from rimroll.solver.engine import events, stepper
 
     for func in (kernels.run_phase, events.next_event, events.locate, events.minimum, events.value_at,

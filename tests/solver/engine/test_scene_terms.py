@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from rimroll import solver
-from rimroll.solver._jit import kernel
+from rimroll.solver._jit import physics_kernel
 from rimroll.solver.analysis.scipy_reference import reference
 from rimroll.solver.engine import outcomes, scene_code, scenes
 from rimroll.solver.physics.params import P_J, P_M, P_R_BALL
@@ -21,13 +21,13 @@ from rimroll.solver.physics.params import P_J, P_M, P_R_BALL
 TOY_RATE = 0.05  # [1/s]
 
 
-@kernel
+@physics_kernel
 def toy_drilling_damping(beta, omega1, omega2, omega3, u1, u3, p):
     """A linear damping of omega2 at TOY_RATE [1/s]: the moment (0, -j m r^2 TOY_RATE omega2, 0) [N m]."""
     return 0.0, -p[P_J] * p[P_M] * p[P_R_BALL] ** 2 * TOY_RATE * omega2, 0.0, 0.0, 0.0, 0.0
 
 
-@kernel
+@physics_kernel
 def toy_nothing(beta, omega1, omega2, omega3, u1, u3, p):
     """A load of zero strength."""
     return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
