@@ -18,11 +18,12 @@ from __future__ import annotations
 import numpy as np
 
 from rimroll.solver._arguments import MAX_WORKERS  # the CPU backend's cap (solver.simulate) is the --workers cap
+from rimroll.solver.physics.params import DISSIPATION_KEYS
 from rimroll.study.registry import UserError
 from rimroll.study.setting_table import MAX_AXIS, MAX_MAGNITUDE, ORDERED, lookup, ordered_pairs
 
 __all__ = ["MAX_AXIS", "MAX_CHUNKS", "MAX_MAGNITUDE", "MAX_POINTS", "MAX_WORKERS", "check_setting",
-           "check_order", "check_settings", "check_size", "check_values", "check_workers"]
+           "check_order", "check_settings", "check_size", "check_values", "check_workers", "require_conservative"]
 
 DEFAULT_TIMEOUT = 30.0  # [s] bound on waiting for a scheduler and for its workers (study.fanout)
 MAX_CHUNKS = 200_000  # chunks of one cube (one part file each)
@@ -90,3 +91,12 @@ def check_workers(workers, name: str = "--workers") -> None:
         raise UserError(f"{name} must be an integer between 1 and {MAX_WORKERS}; got {workers!r}")
     if not (1 <= workers <= MAX_WORKERS):
         raise UserError(f"{name} must be between 1 and {MAX_WORKERS}; got {workers}")
+
+
+def require_conservative(s: dict, why: str) -> None:
+    """ValueError (one line) unless every dissipation setting (``DISSIPATION_KEYS``) of the settings ``s``
+    is 0; ``why`` opens the line: what needs the conservative rolling equations."""
+    on = {k: s[k] for k in DISSIPATION_KEYS if s[k] != 0}
+    if on:
+        raise ValueError(f"{why}: need " + " = ".join(DISSIPATION_KEYS) + " = 0; got "
+                         + ", ".join(f"{k}={v}" for k, v in on.items()))

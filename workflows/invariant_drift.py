@@ -11,20 +11,13 @@ import numpy as np
 
 from rimroll import solver
 from rimroll.solver.analysis import steady, trajectory
-from rimroll.solver.physics.params import DISSIPATION_KEYS
+from rimroll.study import checks
 from rimroll.study.dataset import setting_of
 from rimroll.study.registry import Axis, ReferenceSpec, Study, Var, register
 
 
-def _conservative(s: dict) -> None:
-    on = {k: s[k] for k in DISSIPATION_KEYS if s[k] != 0}
-    if on:
-        raise ValueError("E, P_I and P_II are invariants of the conservative rolling equations: need "
-                         + " = ".join(DISSIPATION_KEYS) + " = 0; got " + ", ".join(f"{k}={v}" for k, v in on.items()))
-
-
 def _inv_axes(s: dict) -> list[Axis]:
-    _conservative(s)
+    checks.require_conservative(s, "E, P_I and P_II are invariants of the conservative rolling equations")
     n, n_t = int(s["n_trajectories"]), int(s["n_time"])
     if n < 2 or n_t < 2 or not s["t_max"] > 0:
         raise ValueError(f"n_trajectories and n_time must be >= 2 and t_max > 0; got {n}, {n_t}, {s['t_max']}")

@@ -12,7 +12,7 @@ import numpy as np
 from rimroll import solver
 from rimroll.solver.analysis import reduced, steady
 from rimroll.solver.analysis import solution_types as st
-from rimroll.solver.physics.params import DISSIPATION_KEYS
+from rimroll.study import checks
 from rimroll.study import plotting as P
 from rimroll.study.dataset import setting_of
 from rimroll.study.registry import Axis, ReferenceSpec, Study, Var, register, with_tolerances
@@ -21,15 +21,8 @@ SUBSETS = ("box", "pendulum_plane", "steady", "connections")
 MIXED = "mixed"  # the four subsets in turn: every type of Theorem 1 in one sample (the --quick run)
 
 
-def _conservative(s: dict) -> None:
-    on = {k: s[k] for k in DISSIPATION_KEYS if s[k] != 0}
-    if on:
-        raise ValueError("Theorem 1 is about the conservative rolling equations: need "
-                         + " = ".join(DISSIPATION_KEYS) + " = 0; got " + ", ".join(f"{k}={v}" for k, v in on.items()))
-
-
 def _types_axes(s: dict) -> list[Axis]:
-    _conservative(s)
+    checks.require_conservative(s, "Theorem 1 is about the conservative rolling equations")
     if s["subset"] not in (*SUBSETS, MIXED):
         raise ValueError(f"subset={s['subset']!r} is not one of {', '.join((*SUBSETS, MIXED))}")
     if int(s["n_samples"]) < 2 or not s["t_max"] > 0:
