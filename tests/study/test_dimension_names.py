@@ -60,7 +60,7 @@ def test_categorical_axes_are_labelled_and_selectable():
     ("fig11", "scene", ["rolling_only", "slipping", "drilling", "rolling_resistance"]),
     ("work-precision", "scene", ["rolling_only", "slipping", "drilling", "rolling_resistance"]),
     ("work-precision", "integrator", ["rimroll_dp5", "rimroll_dop853", "scipy_rk45", "scipy_dop853", "scipy_lsoda"]
-     + (["heyoka_taylor"] if heyoka_rolling.available() else [])),  # heyoka: the extra rimroll[bench]
+     + (["heyoka_taylor"] if heyoka_rolling.available() else []) + ["rimroll_reduced"]),  # heyoka: rimroll[bench]
 ])
 def test_categorical_dimensions_have_the_agreed_labels(name, dim, labels):
     axes = {a.name: a for a in make_plan(registry.get(name), quick=True).axes}
