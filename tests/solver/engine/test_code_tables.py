@@ -4,16 +4,15 @@ equal the tables' ones."""
 
 from __future__ import annotations
 
-import pathlib
-
 import numpy as np
 import pytest
 import xarray as xr
 
 from rimroll.solver.analysis import boundaries, solution_types
 from rimroll.solver.engine import outcomes
+from tests.helpers.paths import ROOT
 
-SLICES = pathlib.Path(__file__).resolve().parents[1] / "study" / "reference_slices"
+SLICES = ROOT / "study" / "reference_slices"
 
 STORED = [  # (reference slice, variable, the table that wrote it)
     ("fig11.nc", "outcome", (outcomes.OUTCOME_FLAG_VALUES, outcomes.OUTCOME_FLAG_MEANINGS)),
