@@ -110,6 +110,42 @@ def ensure_compiled(scene: Scene, method, args) -> None:
         _log.info("compiled the %s kernel in %.0f s", name, seconds)
 
 
+def compile_here_announced(dispatcher, args, name: str) -> None:
+    """Make ``dispatcher`` callable with ``args`` without a silent compile, in this process (a kernel
+    that compiles in seconds, such as the exact rolling solver's): nothing when it is compiled or cached
+    for this install; else the notices of :func:`ensure_compiled` (one before, with the time its last
+    compile took here; a progress line every :data:`PROGRESS_EVERY` s; the time after)."""
+    if _jit._DISABLE:
+        return
+    types = argument_types(dispatcher, args)
+    with _LOCKS_LOCK:
+        lock = _LOCKS.setdefault((name, str(types)), threading.Lock())
+    with lock:
+        if is_compiled(dispatcher, types):
+            return
+        measured = _measured().get(_time_key(name))
+        _log.info("compiling the %s, first run of this install only: %s (cached in %s)", name,
+                  f"about {measured:.0f} s, as its last compile on this machine" if measured else
+                  "no earlier compile on this machine to estimate from", _jit.cache_dir())
+        t0 = time.perf_counter()
+        done = threading.Event()
+
+        def progress():
+            while not done.wait(PROGRESS_EVERY):
+                _log.info("still compiling the %s: %.0f s so far", name, time.perf_counter() - t0)
+
+        ticker = threading.Thread(target=progress, name="rimroll-compile-progress", daemon=True)
+        ticker.start()
+        try:
+            dispatcher.compile(types)
+        finally:
+            done.set()
+            ticker.join()
+        seconds = time.perf_counter() - t0
+        _record(name, seconds)
+        _log.info("compiled the %s in %.0f s", name, seconds)
+
+
 def _lock_of(scene: Scene, types: tuple) -> threading.Lock:
     """One lock per kernel and signature: threads that need the same kernel wait for one compile."""
     key = (scene.kernel, tuple(t.name for t in scene.loads), str(types))

@@ -15,8 +15,8 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from rimroll.solver._jit import vectorised
+from rimroll.solver.engine import compiling, reduced_tables, rules
 from rimroll.solver.engine import reduced_rolling as rr
-from rimroll.solver.engine import reduced_tables, rules
 from rimroll.solver.engine.outcomes import STEADY_MOTION, on_rim_reason
 from rimroll.solver.engine.outputs import OUTPUTS
 from rimroll.solver.physics import rolling
@@ -26,6 +26,7 @@ from rimroll.solver.physics.steady_motion import stability
 _normal_force = vectorised(rolling.normal_force)
 _energy = vectorised(rolling.energy)
 _CHUNKS_PER_WORKER = 8
+COMPILE_NAME = "exact rolling solver (the reduction of Sect. 4.4)"
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(rr.GL_NODES)
 
 
@@ -168,6 +169,8 @@ def _run_threads(x0, levels, table, c, p, res, resi, workers):
     m = x0.shape[0]
     n_chunks = min(m, workers * _CHUNKS_PER_WORKER) if workers > 1 else 1
     args = (table.curvature, c, p, _GL_X, _GL_W)
+    compiling.compile_here_announced(rr.solve_many, (x0, levels, rr.working_table(table), *args, res, resi),
+                                     COMPILE_NAME)
     if n_chunks <= 1:
         rr.solve_many(x0, levels, rr.working_table(table), *args, res, resi)
         return

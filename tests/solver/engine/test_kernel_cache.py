@@ -332,3 +332,43 @@ def test_a_second_install_beside_the_first_announces_its_own_compile(tmp_path):
     assert "first run of this install only" not in cold()
     again = cold(PYTHONPATH=str(_second_install(tmp_path)))
     assert "first run of this install only: about" in again and "as its last compile on this machine" in again
+
+
+def test_a_compile_in_this_process_is_announced_with_progress_and_its_time(monkeypatch, caplog, tmp_path):
+    """``compiling.compile_here_announced`` (the exact rolling solver's compile, in the process that needs it):
+    a notice before, a progress line every PROGRESS_EVERY s, the time after; nothing once compiled; and
+    ``simulate(method="reduced")`` goes through it with the solver's kernel."""
+    import logging
+
+    from rimroll.solver.engine import compiling, reduced_rolling, reduced_simulate
+
+    monkeypatch.setenv("RIMROLL_CACHE_DIR", str(tmp_path))  # where the measured times are kept
+    monkeypatch.setattr(compiling, "PROGRESS_EVERY", 0.02)
+    compiled = set()
+    monkeypatch.setattr(compiling, "is_compiled", lambda dispatcher, types: types in compiled)
+
+    class Kernel:  # a stand-in for a numba dispatcher whose compile takes time
+        def typeof_pyval(self, value):
+            return numba.typeof(value)
+
+        def compile(self, types):
+            time.sleep(0.2)
+            compiled.add(types)
+
+    caplog.set_level(logging.INFO, "rimroll")
+    compiling.compile_here_announced(Kernel(), (1.0, 2), "toy solver")
+    said = [r.getMessage() for r in caplog.records]
+    assert said[0].startswith("compiling the toy solver, first run of this install only: no earlier compile")
+    assert any(m.startswith("still compiling the toy solver: ") for m in said[1:-1])
+    assert said[-1].startswith("compiled the toy solver in ")
+    caplog.clear()
+    compiling.compile_here_announced(Kernel(), (1.0, 2), "toy solver")  # compiled: nothing to say
+    assert caplog.records == []
+    compiled.clear()  # another install: now with the time measured above
+    compiling.compile_here_announced(Kernel(), (1.0, 2), "toy solver")
+    assert "about 0 s, as its last compile on this machine" in caplog.records[0].getMessage()
+
+    calls = []
+    monkeypatch.setattr(compiling, "compile_here_announced", lambda d, args, name: calls.append((d, name)))
+    solver.simulate([[1.1, 1.17, 35.0, 10.0]], solver.Params(mu=float("inf")), method="reduced", workers=1)
+    assert calls == [(reduced_rolling.solve_many, reduced_simulate.COMPILE_NAME)]
