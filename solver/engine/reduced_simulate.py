@@ -169,8 +169,8 @@ def _run_threads(x0, levels, table, c, p, res, resi, workers):
     m = x0.shape[0]
     n_chunks = min(m, workers * _CHUNKS_PER_WORKER) if workers > 1 else 1
     args = (table.curvature, c, p, _GL_X, _GL_W)
-    compiling.compile_here_announced(rr.solve_many, (x0, levels, rr.working_table(table), *args, res, resi),
-                                     COMPILE_NAME)
+    typed_like = np.empty((0, rr.N_ROWS, rr.N_COEF))  # a working table's type, without copying one
+    compiling.compile_here_announced(rr.solve_many, (x0, levels, typed_like, *args, res, resi), COMPILE_NAME)
     if n_chunks <= 1:
         rr.solve_many(x0, levels, rr.working_table(table), *args, res, resi)
         return
