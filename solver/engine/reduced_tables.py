@@ -16,11 +16,14 @@ are linear combinations of fixed functions of beta with per-state coefficients:
 with Q = Phi^T diag(k, 1) Phi (k omega2^2 + omega3^2 = P^T Q P) and S = cos beta / (1 - x cos beta)
 Phi^T e2 e2^T Phi (omega3^2 cos beta/(1 - x cos beta) = P^T S P).
 
+The time and the angle alpha around the rim need omega3 / (1 - x cos beta) = P1 G21 + P2 G22 with
+G = Phi[1] / (1 - x cos beta).
+
 This module builds, once per (rho/R, j) and beta range, a piecewise Chebyshev table of those
-functions: panels of width ``PANEL_WIDTH`` on a grid through beta = 0, ``N_COEF`` coefficients
-each, plus the coefficients of the derivatives of Q and S and rigorous bounds of the second
-derivatives of the Chebyshev polynomials on each panel (Markov's inequality for T_n'':
-|T_n''| <= n^2 (n^2 - 1)/3 on [-1, 1]). Phi at the Chebyshev-Lobatto points of each panel comes
+functions and of sin beta: panels of width ``PANEL_WIDTH`` on a grid through beta = 0, ``N_COEF``
+coefficients each, and their values at the ``N_NODES`` Gauss-Kronrod nodes of each panel (a
+quadrature over a whole panel then needs no series evaluation: ``Table.nodes``).
+Phi at the Chebyshev-Lobatto points of each panel comes
 from the panel's own fundamental matrix (12-stage 8th-order DOP853 steps, ``SUBSTEPS`` per node,
 vectorised over all nodes), chained from beta = 0 outward by 2x2 products (the inverse by the
 adjugate, det Phi = (1 - x)/(1 - x cos beta) (Liouville)). Relative accuracy ~1e-15 of the table
@@ -44,10 +47,14 @@ SUBSTEPS = 6
 """DOP853 steps from a panel's left edge to each of its nodes."""
 
 # functions of the value table (axis 1 of ``Table.values``)
-PHI11, PHI12, PHI21, PHI22, Q11, Q12, Q22, S11, S12, S22 = range(10)
-N_FUNCTIONS = 10
-N_FORMS = 6
-"""Q11, Q12, Q22, S11, S12, S22: the forms whose derivatives and second-derivative bounds are tabled."""
+PHI11, PHI12, PHI21, PHI22, Q11, Q12, Q22, S11, S12, S22, SIN, G21, G22 = range(13)
+N_FUNCTIONS = 13
+NODE_FUNCTIONS = (SIN, Q11, Q12, Q22, S11, S12, S22, G21, G22)
+SPREAD_FUNCTIONS = (SIN, Q11, Q12, Q22, S11, S12, S22)
+"""The functions whose spread sum_{n>=1} |c_n| on each panel is tabled (``Table.spread``)."""
+"""The functions tabled at the Gauss-Kronrod nodes (axis 1 of ``Table.nodes``, in this order)."""
+N_NODES = 15
+"""Gauss-Kronrod nodes per panel (the 7-point Gauss rule is embedded at the odd nodes)."""
 
 _A = _A853[:12, :12]
 _B = _A853[12, :12]
@@ -56,14 +63,16 @@ _C = np.array(_DOP853_C[:12])
 
 class Table(NamedTuple):
     """A table of the reduced dynamics: ``values`` (n_panels, N_FUNCTIONS, N_COEF) Chebyshev
-    coefficients of Phi, Q, S on each panel (local variable u in [-1, 1]); ``slopes`` (n_panels,
-    N_FORMS, N_COEF) those of dQ/dbeta, dS/dbeta [1/rad]; ``curvature`` (n_panels, N_FORMS) bounds of
-    |d^2/dbeta^2| of the forms' polynomials on each panel [1/rad^2]; ``beta_lo`` [rad] the left edge of
-    panel 0; ``width`` [rad] the panel width; x = rho/R, k = j/(1+j)."""
+    coefficients of Phi, Q, S, sin beta and G on each panel (local variable u in [-1, 1]); ``nodes``
+    (n_panels, len(NODE_FUNCTIONS), N_NODES) the values of NODE_FUNCTIONS at the panel's
+    Gauss-Kronrod nodes (``kronrod()``); ``spread`` (n_panels, len(SPREAD_FUNCTIONS)) sum_{n>=1} |c_n| of
+    their series (a function differs from its c_0 by at most that on the panel); ``beta_lo`` [rad] the left
+    edge of panel 0; ``width`` [rad]
+    the panel width; x = rho/R, k = j/(1+j)."""
 
     values: np.ndarray
-    slopes: np.ndarray
-    curvature: np.ndarray
+    nodes: np.ndarray
+    spread: np.ndarray
     beta_lo: float
     width: float
     x: float
@@ -122,11 +131,21 @@ def _fit_matrix(n=N_COEF):
     return np.linalg.inv(np.polynomial.chebyshev.chebvander(u, n - 1))
 
 
-def curvature_bound(coef, width):
-    """Bound of |p''(beta)| [1/rad^2] on a panel of ``width`` [rad] for the Chebyshev series ``coef``
-    (last axis) in u = 2 (beta - left)/width - 1: (2/width)^2 sum |c_n| n^2 (n^2 - 1)/3 (Markov)."""
-    n = np.arange(coef.shape[-1], dtype=float)
-    return (2.0 / width) ** 2 * np.sum(np.abs(coef) * n * n * (n * n - 1.0) / 3.0, axis=-1)
+def kronrod():
+    """The 15-point Gauss-Kronrod rule on [-1, 1]: (nodes, Kronrod weights, weights of the embedded
+    7-point Gauss rule at the odd nodes 1, 3, ..., 13, zero elsewhere), nodes increasing."""
+    xk = np.array([0.991455371120812639206854697526329, 0.949107912342758524526189684047851,
+                   0.864864423359769072789712788640926, 0.741531185599394439863864773280788,
+                   0.586087235467691130294144845693013, 0.405845151377397166906606412076961,
+                   0.207784955007898467600689403773245, 0.0])
+    wk = np.array([0.022935322010529224963732008058970, 0.063092092629978553290700663189204,
+                   0.104790010322250183839876322541518, 0.140653259715525918745189590510238,
+                   0.169004726639267902826583426598550, 0.190350578064785409913256402421014,
+                   0.204432940075298892414161999234649, 0.209482141084727828012999174891714])
+    wg = np.array([0.0, 0.129484966168869693270611432679082, 0.0, 0.279705391489276667901467771423780,
+                   0.0, 0.381830050505118944950369775488975, 0.0, 0.417959183673469387755102040816327])
+    nodes = np.concatenate([-xk, xk[-2::-1]])
+    return nodes, np.concatenate([wk, wk[-2::-1]]), np.concatenate([wg, wg[-2::-1]])
 
 
 def build(rho_over_R, j, beta_min, beta_max) -> Table:
@@ -154,17 +173,32 @@ def build(rho_over_R, j, beta_min, beta_max) -> Table:
         start[:, m] = _mul(_inverse(step[:, m][:, None]), start[:, m + 1][:, None])[:, 0]
     phi = _mul(local, start[:, :, None])  # (4, n_panels, N_COEF)
     c = np.cos(nodes)
-    s_fac = c / (1.0 - x * c)
+    e = 1.0 / (1.0 - x * c)
+    s_fac = c * e
     p11, p12, p21, p22 = phi
     vals = np.stack([p11, p12, p21, p22,
                      k * p11 * p11 + p21 * p21, k * p11 * p12 + p21 * p22, k * p12 * p12 + p22 * p22,
-                     s_fac * p21 * p21, s_fac * p21 * p22, s_fac * p22 * p22], axis=1)  # (n_pan, F, N)
+                     s_fac * p21 * p21, s_fac * p21 * p22, s_fac * p22 * p22,
+                     np.sin(nodes), e * p21, e * p22], axis=1)  # (n_pan, F, N)
     coef = vals @ _fit_matrix().T
-    forms = coef[:, Q11:, :]
-    slopes = np.zeros_like(forms)
-    slopes[..., :-1] = np.polynomial.chebyshev.chebder(forms, axis=-1) * (2.0 / w)
-    return Table(np.ascontiguousarray(coef), np.ascontiguousarray(slopes), curvature_bound(forms, w),
+    gk = np.polynomial.chebyshev.chebvander(kronrod()[0], N_COEF - 1)  # (N_NODES, N_COEF)
+    at_nodes = coef[:, list(NODE_FUNCTIONS), :] @ gk.T
+    spread = np.abs(coef[:, list(SPREAD_FUNCTIONS), 1:]).sum(axis=-1) * (1.0 + 1e-12)
+    return Table(np.ascontiguousarray(coef), np.ascontiguousarray(at_nodes), np.ascontiguousarray(spread),
                  float(left[0]), float(w), x, k)
+
+
+def evaluate_many(table: Table, beta, functions) -> np.ndarray:
+    """Values (len(functions), n) of tabled functions (PHI11 .. G22) at the points beta (n,) [rad] (numpy)."""
+    beta = np.asarray(beta, dtype=float).reshape(-1)
+    i = np.clip(np.floor((beta - table.beta_lo) / table.width).astype(int), 0, table.values.shape[0] - 1)
+    u = 2.0 * (beta - table.beta_lo - i * table.width) / table.width - 1.0
+    t = np.empty((beta.size, N_COEF))
+    t[:, 0] = 1.0
+    t[:, 1] = u
+    for n in range(2, N_COEF):
+        t[:, n] = 2.0 * u * t[:, n - 1] - t[:, n - 2]
+    return np.einsum("nfk,nk->fn", table.values[i][:, list(functions), :], t)
 
 
 def evaluate(table: Table, beta, function):

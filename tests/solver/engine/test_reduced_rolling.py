@@ -55,13 +55,46 @@ def test_the_tables_are_the_fundamental_matrix_of_62():
     assert np.max(np.abs(reduced_tables.evaluate(table, beta, reduced_tables.Q12) - q12) / scale**2) < 1e-12
 
 
-def test_the_curvature_bound_holds_on_every_panel():
-    table = reduced_tables.build(P.rho / P.R, P.j, 0.0, 2.0)
+def test_the_spread_bounds_and_the_node_values_hold_on_every_panel():
+    """A panel's function differs from its c_0 by at most its tabled spread (the whole-panel bound that lets the
+    march cross a panel without combining its series), and the tabled node values are the series at the
+    Gauss-Kronrod nodes."""
+    table = reduced_tables.build(P.rho / P.R, P.j, -1.5, 4.7)
     u = np.linspace(-1, 1, 801)
+    nodes = reduced_tables.kronrod()[0]
     for i in range(table.values.shape[0]):
-        for f in range(reduced_tables.N_FORMS):
-            c2 = np.polynomial.chebyshev.chebder(table.values[i, reduced_tables.Q11 + f], 2) * (2 / table.width) ** 2
-            assert np.abs(np.polynomial.chebyshev.chebval(u, c2)).max() <= table.curvature[i, f] * (1 + 1e-12)
+        for k, f in enumerate(reduced_tables.SPREAD_FUNCTIONS):
+            series = table.values[i, f]
+            assert np.abs(np.polynomial.chebyshev.chebval(u, series) - series[0]).max() <= table.spread[i, k]
+        for k, f in enumerate(reduced_tables.NODE_FUNCTIONS):
+            np.testing.assert_allclose(table.nodes[i, k], np.polynomial.chebyshev.chebval(nodes, table.values[i, f]),
+                                       rtol=0, atol=1e-13 * max(1.0, np.abs(table.values[i, f]).sum()))
+
+
+def test_the_kronrod_rule_and_its_gauss_rule_are_exact_to_their_degrees():
+    """The 15-point Kronrod rule integrates x^n exactly for n <= 22, its embedded 7-point Gauss rule for n <= 13;
+    both fail one degree beyond (so the embedded estimate |K - G| measures something)."""
+    x, wk, wg = reduced_tables.kronrod()
+    for n in range(24):
+        exact = (1 - (-1) ** (n + 1)) / (n + 1)
+        assert (abs(wk @ x**n - exact) < 1e-14) == (n <= 22 or n % 2 == 1)
+        assert (abs(wg @ x**n - exact) < 1e-14) == (n <= 13 or n % 2 == 1)
+    assert np.count_nonzero(wg) == 7
+
+
+def test_the_fall_outcome_in_numpy_is_the_engines_rule():
+    """``reduced_legs.fall_outcomes`` (numpy, no compile) against ``rules.fall_outcome`` (the engine's compiled
+    rule) on separation states all around the rim, both ways of omega1, falling in and out."""
+    from rimroll.solver.engine import reduced_legs, rules
+
+    rng = np.random.default_rng(11)
+    beta = rng.uniform(-1.5, 4.6, 400)
+    omega1, omega3 = rng.uniform(-30, 30, 400), rng.uniform(-40, 40, 400)
+    p = P.as_array()
+    got = reduced_legs.fall_outcomes(beta, omega1, omega3, p)
+    want = [rules.fall_outcome(b, w1, w3, 0.0, 0.0, p) for b, w1, w3 in zip(beta, omega1, omega3)]
+    np.testing.assert_array_equal(got, want)
+    assert 50 < np.count_nonzero(got == got[0]) < 350  # both outcomes occur
 
 
 @pytest.mark.parametrize("omega2", SECTIONS)
