@@ -24,7 +24,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from rimroll.solver._jit import vectorised
+from rimroll.solver._jit import python_version
 from rimroll.solver.engine import compiling, reduced_tables, rules
 from rimroll.solver.engine import reduced_rolling as rr
 from rimroll.solver.engine.outcomes import FALL_IN, FALL_OUT, MAX_STEPS, NON_FINITE, ON_RIM_AT_T_MAX, PERIODIC_ROLLING
@@ -34,10 +34,10 @@ from rimroll.solver.physics.params import P_G, P_R_RIM, Params
 COMPILE_NAME = "exact rolling solver (the reduction of Sect. 4.4)"
 _CHUNKS_PER_WORKER = 8
 _RULE = np.ascontiguousarray(np.stack(reduced_tables.kronrod()))
-_transversal = vectorised(rules.transversal_omega1_zero)
-_rates = vectorised(rolling.rolling_rhs)
-_centre_position = vectorised(kinematics.centre_position)
-_centre_velocity = vectorised(kinematics.centre_velocity)
+_transversal = python_version(rules.transversal_omega1_zero)
+_rates = python_version(rolling.rolling_rhs)
+_centre_position = python_version(kinematics.centre_position)
+_centre_velocity = python_version(kinematics.centre_velocity)
 
 
 def fall_outcomes(beta, omega1, omega3, p) -> np.ndarray:

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rimroll.solver._jit import vectorised
+from rimroll.solver._jit import python_version
 from rimroll.solver.engine import reduced_legs, reduced_tables, rules
 from rimroll.solver.engine.outcomes import STEADY_MOTION, on_rim_reason
 from rimroll.solver.engine.outputs import OUTPUTS
@@ -19,8 +19,9 @@ from rimroll.solver.physics import rolling
 from rimroll.solver.physics.params import Params
 from rimroll.solver.physics.steady_motion import stability
 
-_normal_force = vectorised(rolling.normal_force)
-_energy = vectorised(rolling.energy)
+_normal_force = python_version(rolling.normal_force)
+_energy = python_version(rolling.energy)
+_on_steady_motion = python_version(rules.on_steady_motion)
 
 
 def unsupported(params: Params, terms=()) -> str | None:
@@ -79,7 +80,7 @@ def solve(states, params: Params, t_max=20.0, rtol=1e-8, workers=None) -> dict:
     b, w1, w2, w3 = flat.T
     f2 = _normal_force(b, w1, w3, p)
     off = f2 < 0.0
-    steady = ~off & vectorised(rules.on_steady_motion)(b, w1, w2, w3, p).astype(bool)
+    steady = ~off & _on_steady_motion(b, w1, w2, w3, p).astype(bool)
     run = ~(off | steady)
 
     out = {"t_end": np.zeros(m), "f2_min": f2 / params.m, "half_period": np.full(m, np.nan), "revolutions": np.zeros(m),

@@ -372,3 +372,29 @@ def test_a_compile_in_this_process_is_announced_with_progress_and_its_time(monke
     monkeypatch.setattr(compiling, "compile_here_announced", lambda d, args, name: calls.append((d, name)))
     solver.simulate([[1.1, 1.17, 35.0, 10.0]], solver.Params(mu=float("inf")), method="reduced", workers=1)
     assert calls == [(reduced_rolling.solve_many, reduced_simulate.COMPILE_NAME)]
+
+
+def test_the_python_version_of_a_kernel_compiles_nothing_and_equals_the_compiled_one():
+    """``_jit.python_version`` runs a kernel and every kernel it calls as Python on numpy arrays: no kernel
+    gains a compiled signature, and the values are those of the compiled kernels, state by state."""
+    import numpy as np
+
+    from rimroll.solver import Params, _jit
+    from rimroll.solver.engine import rules
+    from rimroll.solver.physics import rolling
+
+    if _jit._DISABLE:
+        return
+    rng = np.random.default_rng(2)
+    b, w1, w2, w3 = rng.uniform(0, 2, 40), rng.uniform(-5, 5, 40), rng.uniform(0, 90, 40), rng.uniform(-20, 20, 40)
+    p = Params(mu=np.inf).as_array()
+    kernels = (rules.rate_scale, rules.omega_scale, rolling.rolling_rhs, rules.transversal_omega1_zero)
+    before = [len(k.signatures) for k in kernels]
+    got = _jit.python_version(rules.transversal_omega1_zero)(b, 0.0, w2, w3, p, 1e-8)
+    assert [len(k.signatures) for k in kernels] == before
+    want = [rules.transversal_omega1_zero(*x, 0.0, *y, p, 1e-8) for x, y in zip(b[:, None], np.stack([w2, w3], -1))]
+    np.testing.assert_array_equal(got, want)
+    rates = _jit.python_version(rolling.rolling_rhs)(b, w1, w2, w3, p)
+    for n in range(40):
+        np.testing.assert_allclose([r[n] for r in rates], rolling.rolling_rhs(b[n], w1[n], w2[n], w3[n], p),
+                                   rtol=1e-14, atol=0)
