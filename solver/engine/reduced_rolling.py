@@ -306,36 +306,27 @@ def _isolate(beta_a, beta_end, d, i, sing, work, c, out):
 
 
 @_helper
-def _dclenshaw(row, u0, du):
-    """sum_n row[n] (T_n(u0 + du) - T_n(u0)), accurate relative to itself for small du (the forward recurrence
-    of the differences D_n = T_n(u0 + du) - T_n(u0))."""
+def _w_g(work, u0, du, difference):
+    """(W(u0 + du) - W(u0) if difference else W(u0 + du), G(u0 + du)) on the combined panel, in one pass: the forward
+    recurrences of T_n(u0) and of the differences D_n = T_n(u0 + du) - T_n(u0), so that the difference of W is
+    accurate relative to itself for small du."""
     u = u0 + du
     t_prev = 1.0
     t_cur = u0
     d_prev = 0.0
     d_cur = du
-    acc = row[1] * du
+    w = work[W_C, 1] * du if difference else work[W_C, 0] + work[W_C, 1] * u
+    g = work[G_C, 0] + work[G_C, 1] * u
     for n in range(1, N_COEF - 1):
         d_next = 2.0 * u * d_cur + 2.0 * du * t_cur - d_prev
         t_next = 2.0 * u0 * t_cur - t_prev
-        acc += row[n + 1] * d_next
+        w += work[W_C, n + 1] * (d_next if difference else t_next + d_next)
+        g += work[G_C, n + 1] * (t_next + d_next)
         d_prev = d_cur
         d_cur = d_next
         t_prev = t_cur
         t_cur = t_next
-    return acc
-
-
-@_helper
-def _clenshaw(row, u):
-    """The Chebyshev series ``row`` (N_COEF) at u."""
-    b1 = 0.0
-    b2 = 0.0
-    for n in range(N_COEF - 1, 0, -1):
-        b0 = 2.0 * u * b1 - b2 + row[n]
-        b2 = b1
-        b1 = b0
-    return u * b1 - b2 + row[0]
+    return w, g
 
 
 @_helper
@@ -439,18 +430,14 @@ def _gk(th_a, th_b, beta_s, beta_e, mode, ws, we, i, work, c, rule):
                 ref = beta_e
                 delta = -L * ch * ch
                 jac *= 0.5
-        u0 = _u(ref, i, c)
-        if mode == 0:
-            w = _clenshaw(work[W_C], u0 + delta * du_db)
-        elif mode == 3:
-            w = _dclenshaw(work[W_C], u0, delta * du_db) - slope * delta
-        else:
-            w = _dclenshaw(work[W_C], u0, delta * du_db)
+        w, gv = _w_g(work, _u(ref, i, c), delta * du_db, mode != 0)
+        if mode == 3:
+            w -= slope * delta
         if w > 0.0:
             inv = jac / np.sqrt(w)
             k += rule[1, m] * inv
             g += rule[2, m] * inv
-            a += rule[1, m] * inv * _clenshaw(work[G_C], u0 + delta * du_db)
+            a += rule[1, m] * inv * gv
     return k * half, g * half, a * half
 
 

@@ -193,12 +193,13 @@ def evaluate_many(table: Table, beta, functions) -> np.ndarray:
     beta = np.asarray(beta, dtype=float).reshape(-1)
     i = np.clip(np.floor((beta - table.beta_lo) / table.width).astype(int), 0, table.values.shape[0] - 1)
     u = 2.0 * (beta - table.beta_lo - i * table.width) / table.width - 1.0
-    t = np.empty((beta.size, N_COEF))
-    t[:, 0] = 1.0
-    t[:, 1] = u
+    t = np.empty((N_COEF, beta.size))
+    t[0] = 1.0
+    t[1] = u
     for n in range(2, N_COEF):
-        t[:, n] = 2.0 * u * t[:, n - 1] - t[:, n - 2]
-    return np.einsum("nfk,nk->fn", table.values[i][:, list(functions), :], t)
+        t[n] = 2.0 * u * t[n - 1] - t[n - 2]
+    coef = np.moveaxis(table.values[:, list(functions), :], 0, -1)  # (F, N_COEF, n_panels)
+    return np.einsum("fkn,kn->fn", coef[:, :, i], t)
 
 
 def evaluate(table: Table, beta, function):
