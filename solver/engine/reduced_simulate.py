@@ -9,6 +9,8 @@ cannot be solved so (None if it can).
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from rimroll.solver._jit import python_version
@@ -39,10 +41,17 @@ def unsupported(params: Params, terms=()) -> str | None:
     return None
 
 
-def _wall_interval(beta):
-    """Left end of the interval (-pi/2, 3 pi/2) + 2 pi n holding beta [rad]: F2 < 0 at beta = -pi/2 + 2 pi n
-    on every level, so a motion from beta never leaves that interval."""
-    return -0.5 * np.pi + 2.0 * np.pi * np.floor((beta + 0.5 * np.pi) / (2.0 * np.pi))
+def _whole_turns(beta):
+    """2 pi n [rad] with beta - 2 pi n in [-pi/2, 3 pi/2): the equations hold beta only in sin and cos, and F2 < 0
+    at beta = -pi/2 on every level, so a motion from beta - 2 pi n never leaves that interval: the states are
+    solved there (on one table) and their end angles shifted back."""
+    return 2.0 * np.pi * np.floor((beta + 0.5 * np.pi) / (2.0 * np.pi))
+
+
+@functools.lru_cache(maxsize=8)
+def _table(rho_over_R, j):
+    """The table of (62) on [-pi/2, 3 pi/2] for rho/R and j (kept for the next calls with the same ones)."""
+    return reduced_tables.build(rho_over_R, j, -0.5 * np.pi, 1.5 * np.pi)
 
 
 def _levels(x, table, p):
@@ -90,10 +99,12 @@ def solve(states, params: Params, t_max=20.0, rtol=1e-8, workers=None) -> dict:
     idx = np.flatnonzero(run)
     if idx.size:
         x0 = flat[idx]
-        walls = _wall_interval(x0[:, 0])
-        table = reduced_tables.build(params.rho / params.R, params.j, walls.min(), walls.max() + 2.0 * np.pi)
+        turns = _whole_turns(x0[:, 0])
+        x0[:, 0] -= turns
+        table = _table(params.rho / params.R, params.j)
         level = reduced_legs.Level(table, params, *_levels(x0, table, params))
         got = reduced_legs.motions(x0, level, float(t_max), float(rtol), workers)
+        got["end"][:, 0] += turns
         for name, column in got.items():
             out[name][idx] = column
     return _columns(out, flat, shape, params)

@@ -218,3 +218,18 @@ def test_the_whole_rolling_section_equals_the_engine_at_rtol_1e_12(omega2):
         assert np.all(near | (tight == got["outcome"][differ])), x[~near & (tight != got["outcome"][differ])]
     same = (got["outcome"] == eng["outcome"]) & (eng["t_end"] > 0)
     assert np.median(np.abs(got["t_end"][same] - eng["t_end"][same])) <= 1e-11
+
+
+def test_whole_turns_of_beta_change_nothing():
+    """beta + 2 pi k is the same state (the equations hold beta only in sin and cos): the same outcome, the same
+    times, the end angle shifted by the same whole turns."""
+    k = np.array([0, 1, -3, 4, -5, 20])
+    states = np.tile([1.2, 0.5, 35.0, 10.0], (len(k), 1))
+    states = np.concatenate([states, np.tile([1.05, -2.0, 65.0, 10.0], (len(k), 1))])
+    states[:, 0] += 2 * np.pi * np.concatenate([k, k])
+    got = reduced_simulate.solve(states, P, t_max=20.0)
+    assert (got["status"] == 0).all()
+    for half in (slice(0, 6), slice(6, 12)):
+        assert (got["outcome"][half] == got["outcome"][half][0]).all()
+        np.testing.assert_allclose(got["t_end"][half], got["t_end"][half][0], rtol=1e-12)
+        np.testing.assert_allclose(got["beta_end"][half] - 2 * np.pi * k, got["beta_end"][half][0], atol=1e-12)
