@@ -33,7 +33,15 @@ from rimroll.solver.physics.params import P_G, P_R_RIM, Params
 
 COMPILE_NAME = "exact rolling solver (the reduction of Sect. 4.4)"
 _CHUNKS_PER_WORKER = 8
-_RULE = np.ascontiguousarray(np.stack(reduced_tables.kronrod()))
+def _rule() -> np.ndarray:
+    """The quadrature rule's rows of ``reduced_rolling`` (R_NODES .. NRULE)."""
+    x, wk, wg = reduced_tables.kronrod()
+    quarter, half = 0.25 * np.pi * (x + 1.0), 0.5 * np.pi * (x + 1.0)
+    return np.ascontiguousarray(np.stack([x, wk, wg, np.sin(quarter), np.sin(0.5 * quarter), np.sin(half),
+                                          np.sin(0.5 * half), np.cos(0.5 * half)]))
+
+
+RULE = _rule()
 _transversal = python_version(rules.transversal_omega1_zero)
 _rates = python_version(rolling.rolling_rhs)
 _centre_position = python_version(kinematics.centre_position)
@@ -131,7 +139,7 @@ def _scratch():
 def _threads(jobs, level, out, workers):
     """``reduced_rolling.legs`` over interleaved chunks of the jobs on ``workers`` threads."""
     t = level.table
-    args = (t.values, t.nodes, t.spread, level.constants(), _RULE)
+    args = (t.values, t.nodes, t.spread, level.constants(), RULE)
     compiling.compile_here_announced(rr.legs, (jobs[:0], *args, *_scratch(), out[:0]), COMPILE_NAME)
     workers = min(os.cpu_count() or 1, 1024) if workers is None else int(workers)
     m = jobs.shape[0]

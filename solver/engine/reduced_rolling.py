@@ -98,6 +98,10 @@ W_C, W_D, F_C, F_D, G_C, KEY = range(6)
 N_WORK = 6
 # KEY row: panel index, Markov bounds of W'' and F'' (in u), lower bounds of W and F on the panel
 K_PANEL, K_MW, K_MF, K_LW, K_LF = range(5)
+# rows of the quadrature rule (``reduced_legs.RULE``): nodes, Kronrod and Gauss weights on [-1, 1]; sin theta and
+# sin(theta/2) at the nodes mapped to [0, pi/2]; sin theta, sin(theta/2), cos(theta/2) mapped to [0, pi]
+R_NODES, R_KRONROD, R_GAUSS, R_SIN_QUARTER, R_SIN_HALF = 0, 1, 2, 3, 5
+N_RULE = 8
 # node table rows (reduced_tables.NODE_FUNCTIONS order)
 N_SIN, N_Q11, N_Q12, N_Q22, N_S11, N_S12, N_S22, N_G21, N_G22 = range(9)
 
@@ -406,6 +410,14 @@ def _gk(th_a, th_b, beta_s, beta_e, mode, ws, we, i, work, c, rule):
     k = 0.0
     g = 0.0
     a = 0.0
+    u_s = _u(beta_s, i, c)
+    u_e = _u(beta_e, i, c)
+    # the whole range of theta: its sines are tabled in rule (rows R_SIN_QUARTER.. for [0, pi/2], R_SIN_HALF.. [0, pi])
+    row = -1
+    if th_a == 0.0 and (mode == 1 or mode == 2) and th_b == 0.5 * np.pi:
+        row = R_SIN_QUARTER
+    elif th_a == 0.0 and mode == 3 and th_b == np.pi:
+        row = R_SIN_HALF
     for m in range(N_NODES):
         th = mid + half * rule[0, m]
         if mode == 0:
@@ -413,8 +425,12 @@ def _gk(th_a, th_b, beta_s, beta_e, mode, ws, we, i, work, c, rule):
             delta = L * th
             jac = aL
         else:
-            sh = np.sin(0.5 * th)
-            jac = aL * np.sin(th)
+            if row >= 0:
+                sh = rule[row + 1, m]
+                jac = aL * rule[row, m]
+            else:
+                sh = np.sin(0.5 * th)
+                jac = aL * np.sin(th)
             if mode == 1:
                 ref = beta_s
                 delta = 2.0 * L * sh * sh
@@ -426,11 +442,11 @@ def _gk(th_a, th_b, beta_s, beta_e, mode, ws, we, i, work, c, rule):
                 delta = L * sh * sh
                 jac *= 0.5
             else:
-                ch = np.cos(0.5 * th)
+                ch = rule[R_SIN_HALF + 2, m] if row >= 0 else np.cos(0.5 * th)
                 ref = beta_e
                 delta = -L * ch * ch
                 jac *= 0.5
-        w, gv = _w_g(work, _u(ref, i, c), delta * du_db, mode != 0)
+        w, gv = _w_g(work, u_s if ref == beta_s else u_e, delta * du_db, mode != 0)
         if mode == 3:
             w -= slope * delta
         if w > 0.0:
