@@ -47,7 +47,7 @@ Its first compile is measured in docs/explanation/exact-rolling.md.
 
 from __future__ import annotations
 
-import numpy as np
+import math
 
 from rimroll.solver import _jit
 from rimroll.solver._compile import engine_kernel as kernel
@@ -110,7 +110,7 @@ N_SIN, N_Q11, N_Q12, N_Q22, N_S11, N_S12, N_S22, N_G21, N_G22 = range(9)
 def _panel(beta, d, c):
     """Index of the panel holding beta (on an edge: the panel ahead in the direction d), or -1 outside."""
     y = (beta - c[C_BLO]) / c[C_W]
-    i = int(np.floor(y))
+    i = math.floor(y)
     if d < 0 and y == i:
         i -= 1
     if i < 0 or i >= int(c[C_NPAN]):
@@ -277,8 +277,8 @@ def _isolate(beta_a, beta_end, d, i, sing, work, c, out):
         kf = _classify(Fa, ga_f, Fb, gb_f, mf, hh)
         passed = kw == 0 and kf == 0
         if not passed and (kw != 2 and kf != 2 or hh <= H_MIN):
-            bw = np.inf
-            bf = np.inf
+            bw = math.inf
+            bf = math.inf
             if kw == 1 or (kw == 2 and Wb <= 0.0 < Wa):
                 rw, m = _root(beta_a, d, hh, 0, i, work, c)
                 n += m
@@ -287,10 +287,10 @@ def _isolate(beta_a, beta_end, d, i, sing, work, c, out):
                 rf, m = _root(beta_a, d, hh, 1, i, work, c)
                 n += m
                 bf = d * (rf - beta_a)
-            if bf < np.inf and bf <= bw:
+            if bf < math.inf and bf <= bw:
                 _see_f(0.0, beta_a + d * bf, out)
                 return EV_FALL, beta_a + d * bf, n
-            if bw < np.inf:
+            if bw < math.inf:
                 return EV_TURN, beta_a + d * bw, n
             if Fa <= 0.0:  # F2 = 0 at the start, falling
                 _see_f(Fa, beta_a, out)
@@ -368,7 +368,7 @@ def _full_panel(i, job, nod, c, rule, out):
         w = job[J_C0] - c[C_A] * v[N_SIN, m] - (q0 * v[N_Q11, m] + q1 * v[N_Q12, m] + q2 * v[N_Q22, m])
         if not w > 0.0:
             return 0.0, 0.0, False
-        inv = 1.0 / np.sqrt(w)
+        inv = 1.0 / math.sqrt(w)
         k += rule[1, m] * inv
         g += rule[2, m] * inv
         a += rule[1, m] * inv * (job[J_P1] * v[N_G21, m] + job[J_P2] * v[N_G22, m])
@@ -414,9 +414,9 @@ def _gk(th_a, th_b, beta_s, beta_e, mode, ws, we, i, work, c, rule):
     u_e = _u(beta_e, i, c)
     # the whole range of theta: its sines are tabled in rule (rows R_SIN_QUARTER.. for [0, pi/2], R_SIN_HALF.. [0, pi])
     row = -1
-    if th_a == 0.0 and (mode == 1 or mode == 2) and th_b == 0.5 * np.pi:
+    if th_a == 0.0 and (mode == 1 or mode == 2) and th_b == 0.5 * math.pi:
         row = R_SIN_QUARTER
-    elif th_a == 0.0 and mode == 3 and th_b == np.pi:
+    elif th_a == 0.0 and mode == 3 and th_b == math.pi:
         row = R_SIN_HALF
     for m in range(N_NODES):
         th = mid + half * rule[0, m]
@@ -429,20 +429,20 @@ def _gk(th_a, th_b, beta_s, beta_e, mode, ws, we, i, work, c, rule):
                 sh = rule[row + 1, m]
                 jac = aL * rule[row, m]
             else:
-                sh = np.sin(0.5 * th)
-                jac = aL * np.sin(th)
+                sh = math.sin(0.5 * th)
+                jac = aL * math.sin(th)
             if mode == 1:
                 ref = beta_s
                 delta = 2.0 * L * sh * sh
             elif mode == 2:
                 ref = beta_e
                 delta = -2.0 * L * sh * sh
-            elif th <= 0.5 * np.pi:
+            elif th <= 0.5 * math.pi:
                 ref = beta_s
                 delta = L * sh * sh
                 jac *= 0.5
             else:
-                ch = rule[R_SIN_HALF + 2, m] if row >= 0 else np.cos(0.5 * th)
+                ch = rule[R_SIN_HALF + 2, m] if row >= 0 else math.cos(0.5 * th)
                 ref = beta_e
                 delta = -L * ch * ch
                 jac *= 0.5
@@ -450,7 +450,7 @@ def _gk(th_a, th_b, beta_s, beta_e, mode, ws, we, i, work, c, rule):
         if mode == 3:
             w -= slope * delta
         if w > 0.0:
-            inv = jac / np.sqrt(w)
+            inv = jac / math.sqrt(w)
             k += rule[1, m] * inv
             g += rule[2, m] * inv
             a += rule[1, m] * inv * gv
@@ -467,7 +467,7 @@ def _segment(beta_s, beta_e, sing_s, sing_e, i, work, c, rule, stack):
     scale = 2.0 / c[C_W]
     ws = _values(_u(beta_s, i, c), work, scale)[0] if mode == 3 else 0.0
     we = _values(_u(beta_e, i, c), work, scale)[0] if mode == 3 else 0.0
-    top = np.pi if mode == 3 else (0.5 * np.pi if mode != 0 else 1.0)
+    top = math.pi if mode == 3 else (0.5 * math.pi if mode != 0 else 1.0)
     k, g, a = _gk(0.0, top, beta_s, beta_e, mode, ws, we, i, work, c, rule)
     n_ev = N_NODES
     if abs(k - g) <= QUAD_RTOL * abs(k):
@@ -554,7 +554,7 @@ def _leg(job, tab, nod, spread, c, rule, work, stack, out):
     sing = job[J_SING] > 0.0
     scale = 2.0 / c[C_W]
     work[KEY, K_PANEL] = -1.0
-    out[O_FMIN] = np.inf
+    out[O_FMIN] = math.inf
     out[O_BMIN] = beta
     t = 0.0
     alpha = 0.0
@@ -564,7 +564,7 @@ def _leg(job, tab, nod, spread, c, rule, work, stack, out):
     first = True
     i = _panel(beta, d, c)
     for _ in range(int(c[C_NPAN]) + 2):
-        if i < 0 or i >= int(c[C_NPAN]) or not np.isfinite(beta):
+        if i < 0 or i >= int(c[C_NPAN]) or not math.isfinite(beta):
             kind = EV_FAIL
             break
         edge = c[C_BLO] + (i + 1) * c[C_W] if d > 0 else c[C_BLO] + i * c[C_W]
