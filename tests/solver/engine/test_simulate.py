@@ -110,6 +110,20 @@ def test_the_default_method_is_auto_and_cuda_gets_the_integrator(monkeypatch):
         assert "\n" not in str(info.value)
 
 
+@pytest.mark.parametrize("method", ["dp5", pytest.param("auto", marks=pytest.mark.xfail(
+    strict=True, reason="the exact solver's work grows with |beta|: status max_steps and t_end 0 from 4 whole turns"))])
+def test_whole_turns_of_beta_change_nothing(method):
+    """beta is an angle (the equations hold it only in sin and cos): beta + 2 pi k is the same state, so the
+    outcome and t_end must not change (make-probability with a wide spread in beta draws such states)."""
+    k = np.array([0, 1, -3, 4, -5, 20])
+    x = np.tile([1.2, 0.5, 35.0, 10.0], (len(k), 1))
+    x[:, 0] += 2 * np.pi * k
+    r = simulate(x, Params(mu=INF), t_max=20.0, rtol=1e-6, atol=1e-9, method=method, workers=1)
+    assert (r["status"] == 0).all(), r["status"]
+    assert (r["outcome"] == r["outcome"][0]).all(), r["outcome"]
+    np.testing.assert_allclose(r["t_end"], r["t_end"][0], rtol=1e-6)
+
+
 # ------------------------------------------------------------------------------ status codes
 
 
