@@ -224,7 +224,8 @@ def test_the_step_loop_is_compiled_twice_for_the_four_scenes(tmp_path):
 
     code = ("from rimroll import solver; from rimroll.solver.engine import kernels\n"
             "for mu, k_r in ((float('inf'), 0.0), (float('inf'), 0.02), (1.0, 0.0), (1.0, 0.02)):\n"
-            "    solver.simulate([[1.1, 2.0, 35.0, 10.0]], solver.Params(mu=mu, k_r=k_r), t_max=0.1, workers=1)\n"
+            "    solver.simulate([[1.1, 2.0, 35.0, 10.0]], solver.Params(mu=mu, k_r=k_r), t_max=0.1, workers=1,"
+            " method='dp5')\n"
             "for s in kernels.run_phase.signatures:\n"
             "    print(str(s[0]).split('function ')[1].split(' ')[0])\n"
             "print([bool(k.signatures) for k in kernels.SCENE_KERNELS.values()])\n")
@@ -280,7 +281,8 @@ def test_threads_decorating_at_once_all_see_the_kernel_cache_location(monkeypatc
 
 _COLD = ("import logging, sys; logging.basicConfig(level=logging.INFO, format='%(message)s')\n"
          "from rimroll import solver\n"
-         "solver.simulate([[1.1, 2.0, 35.0, 10.0]], solver.Params(mu=float('inf')), t_max=0.1, workers=1)\n")
+         "solver.simulate([[1.1, 2.0, 35.0, 10.0]], solver.Params(mu=float('inf')), t_max=0.1, workers=1,"
+         " method='dp5')\n")
 
 
 @pytest.mark.slow
