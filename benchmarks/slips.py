@@ -46,7 +46,7 @@ def section(omega2: float, quick: bool) -> np.ndarray:
 def run(x, name, workers):
     mu, slip_method = RUNS[name]
     start = time.perf_counter()
-    res = simulate(x, Params(mu=mu), t_max=T_MAX, rtol=RTOL, atol=ATOL, workers=workers,
+    res = simulate(x, Params(mu=mu), t_max=T_MAX, rtol=RTOL, atol=ATOL, method="dp5", workers=workers,
                    switching={"slip_method": slip_method})
     return time.perf_counter() - start, res
 

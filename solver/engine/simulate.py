@@ -41,10 +41,11 @@ DEFAULT_MAX_SWITCHES = 10_000
 _CHUNKS_PER_WORKER = 8  # chunks per thread: balances fast falls against long periodic runs
 
 
-def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="dp5", *,
+def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="auto", *,
              max_steps=DEFAULT_MAX_STEPS, max_switches=DEFAULT_MAX_SWITCHES, workers=None, switching=None,
              backend="cpu", terms=()):
-    """Integrate rolling initial states until they fall, roll periodically or reach t_max.
+    """Run rolling initial states until they fall, roll periodically or reach t_max: integrated, or
+    solved exactly in the conservative rolling-only scene (``method``, default "auto").
 
     Parameters
     ----------
@@ -62,9 +63,9 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
         units of each state component) of the embedded error estimate. rtol also sets what
         counts as a steady motion and as a transversal omega1 zero (``solver.engine.rules``).
     method : {"dp5", "dop853", "reduced", "auto"}
-        "auto" (the studies' default): "reduced" where the scene allows it (the conservative rolling-only
-        scene, ``backend`` not "cuda"), else "dp5"; "dp5" (the default here): Dormand-Prince 5(4) with
-        4th-order dense output;
+        "auto" (the default, also the studies'): "reduced" where the scene allows it (the conservative
+        rolling-only scene, ``backend`` not "cuda"), else "dp5"; "dp5": Dormand-Prince 5(4) with
+        4th-order dense output (pass it, or "dop853", to integrate a scene "auto" would solve);
         "dop853": DOP853 with 7th-order dense output; "reduced": the conservative rolling-only scene
         solved exactly on the level of the conserved quantities (60), (68)
         (``solver.engine.reduced_rolling``, docs/explanation/exact-rolling.md; ValueError with one line
@@ -103,8 +104,8 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
     ``OUTCOME_MEANINGS``), ``t_end`` [s] (0 for ``steady_motion``), ``f2_min`` [N], ``half_period`` [s] (NaN unless
     periodic), ``revolutions`` (signed alpha travelled / 2 pi), ``slip_phases``, ``slip_time``
     [s], ``energy_drift`` (|E(t_end) - E(0)| / max(|E(0)|, m g rho): the integration drift in
-    conservative rolling, the energy lost otherwise), ``n_steps`` (attempted steps), ``n_searched`` (accepted steps
-    whose dense output was searched
+    conservative rolling, the energy lost otherwise), ``n_steps`` (attempted steps; with "reduced", the
+    solver's function evaluations), ``n_searched`` (accepted steps whose dense output was searched
     for events: the cost of the grazing check, docs/outcome-engine.md), ``n_slip_steps`` (the attempted
     steps of slip phases), ``beta_end``, ``omega1_end``, ``omega2_end``, ``omega3_end`` (the state at t_end, before
     any free flight), ``u1_end``, ``u3_end`` [m/s] (the slip velocity at t_end; 0 when rolling), ``steady_h``
@@ -132,6 +133,7 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
                          f"got {slip_method!r}")
     limits = _checked_limits(t_max, rtol, atol, max_steps, max_switches)._replace(
         periodic=not scene.dissipates(params), stiff_slips=slip_method == "rodas4")
+    sw = default_tolerances(**switching)  # checked whichever method runs
     if isinstance(method, str) and method in REDUCED_METHODS:  # exact rolling
         use = _reduced_method(method, params, terms, backend)
         if use == "reduced":
@@ -144,7 +146,6 @@ def simulate(states, params: Params, t_max=20.0, rtol=1e-8, atol=1e-10, method="
         raise ValueError(f"`method` must be one of {sorted(TABLEAUS)} or {', '.join(map(repr, REDUCED_METHODS))}; "
                          f"got {method!r}")
     workers = _checked_workers(workers)
-    sw = default_tolerances(**switching)
     where = backends.resolve(backend)
 
     shape = x.shape[:-1]
@@ -184,7 +185,8 @@ def method_used(method, params: Params, terms=(), backend="cpu") -> str:
 
 def _reduced_method(method, params, terms, backend) -> str:
     """"reduced" or "dp5" for ``method`` "reduced" or "auto"; ValueError (one line) when "reduced" is
-    asked of a scene it cannot solve."""
+    asked of a scene it cannot solve, or for a ``backend`` that is not one of ``backends.BACKENDS``."""
+    backends.check_name(backend)
     why = reduced_simulate.unsupported(params, () if terms is None else terms)
     if why is None and backend == "cuda":
         why = "the reduced solver runs on the CPU; got backend='cuda'"

@@ -280,7 +280,7 @@ def test_rolling_only_fig11_section_has_a_smooth_boundary():
 @pytest.mark.parametrize("omega2", [35.0, 65.0, 105.0])
 def test_rolling_only_full_sections_are_smooth(omega2):
     states, scale = _section(omega2, 240, 360)
-    codes = solver.simulate(states, ROLLING, **QUICK)["outcome"]
+    codes = solver.simulate(states, ROLLING, method="dp5", **QUICK)["outcome"]  # section_uncertainty's own default
     eps = np.array([0.125, 0.25, 0.5, 1, 2, 4])
     uncertain, weight = P.section_uncertainty(states, codes, ROLLING, eps, scale, n_sample=2000, **QUICK)
     f, err = np.array([P.sampled_fraction(u, weight if e < 1 else None) for u, e in zip(uncertain, eps)]).T
@@ -323,12 +323,13 @@ def test_wide_spread_in_beta_gives_the_average_over_the_circle():
     """beta is an angle: a spread of 100 rad makes beta mod 2 pi uniform, so every nominal state
     gets the fractions of the outcomes over beta in [0, 2 pi) at its omegas."""
     n = 2000
-    res = P.make_probability(NOMINAL[:2], ROLLING, (100.0, 0, 0, 0), n_samples=n, seed=5, **QUICK)
+    # dp5: the exact solver is wrong at |beta| >~ 25 rad (tests/solver/engine/test_simulate.py, whole turns)
+    res = P.make_probability(NOMINAL[:2], ROLLING, (100.0, 0, 0, 0), n_samples=n, seed=5, method="dp5", **QUICK)
     codes = res["codes"]
     for i, state in enumerate(NOMINAL[:2]):
         circle = np.tile(state, (4000, 1))
         circle[:, 0] = np.linspace(0, 2 * np.pi, 4000, endpoint=False)
-        out = solver.simulate(circle, ROLLING, **QUICK)["outcome"]
+        out = solver.simulate(circle, ROLLING, method="dp5", **QUICK)["outcome"]
         fractions = np.array([(out == c).mean() for c in codes])
         err = np.sqrt(fractions * (1 - fractions) / n)
         assert np.all(np.abs(res["probability"][i] - fractions) <= 4 * err + 1e-9)

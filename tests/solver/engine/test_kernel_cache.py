@@ -96,8 +96,8 @@ def test_a_compile_is_announced_with_the_time_measured_on_this_machine(monkeypat
         return [r.getMessage() for r in found]
 
     caplog.set_level(logging.INFO, "rimroll")
-    solver.simulate(x, solver.Params(mu=float("inf")), t_max=0.1)
-    solver.simulate(x, solver.Params(mu=float("inf")), t_max=0.1)
+    solver.simulate(x, solver.Params(mu=float("inf")), t_max=0.1, method="dp5")  # the kernel, not the exact solver
+    solver.simulate(x, solver.Params(mu=float("inf")), t_max=0.1, method="dp5")
     said = notices()
     assert len(said) == 1 and "rolling scene (dp5)" in said[0] and str(_jit.cache_dir()) in said[0]
     assert "no earlier compile on this machine" in said[0]
@@ -108,7 +108,7 @@ def test_a_compile_is_announced_with_the_time_measured_on_this_machine(monkeypat
     said = notices()
     assert len(said) == 1 and "hybrid scene (dp5)" in said[0]
     compiled.clear()  # as in another install: compiled again, now with the time the last compile took
-    solver.simulate(x, solver.Params(mu=float("inf")), t_max=0.1)
+    solver.simulate(x, solver.Params(mu=float("inf")), t_max=0.1, method="dp5")
     said = notices()
     assert len(said) == 1 and "as its last compile on this machine" in said[0]
     assert (tmp_path / compiling.TIMES_FILE).is_file()
@@ -120,7 +120,8 @@ _PROBE = ("import sys; from rimroll import solver; from rimroll.solver.engine im
           "    print(compiling.is_compiled(d, compiling.argument_types(d, args)), compiling.__file__)\n"
           "    sys.exit(0)\n"
           "compiling.ensure_compiled = probe\n"
-          "solver.simulate([[1.1, 2.0, 35.0, 10.0]], solver.Params(mu=float('inf')), t_max=0.1, workers=1)\n")
+          "solver.simulate([[1.1, 2.0, 35.0, 10.0]], solver.Params(mu=float('inf')), t_max=0.1, workers=1,"
+          " method='dp5')\n")
 
 
 def _second_install(tmp_path) -> pathlib.Path:
@@ -146,7 +147,7 @@ def test_kernels_cached_by_another_install_path_do_not_count(tmp_path):
     import subprocess
     import sys
 
-    solver.simulate([[1.1, 2.0, 35.0, 10.0]], solver.Params(mu=float("inf")), t_max=0.1, workers=1)
+    solver.simulate([[1.1, 2.0, 35.0, 10.0]], solver.Params(mu=float("inf")), t_max=0.1, workers=1, method="dp5")
     here = subprocess.run([sys.executable, "-c", _PROBE], capture_output=True, text=True, cwd=tmp_path)
     site = _second_install(tmp_path)
     there = subprocess.run([sys.executable, "-c", _PROBE], capture_output=True, text=True, cwd=tmp_path,
@@ -157,7 +158,7 @@ def test_kernels_cached_by_another_install_path_do_not_count(tmp_path):
 
 
 def test_the_cache_index_of_the_scene_kernel_is_found_after_a_run():
-    solver.simulate([[1.1, 2.0, 35.0, 10.0]], solver.Params(mu=float("inf")), t_max=0.1)
+    solver.simulate([[1.1, 2.0, 35.0, 10.0]], solver.Params(mu=float("inf")), t_max=0.1, method="dp5")
     assert any(_jit.cache_dir().glob("**/kernels.scene_rolling-*.nbi"))
 
 
@@ -173,7 +174,7 @@ def test_functions_taking_compiled_functions_are_not_cached_on_their_own():
 _CHILD = ("import sys, time; from rimroll import solver; from rimroll.solver.engine import kernels\n"
           "t = time.perf_counter()\n"
           "solver.simulate([[1.1, 2.0, 35.0, 10.0]], solver.Params(mu=float(sys.argv[1]), k_r=float(sys.argv[2])),"
-          " t_max=0.1, workers=1)\n"
+          " t_max=0.1, workers=1, method='dp5')\n"
           "print([bool(k.signatures) for k in kernels.SCENE_KERNELS.values()], time.perf_counter() - t)\n")
 
 
@@ -223,7 +224,8 @@ def test_the_step_loop_is_compiled_twice_for_the_four_scenes(tmp_path):
 
     code = ("from rimroll import solver; from rimroll.solver.engine import kernels\n"
             "for mu, k_r in ((float('inf'), 0.0), (float('inf'), 0.02), (1.0, 0.0), (1.0, 0.02)):\n"
-            "    solver.simulate([[1.1, 2.0, 35.0, 10.0]], solver.Params(mu=mu, k_r=k_r), t_max=0.1, workers=1)\n"
+            "    solver.simulate([[1.1, 2.0, 35.0, 10.0]], solver.Params(mu=mu, k_r=k_r), t_max=0.1, workers=1,"
+            " method='dp5')\n"
             "for s in kernels.run_phase.signatures:\n"
             "    print(str(s[0]).split('function ')[1].split(' ')[0])\n"
             "print([bool(k.signatures) for k in kernels.SCENE_KERNELS.values()])\n")
@@ -279,7 +281,8 @@ def test_threads_decorating_at_once_all_see_the_kernel_cache_location(monkeypatc
 
 _COLD = ("import logging, sys; logging.basicConfig(level=logging.INFO, format='%(message)s')\n"
          "from rimroll import solver\n"
-         "solver.simulate([[1.1, 2.0, 35.0, 10.0]], solver.Params(mu=float('inf')), t_max=0.1, workers=1)\n")
+         "solver.simulate([[1.1, 2.0, 35.0, 10.0]], solver.Params(mu=float('inf')), t_max=0.1, workers=1,"
+         " method='dp5')\n")
 
 
 @pytest.mark.slow

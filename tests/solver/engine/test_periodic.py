@@ -76,7 +76,7 @@ def test_time_reversal_symmetry():
 def test_energy_drift_bounded_by_rtol(rtol):
     x = steady.steady_state(np.array([1.0, 1.1, 1.2]), 10.0, ROLL)
     x[:, 1] = [1.0, -0.5, 1.0]
-    res = simulate(x, ROLL, t_max=20.0, rtol=rtol, atol=rtol * 1e-2)
+    res = simulate(x, ROLL, t_max=20.0, rtol=rtol, atol=rtol * 1e-2, method="dp5")  # a Runge-Kutta path's drift
     assert np.all(res["outcome"] == PERIODIC_ROLLING)
     assert np.all(res["energy_drift"] < 10 * rtol)
     assert np.allclose(np.abs(energy(res, ROLL) - rolling.energy.py_func(*x.T, ROLL.as_array())),
@@ -127,7 +127,8 @@ def test_vanishing_dissipation_approaches_the_conservative_outcomes():
 def separatrix():
     """omega1* of the separatrix boundary of Fig. 11's periodic region at beta = 1.0601
     (rolling only), bracketed by bisection to ~1e-14 1/s."""
-    ref = boundaries.refine([1.0601, 2.773, 35.0, 10.0], [1.0601, 2.975, 35.0, 10.0], ROLL, n_bisect=45)
+    ref = boundaries.refine([1.0601, 2.773, 35.0, 10.0], [1.0601, 2.975, 35.0, 10.0], ROLL, n_bisect=45,
+                            method="dp5")  # the integrator's own boundary: the test below runs dp5 at 1e-13 from it
     assert ref["type"] == boundaries.SEPARATRIX
     return ref["periodic"][1], ref["other"][1]
 
@@ -140,8 +141,8 @@ def test_next_to_a_separatrix_runs_end_in_bounded_work(separatrix):
     inside = np.stack([np.full(4, 1.0601), w_in - d, np.full(4, 35.0), np.full(4, 10.0)], -1)
     outside = inside.copy()
     outside[:, 1] = w_out + d
-    r_in = sim(inside, ROLL, t_max=20.0, max_steps=20_000)
-    r_out = sim(outside, ROLL, t_max=20.0, max_steps=20_000)
+    r_in = sim(inside, ROLL, t_max=20.0, max_steps=20_000, method="dp5")  # the integrator's steps
+    r_out = sim(outside, ROLL, t_max=20.0, max_steps=20_000, method="dp5")
     for r in (r_in, r_out):
         assert (r["status"] == outcomes.OK).all()
         assert_finite(r)

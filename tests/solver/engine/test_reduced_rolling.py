@@ -163,7 +163,8 @@ def test_simulate_runs_it_on_request_and_by_choice():
     assert solver.simulate(states, P, method="auto").attrs["method"] == "reduced"
     hybrid = solver.simulate(np.empty((0, 4)), solver.Params(mu=1.0), method="auto")  # no state: no compile
     assert hybrid.attrs["method"] == "dp5" and hybrid["outcome"].shape == (0,)
-    assert solver.simulate(np.empty((0, 4)), P).attrs["method"] == "dp5"  # every result says its method
+    assert solver.simulate(np.empty((0, 4)), P).attrs["method"] == "reduced"  # the default is auto
+    assert solver.simulate(np.empty((0, 4)), P, method="dp5").attrs["method"] == "dp5"  # every result says its method
     assert [simulate_module.method_used(m, q) for m, q in (("auto", P), ("auto", solver.Params(mu=1.0)),
                                                            ("dop853", P))] == ["reduced", "dp5", "dop853"]
 

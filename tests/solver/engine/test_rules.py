@@ -165,7 +165,10 @@ def test_exact_steady_motion_is_a_steady_motion_not_a_periodic_orbit():
         assert r["outcome"][0] == outcomes.STEADY_MOTION and np.isnan(r["half_period"][0])
 
 
-def test_nearly_tangential_omega1_crossings_give_a_continuous_half_period():
+@pytest.mark.parametrize("method", ["dp5", pytest.param("reduced", marks=pytest.mark.xfail(
+    strict=True, reason="the exact solver spends 80,105 evaluations (status max_steps) at omega1 = +-1e-12, +-1e-9 "
+                        "and its half period jumps by 2.4e-5 s"))])
+def test_nearly_tangential_omega1_crossings_give_a_continuous_half_period(method):
     """Small orbits round Fig. 11's stable steady motion: omega1 starts at 0 (a crossing at t = 0),
     or at 1e-12..1e-6 (a crossing almost at once); the half period must not jump, and must be the
     linearised one pi / sqrt(-h) of (54) for small amplitude."""
@@ -174,7 +177,7 @@ def test_nearly_tangential_omega1_crossings_give_a_continuous_half_period():
     b0 = steady_beta0(35.0, 10.0, ROLL, 0.8, 1.8)
     w1 = np.array([0.0, 1e-12, -1e-12, 1e-9, -1e-9, 1e-6, -1e-6])
     states = np.stack([np.full_like(w1, b0 + 1e-4), w1, np.full_like(w1, 35.0), np.full_like(w1, 10.0)], -1)
-    r = sim(states, ROLL, t_max=20.0, rtol=1e-10, atol=1e-12)
+    r = sim(states, ROLL, t_max=20.0, rtol=1e-10, atol=1e-12, method=method)
     assert (r["status"] == outcomes.OK).all()
     assert (r["outcome"] == outcomes.PERIODIC_ROLLING).all(), r["outcome"]
     hp = r["half_period"]

@@ -1,5 +1,7 @@
 """solver.simulate: API, validation, status codes, free flight, agreement with scipy."""
 
+import importlib.util
+import inspect
 import math
 
 import numpy as np
@@ -7,9 +9,9 @@ import pytest
 
 from rimroll import solver
 from rimroll.solver.analysis.scipy_reference import reference
-from rimroll.solver.engine import outcomes, rules
+from rimroll.solver.engine import backends, outcomes, rules
 from rimroll.solver.engine.outcomes import FALL_IN, FALL_OUT, ON_RIM_AT_T_MAX
-from rimroll.solver.engine.simulate import simulate
+from rimroll.solver.engine.simulate import method_used, simulate
 from rimroll.solver.physics import flight, rolling
 from rimroll.solver.physics.params import Params
 from tests.helpers.bounded_runs import P, assert_finite, sim
@@ -82,19 +84,59 @@ def test_bad_arguments_raise_value_error_naming_them(kwargs, match):
         simulate(args.pop("states"), args.pop("params"), **args)
 
 
+def test_the_default_method_is_auto_and_cuda_gets_the_integrator(monkeypatch):
+    """``simulate``'s default method is "auto": the exact solver in the conservative rolling-only scene on the
+    CPU, dp5 in any other scene and with backend="cuda" (the exact solver runs on the CPU), so a missing
+    device extra is reported, not run around; a bad backend name is one line whichever method would run."""
+    roll = Params(mu=INF)
+    assert inspect.signature(simulate).parameters["method"].default == "auto"
+    assert [method_used("auto", roll), method_used("auto", roll, backend="cuda"), method_used("auto", P),
+            method_used("auto", roll, terms=("air_drag",))] == ["reduced", "dp5", "dp5", "dp5"]
+    x = [[1.2, 1.0, 35.0, 10.0], [1.1, 2.0, 35.0, 10.0]]
+    default, exact = simulate(x, roll, t_max=1.0, workers=1), simulate(x, roll, t_max=1.0, workers=1, method="reduced")
+    assert default.attrs["method"] == "reduced"
+    for name in exact:
+        np.testing.assert_array_equal(default[name], exact[name], err_msg=name)
+    real = importlib.util.find_spec
+    monkeypatch.setattr(backends.importlib.util, "find_spec",
+                        lambda name, *a: None if name == "numba_cuda" else real(name, *a))
+    with pytest.raises(backends.BackendUnavailable, match=r"rimroll\[gpu\]"):
+        simulate(x, roll, t_max=1.0, backend="cuda")
+    with pytest.raises(ValueError, match="method='reduced': the reduced solver runs on the CPU; got backend='cuda'"):
+        simulate(x, roll, t_max=1.0, backend="cuda", method="reduced")
+    for method in ("auto", "reduced", "dp5"):
+        with pytest.raises(ValueError, match="`backend` must be one of cpu, cuda, auto; got 'gpu'") as info:
+            simulate(x, roll, t_max=1.0, backend="gpu", method=method)
+        assert "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize("method", ["dp5", pytest.param("auto", marks=pytest.mark.xfail(
+    strict=True, reason="the exact solver's work grows with |beta|: status max_steps and t_end 0 from 4 whole turns"))])
+def test_whole_turns_of_beta_change_nothing(method):
+    """beta is an angle (the equations hold it only in sin and cos): beta + 2 pi k is the same state, so the
+    outcome and t_end must not change (make-probability with a wide spread in beta draws such states)."""
+    k = np.array([0, 1, -3, 4, -5, 20])
+    x = np.tile([1.2, 0.5, 35.0, 10.0], (len(k), 1))
+    x[:, 0] += 2 * np.pi * k
+    r = simulate(x, Params(mu=INF), t_max=20.0, rtol=1e-6, atol=1e-9, method=method, workers=1)
+    assert (r["status"] == 0).all(), r["status"]
+    assert (r["outcome"] == r["outcome"][0]).all(), r["outcome"]
+    np.testing.assert_allclose(r["t_end"], r["t_end"][0], rtol=1e-6)
+
+
 # ------------------------------------------------------------------------------ status codes
 
 
 def test_status_max_steps_is_recorded_not_raised():
     x = np.array([[1.2, 0.5, 35.0, 10.0], [1.0, 15.0, 35.0, 10.0]])
-    res = simulate(x, Params(mu=INF), t_max=20.0, max_steps=3)
+    res = simulate(x, Params(mu=INF), t_max=20.0, max_steps=3, method="dp5")  # the integrator's step budget
     assert res["status"][0] == 1 and res["outcome"][0] == ON_RIM_AT_T_MAX and res["n_steps"][0] == 3
     assert res["status"][1] == 0  # the neighbour (falls at t = 0) is unaffected
 
 
 def test_status_non_finite_for_a_huge_state():
     x = np.array([[1.2, 1e200, 35.0, 10.0], [1.2, 0.5, 35.0, 10.0]])
-    res = simulate(x, Params(mu=INF), t_max=0.5)
+    res = simulate(x, Params(mu=INF), t_max=0.5, method="dp5")  # the integrator's non-finite check
     assert res["status"][0] == 3
     assert res["status"][1] == 0 and res["outcome"][1] == ON_RIM_AT_T_MAX
 
@@ -195,7 +237,7 @@ def test_physical_grazing_dip_missed_by_step_end_checks(monkeypatch):
 
     p = Params(mu=INF)
     x = np.array([0.92222377, 10.59047305, 65.0, 10.0])
-    ours = [simulate(x, p, rtol=r, atol=r * 1e-2)["t_end"] for r in (1e-6, 1e-7, 1e-8, 1e-10)]
+    ours = [simulate(x, p, rtol=r, atol=r * 1e-2, method="dp5")["t_end"] for r in (1e-6, 1e-7, 1e-8, 1e-10)]
     assert abs(ours[0] - ours[-1]) < 1e-4 * ours[-1]  # the same crossing, to the accuracy of rtol 1e-6
     assert np.ptp(ours[1:]) < 1e-8
     assert reference(x, p)["t_end"] == pytest.approx(ours[-1], rel=1e-8)  # the reference searches minima too
@@ -223,7 +265,7 @@ def test_very_large_omega2(mu):
     p = P.replace(mu=mu)
     w1 = np.array([0.0, 1.0, 5.0, -5.0])
     states = np.stack([np.full(4, 1.0), w1, np.full(4, 1000.0), np.full(4, 10.0)], -1)
-    r = sim(states, p, t_max=2.0, max_steps=500_000)
+    r = sim(states, p, t_max=2.0, max_steps=500_000, method="dp5")  # the integrator's budget and drift
     assert (r["status"] == outcomes.OK).all(), r["status"]
     assert_finite(r)
     rolled = r["slip_phases"] == 0
