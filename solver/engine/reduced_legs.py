@@ -193,16 +193,40 @@ class _Result:
         self.status[rows] = np.where(legs[:, rr.O_OK] > 0.0, self.status[rows], MAX_STEPS)
 
 
-def motions(x0, level: Level, t_max: float, rtol: float, workers=None) -> dict:
+def turning_starts(x0, params: Params, width: float) -> np.ndarray:
+    """Which rolling states (n, 4) start on a turning point as far as the tables can tell: omega1 = 0, or omega1^2
+    below the tables' rounding of omega1^2 (32 eps times its terms, a + k omega2^2 + omega3^2 + omega1^2) or below
+    what the distance to the turning point can resolve (|dW/dbeta| 4e-16 (|beta0| + width); W = omega1^2,
+    dW/dbeta = 2 omega1_dot rho/r; width [rad]: the table's panel). Such a ball turns within a rounding of
+    beta0, after |omega1 / omega1_dot| (``motions`` adds that time)."""
+    b0, w10, w20, w30 = x0.T
+    slope = 2.0 * np.abs(_rates(b0, w10, w20, w30, params.as_array())[1]) * params.rho / params.r
+    k = params.j / (1.0 + params.j)
+    terms = 2.0 * params.g * params.rho / ((1.0 + params.j) * params.r ** 2) + k * w20 * w20 + w30 * w30 + w10 * w10
+    return (w10 == 0.0) | (w10 * w10 <= np.maximum(slope * 4e-16 * (np.abs(b0) + width), 32 * 2.2e-16 * terms))
+
+
+def motions(x0, level: Level, t_max: float, rtol: float, turn0, workers=None) -> dict:
     """The outcome of each rolling state of x0 (n, 4) that neither starts off the rim nor on a steady motion, on
-    its level: a dict of columns (t_end [s], f2_min [m/s^2] (F2/m), half_period [s], revolutions, end (n, 4),
-    outcome, status, n_steps (table evaluations))."""
+    its level (turn0: the states that start on a turning point, ``turning_starts``): a dict of columns (t_end [s],
+    f2_min [m/s^2] (F2/m), half_period [s], revolutions, end (n, 4), outcome, status, n_steps (table
+    evaluations)).
+
+    A state of ``turn0`` with omega1 != 0 reaches its turning point (decelerating: omega1 omega1_dot < 0) after
+    |omega1 / omega1_dot|, where the omega1 zero counts, or left it (accelerating) that long ago, uncounted; the
+    legs start at that turning point, and every time is shifted by it."""
     n = x0.shape[0]
     p = level.params.as_array()
     rows = np.arange(n)
     b0, w10 = x0[:, 0], x0[:, 1]
-    turn0 = w10 == 0.0
-    d = np.where(turn0, np.sign(_rates(b0, w10, x0[:, 2], x0[:, 3], p)[1]), np.sign(w10))
+    w1dot = _rates(b0, np.where(turn0, 0.0, w10), x0[:, 2], x0[:, 3], p)[1]
+    d = np.where(turn0, np.sign(w1dot), np.sign(w10))
+    decelerating = w10 * w1dot < 0.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lag = np.where(turn0 & (w10 != 0.0), np.abs(w10 / w1dot), 0.0)
+    t_off = np.where(decelerating, lag, -lag)
+    counted0 = turn0 & ((w10 == 0.0) | decelerating)
+    horizon = t_max - t_off
     res = _Result(x0, t_max)
     A = run_legs(level, rows, b0, d, turn0, d * np.inf, workers)
     res.count(rows, A)
@@ -210,24 +234,26 @@ def motions(x0, level: Level, t_max: float, rtol: float, workers=None) -> dict:
     bad = (kA == rr.EV_FAIL) | (kA == rr.EV_CAP)
     res.fail(rows[bad], kA[bad])
     res.fmin[bad] = fA[bad]
-    cut = ~bad & (tA > t_max)
-    pieces = [(rows[cut], b0[cut], d[cut], turn0[cut], t_max, bA[cut], 0.0, np.inf)]
+    cut = ~bad & (tA > horizon)
+    pieces = [(rows[cut], b0[cut], d[cut], turn0[cut], horizon[cut], bA[cut], 0.0, np.inf)]
     fall = ~bad & ~cut & (kA == rr.EV_FALL)
     res.end(rows[fall], bA[fall], d[fall], tA[fall], aA[fall], fA[fall])
     res.fell[fall] = True
     swing = rows[~bad & ~cut & (kA == rr.EV_TURN)]
-    pieces += _swings(res, level, swing, b0, d, turn0, A, t_max, rtol, workers)
+    pieces += _swings(res, level, swing, b0, d, (turn0, counted0), A, horizon, rtol, workers)
+    res.t = np.where(res.failed, 0.0, res.t + t_off)
     for piece in pieces:
         _at_time(res, level, *piece, workers)
     return _finish(res, level, p)
 
 
-def _swings(res, level, rows, b0, d, turn0, A, t_max, rtol, workers):
+def _swings(res, level, rows, b0, d, starts, A, horizon, rtol, workers):
     """Outcomes of the states ``rows`` whose first leg ends at a turning point b1: the second leg (the other way
-    from beta0), then a fall at b2, periodic rolling or the swings up to t_max. Returns the pieces of the
-    states cut by t_max (for ``_at_time``)."""
+    from beta0), then a fall at b2, periodic rolling or the swings up to the horizon [s] (t_max on the legs'
+    clock). starts: (turn0, counted0), the states that start on a turning point and those whose start counts as
+    an omega1 zero. Returns the pieces of the states cut by the horizon (for ``_at_time``)."""
     n = len(rows)
-    b0, d, turn0 = b0[rows], d[rows], turn0[rows]
+    b0, d, turn0, counted0, horizon = b0[rows], d[rows], starts[0][rows], starts[1][rows], horizon[rows]
     bA, tA, aA, fA = (A[rows, k] for k in (rr.O_BETA, rr.O_T, rr.O_ALPHA, rr.O_FMIN))
     B = np.zeros((n, rr.N_O))
     B[:, rr.O_KIND] = rr.EV_TURN
@@ -244,7 +270,7 @@ def _swings(res, level, rows, b0, d, turn0, A, t_max, rtol, workers):
     T, swing_alpha, f_both = tA + tB, aA + aB, np.minimum(fA, fB)
     tr_a = _is_transversal(level, rows, bA, rtol)
     tr_b = (kB == rr.EV_TURN) & _is_transversal(level, rows, bB, rtol)
-    first = turn0 & tr_b  # the start itself is the first counted omega1 zero
+    first = counted0 & tr_b  # the start itself is the first counted omega1 zero
     # the second counted zero: (time, at b1?, half period, alpha); inf: never
     t_end = np.select([first & tr_a, first, tr_a & tr_b, tr_a, tr_b], [tA, tA + T, tA + T, tA + 2 * T, tA + 3 * T],
                       np.inf)
@@ -255,7 +281,7 @@ def _swings(res, level, rows, b0, d, turn0, A, t_max, rtol, workers):
     t_end = np.where(fall, tA + T, t_end)
     swings = np.where(fall, 1, swings)
     at_a = at_a & ~fall
-    done = ~bad & (t_end <= t_max)
+    done = ~bad & (t_end <= horizon)
     alpha = aA + swings * swing_alpha
     r, sel = rows[done], done
     res.end(r, np.where(at_a, bA, bB)[sel], np.where(fall, -d, 0.0)[sel], t_end[sel], alpha[sel], f_both[sel])
@@ -264,16 +290,16 @@ def _swings(res, level, rows, b0, d, turn0, A, t_max, rtol, workers):
     res.outcome[rows[periodic]] = PERIODIC_ROLLING
     res.half[rows[periodic]] = half[periodic]
     cut = ~bad & ~done
-    return _cut_swings(rows[cut], b0[cut], d[cut], turn0[cut], bA[cut], bB[cut], A[rows[cut]], B[cut], t_max)
+    return _cut_swings(rows[cut], b0[cut], d[cut], turn0[cut], bA[cut], bB[cut], A[rows[cut]], B[cut], horizon[cut])
 
 
-def _cut_swings(rows, b0, d, turn0, bA, bB, A, B, t_max):
-    """The pieces in which t_max falls for the swinging states ``rows`` (see ``_at_time``): k half swings of
-    T = t1 + t2 after the first leg, then a part of the next."""
+def _cut_swings(rows, b0, d, turn0, bA, bB, A, B, horizon):
+    """The pieces in which the horizon [s] falls for the swinging states ``rows`` (see ``_at_time``): k half swings
+    of T = t1 + t2 after the first leg, then a part of the next."""
     tA, aA, fA = A[:, rr.O_T], A[:, rr.O_ALPHA], A[:, rr.O_FMIN]
     tB, aB, fB = B[:, rr.O_T], B[:, rr.O_ALPHA], B[:, rr.O_FMIN]
     T = tA + tB
-    tau = t_max - tA
+    tau = horizon - tA
     k = np.floor(tau / T)
     rem = np.maximum(tau - k * T, 0.0)
     even = k % 2 == 0

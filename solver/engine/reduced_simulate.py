@@ -54,10 +54,10 @@ def _table(rho_over_R, j):
     return reduced_tables.build(rho_over_R, j, -0.5 * np.pi, 1.5 * np.pi)
 
 
-def _levels(x, table, p):
+def _levels(x, table, p, turn):
     """(C0 [1/s^2], P1, P2 [1/s]) of the state rows (beta, omega1, omega2, omega3): P = Phi(beta0)^-1 z0
-    from the table; C0 = omega1^2 + a sin(beta) + k omega2^2 + omega3^2 (exact at the start), or, for
-    omega1 = 0 exactly, the value making the tabled omega1^2 vanish at beta0."""
+    from the table; C0 = omega1^2 + a sin(beta) + k omega2^2 + omega3^2 (exact at the start), or, for the
+    states that start on a turning point (``turn``), the value making the tabled omega1^2 vanish at beta0."""
     b = x[:, 0]
     t = reduced_tables
     f11, f12, f21, f22 = t.evaluate_many(table, b, (t.PHI11, t.PHI12, t.PHI21, t.PHI22))
@@ -66,7 +66,6 @@ def _levels(x, table, p):
     p2 = (-f21 * x[:, 2] + f11 * x[:, 3]) / det
     a = 2.0 * p.g * p.rho / ((1.0 + p.j) * p.r ** 2)
     c0 = x[:, 1] ** 2 + a * np.sin(b) + table.k * x[:, 2] ** 2 + x[:, 3] ** 2
-    turn = x[:, 1] == 0.0
     if turn.any():
         c0 = np.where(turn, c0 - reduced_legs.omega1_squared(table, a, b, c0, p1, p2), c0)  # W(beta0) = 0 in the table
     return c0, p1, p2
@@ -102,8 +101,9 @@ def solve(states, params: Params, t_max=20.0, rtol=1e-8, workers=None) -> dict:
         turns = _whole_turns(x0[:, 0])
         x0[:, 0] -= turns
         table = _table(params.rho / params.R, params.j)
-        level = reduced_legs.Level(table, params, *_levels(x0, table, params))
-        got = reduced_legs.motions(x0, level, float(t_max), float(rtol), workers)
+        turn0 = reduced_legs.turning_starts(x0, params, table.width)
+        level = reduced_legs.Level(table, params, *_levels(x0, table, params, turn0))
+        got = reduced_legs.motions(x0, level, float(t_max), float(rtol), turn0, workers)
         got["end"][:, 0] += turns
         for name, column in got.items():
             out[name][idx] = column

@@ -323,13 +323,12 @@ def test_wide_spread_in_beta_gives_the_average_over_the_circle():
     """beta is an angle: a spread of 100 rad makes beta mod 2 pi uniform, so every nominal state
     gets the fractions of the outcomes over beta in [0, 2 pi) at its omegas."""
     n = 2000
-    # dp5: the exact solver is wrong at |beta| >~ 25 rad (tests/solver/engine/test_simulate.py, whole turns)
-    res = P.make_probability(NOMINAL[:2], ROLLING, (100.0, 0, 0, 0), n_samples=n, seed=5, method="dp5", **QUICK)
+    res = P.make_probability(NOMINAL[:2], ROLLING, (100.0, 0, 0, 0), n_samples=n, seed=5, **QUICK)
     codes = res["codes"]
     for i, state in enumerate(NOMINAL[:2]):
         circle = np.tile(state, (4000, 1))
         circle[:, 0] = np.linspace(0, 2 * np.pi, 4000, endpoint=False)
-        out = solver.simulate(circle, ROLLING, method="dp5", **QUICK)["outcome"]
+        out = solver.simulate(circle, ROLLING, **QUICK)["outcome"]
         fractions = np.array([(out == c).mean() for c in codes])
         err = np.sqrt(fractions * (1 - fractions) / n)
         assert np.all(np.abs(res["probability"][i] - fractions) <= 4 * err + 1e-9)

@@ -165,9 +165,7 @@ def test_exact_steady_motion_is_a_steady_motion_not_a_periodic_orbit():
         assert r["outcome"][0] == outcomes.STEADY_MOTION and np.isnan(r["half_period"][0])
 
 
-@pytest.mark.parametrize("method", ["dp5", pytest.param("reduced", marks=pytest.mark.xfail(
-    strict=True, reason="the exact solver spends 80,105 evaluations (status max_steps) at omega1 = +-1e-12, +-1e-9 "
-                        "and its half period jumps by 2.4e-5 s"))])
+@pytest.mark.parametrize("method", ["dp5", "reduced"])
 def test_nearly_tangential_omega1_crossings_give_a_continuous_half_period(method):
     """Small orbits round Fig. 11's stable steady motion: omega1 starts at 0 (a crossing at t = 0),
     or at 1e-12..1e-6 (a crossing almost at once); the half period must not jump, and must be the
