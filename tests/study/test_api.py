@@ -49,6 +49,23 @@ def test_studies_lists_every_study_with_its_title():
     assert found["fig8"] == registry.get("fig8").title
 
 
+def test_studies_imports_no_studies_module_and_says_what_the_modules_say():
+    """Listing the studies reads the catalogue (2.8-4 s of imports before, 0.8-1.5 s after, measured on a loaded
+    2-core machine); the titles, names and order are those of the studies' modules."""
+    code = ("import sys, rimroll; found = rimroll.studies(); "
+            "print(sorted(m for m in sys.modules if m.startswith('rimroll.workflows')) or 'none', list(found))")
+    run = _python(code)
+    assert run.returncode == 0 and run.stdout.startswith("none "), run.stdout + run.stderr
+    modules = {name: registry.get(name).title for name in registry.names()}  # every studies module imported
+    assert run.stdout.strip() == f"none {registry.natural_order(modules)!r}"
+    assert rimroll.studies() == modules
+
+
+def test_studies_lists_a_plugins_study_from_its_module(probe):
+    found = rimroll.studies()
+    assert found["fanout-probe"] == probe.title and list(found)[:3] == ["fig3", "fig5", "fig6"]
+
+
 def test_run_in_memory_equals_study_run(tmp_path):
     assert main(["run", "fig8", "--quick", "--set", "v_throw=7", "--out", str(tmp_path), "--no-progress"]) == 0
     ds = rimroll.run("fig8", quick=True, v_throw=7, progress=False)
