@@ -25,11 +25,6 @@ from tests.helpers.paths import HELPERS
 PROBE = str(HELPERS / "fanout_probe.py")
 
 
-@pytest.fixture
-def probe(probe_study):
-    return probe_study
-
-
 def _python(code: str, **env) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
                           env={**os.environ, **env})
