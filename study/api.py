@@ -31,8 +31,15 @@ __all__ = ["open", "run", "studies"]
 
 
 def studies() -> dict[str, str]:
-    """Every named study, ``{name: title}``, in natural order (``fig3 ... fig13``, then the others)."""
-    return {name: registry.get(name).title for name in natural_order(registry.names())}
+    """Every named study, ``{name: title}``, in natural order (``fig3 ... fig13``, then the others): as
+    ``study list``, from the catalogue of rimroll's own studies without importing a studies module
+    (``study.catalogue.titles``), else (a plugin's study, ``$RIMROLL_STUDY_MODULES``) from the studies' modules."""
+    from rimroll.study import catalogue
+
+    titles = catalogue.titles()
+    if titles is None:
+        titles = {name: registry.get(name).title for name in registry.names()}
+    return {name: titles[name] for name in natural_order(titles)}
 
 
 def open(path: str | os.PathLike, lazy: bool = True) -> xr.Dataset:  # noqa: A001  rimroll.open, like xr.open_*

@@ -311,14 +311,79 @@ class Liveness:
         return live
 
 
+class Fetches:
+    """The results of a run's chunks, each fetched as soon as its task is submitted by a task of its own on the
+    client's event loop (``Client.gather(future, asynchronous=True)`` through ``asyncio.run_coroutine_threadsafe``),
+    which nothing cancels; the run's thread waits on them with a bound (:meth:`done`).
+
+    Never ``Future.result(timeout=...)``: when its bound passes it cancels its gather, and distributed (2026.8,
+    dask/distributed#8514) shares a pending gather between callers (``Client._gather_future``): one cancelled in
+    the moment before it starts stays the client's pending gather, and every later gather of that client fails
+    with asyncio's CancelledError, which ``Client.sync`` turns into ``UnboundLocalError``. A fetch or a future
+    that is cancelled all the same (by a user's client, a scheduler) is fetched again, or its chunk computed
+    again, at most ``RETRIES`` times (:meth:`retry`)."""
+
+    RETRIES = 2  # cancellations of one chunk's fetch or future that a run takes before it stops
+
+    def __init__(self, c, submit):
+        self.c = c
+        self.submit = submit  # (k, attempt) -> the dask Future computing chunk k
+        self.pending = {}  # a fetch (concurrent.futures.Future) -> (k, its dask Future)
+        self.cancelled = {}  # k -> how many times chunk k's fetch or future was cancelled
+
+    def start(self, k: int) -> None:
+        """Submit chunk ``k`` and start fetching its result."""
+        self._fetch(k, self.submit(k, self.cancelled.get(k, 0)))
+
+    def _fetch(self, k: int, future) -> None:
+        import asyncio
+
+        fetch = asyncio.run_coroutine_threadsafe(self.c.gather(future, asynchronous=True), self.c.loop.asyncio_loop)
+        self.pending[fetch] = (k, future)
+
+    def done(self, timeout: float) -> list:
+        """The fetches that have ended, waiting up to ``timeout`` s for one: ``(fetch, k, dask future)`` each."""
+        from concurrent.futures import FIRST_COMPLETED, wait
+
+        ended = wait(list(self.pending), timeout=timeout, return_when=FIRST_COMPLETED).done
+        return [(fetch, *self.pending.pop(fetch)) for fetch in ended]
+
+    def retry(self, k: int, future) -> bool:
+        """Chunk ``k``'s fetch or future was cancelled: fetch it again (the future finished: only the fetch was
+        cancelled) or compute it again under a new key; False when that has happened more than ``RETRIES`` times."""
+        self.cancelled[k] = self.cancelled.get(k, 0) + 1
+        if self.cancelled[k] > self.RETRIES:
+            return False
+        if future.status == "finished":
+            self._fetch(k, future)
+        else:
+            future.release()
+            self.start(k)
+        return True
+
+    def cancel(self) -> None:
+        """Cancel the tasks of the chunks not fetched yet (their fetches then end by themselves)."""
+        for _, future in self.pending.values():
+            future.cancel()
+
+
+def cancelled(exc: BaseException, future) -> bool:
+    """Whether a chunk's fetch ended with ``exc`` because it or its future was cancelled: a cancelled
+    future, a cancelled fetch, or the ``UnboundLocalError`` that ``Client.sync`` makes of asyncio's
+    CancelledError (:class:`Fetches`); not an error of the chunk's own computation."""
+    import asyncio
+    from concurrent.futures import CancelledError
+
+    return isinstance(exc, (CancelledError, asyncio.CancelledError, UnboundLocalError)) and future.status != "error"
+
+
 def run(plan: Plan, store: PartStore, todo: list[int], c, progress: ProgressLine,
         timeout: float = DEFAULT_TIMEOUT) -> RunStats:
     """Compute the chunks ``todo`` on client ``c``, writing each part as it finishes.
 
     :class:`UserError` (after cancelling what is in flight) when the cluster has had no worker
-    for ``timeout`` s, or a chunk's worker died too often (``KilledWorker``)."""
-    from distributed import wait
-    from distributed.client import FuturesCancelledError
+    for ``timeout`` s, a chunk's worker died too often (``KilledWorker``), or a chunk was
+    cancelled more than ``Fetches.RETRIES`` times."""
     from distributed.comm.core import CommClosedError
     from distributed.scheduler import KilledWorker
 
@@ -334,11 +399,9 @@ def run(plan: Plan, store: PartStore, todo: list[int], c, progress: ProgressLine
     pending = iter(todo)
     token = uuid.uuid4().hex[:8]  # keys unique per run, even on a long-lived shared scheduler
 
-    def submit():
-        k = next(pending, None)
-        if k is None:
-            return None
-        return c.submit(timed_chunk, plan.job(k), key=f"chunk-{plan.fingerprint}-{k}-{token}", pure=False)
+    def submit(k: int, attempt: int):
+        key = f"chunk-{plan.fingerprint}-{k}-{token}" + (f"-{attempt}" if attempt else "")
+        return c.submit(timed_chunk, plan.job(k), key=key, pure=False)
 
     def lost(why: str, what: str = "worker") -> UserError:
         return UserError(f"{what} lost ({why}); {store.count()} of {plan.n_chunks} chunks saved, "
@@ -352,37 +415,35 @@ def run(plan: Plan, store: PartStore, todo: list[int], c, progress: ProgressLine
                     "SCHEDULER_ADDRESS) or check why they died")
 
     t0 = time.perf_counter()
-    inflight = {f for f in (submit() for _ in range(window)) if f is not None}
+    fetches = Fetches(c, submit)
+    for k in (next(pending, None) for _ in range(window)):
+        if k is not None:
+            fetches.start(k)
     no_worker_since = None
     estimated = False
     seconds_of = []  # seconds of the chunks finished before the estimate, in the order they finished
     quiet_since, beat = t0, run_notices.next_heartbeat(0.0)  # a "working" notice is due when nothing ends for beat s
     try:
-        while inflight:
-            try:
-                finished = wait(list(inflight), timeout=POLL, return_when="FIRST_COMPLETED").done
-            except TimeoutError:
-                finished = set()
-            except FuturesCancelledError:  # the scheduler went away: the client cancels every future
-                raise lost("the client lost its connection", "scheduler") from None
+        while fetches.pending:
             saved = 0
-            for future in finished:
-                inflight.discard(future)
-                if future.status == "pending":  # done when wait looked, its worker died since: computed anew
-                    inflight.add(future)
-                    continue
+            for fetch, k, future in fetches.done(POLL):
                 try:
-                    # bounded: the future can turn pending again between the two lines, and result() would wait
-                    k, arrays, seconds = future.result(timeout=POLL)
-                except TimeoutError:
-                    inflight.add(future)
-                    continue
-                except (KilledWorker, FuturesCancelledError) as exc:
+                    k, arrays, seconds = fetch.result()
+                except KilledWorker as exc:
                     raise lost(type(exc).__name__) from None
                 except ArithmeticError as exc:  # settings whose numbers leave floating point (j=1e308)
                     raise UserError(f"{plan.study.name}: a chunk's computation failed with {type(exc).__name__} "
                                     f"({' '.join(str(exc).split())}): the settings give numbers beyond floating "
                                     f"point; {store.count()} of {plan.n_chunks} chunks saved") from None
+                except BaseException as exc:
+                    if not cancelled(exc, future):
+                        raise
+                    if getattr(exc, "reason", None) == "scheduler-connection-lost" or c.status != "running":
+                        raise lost("the client lost its connection", "scheduler") from None
+                    if not fetches.retry(k, future):
+                        raise lost(f"chunk {k} was cancelled {fetches.cancelled[k]} times: "
+                                   f"{type(exc).__name__} {' '.join(str(exc).split())}".strip(), "chunk") from None
+                    continue
                 future.release()
                 store.save(k, arrays)
                 del arrays
@@ -390,9 +451,9 @@ def run(plan: Plan, store: PartStore, todo: list[int], c, progress: ProgressLine
                 stats.computed += 1
                 stats.compute_s += seconds
                 progress.advance()
-                nxt = submit()
+                nxt = next(pending, None)
                 if nxt is not None:
-                    inflight.add(nxt)
+                    fetches.start(nxt)
                 if not estimated:
                     seconds_of.append(seconds)
             now = time.perf_counter()
@@ -410,9 +471,6 @@ def run(plan: Plan, store: PartStore, todo: list[int], c, progress: ProgressLine
                     no_worker_since = time.monotonic()
                 elif time.monotonic() - no_worker_since > timeout:
                     raise no_worker()
-                if not finished:
-                    continue
-                time.sleep(POLL)  # futures seen done and pending again: wait a moment before asking again
                 continue
             if not estimated:
                 per_chunk = run_notices.seconds_per_chunk(seconds_of, threads, len(todo))
@@ -422,8 +480,7 @@ def run(plan: Plan, store: PartStore, todo: list[int], c, progress: ProgressLine
     except CommClosedError:
         raise lost("its connection closed", "scheduler") from None
     except BaseException:
-        for f in inflight:
-            f.cancel()
+        fetches.cancel()
         _stop_compiles()
         raise
     finally:

@@ -186,8 +186,7 @@ def _plot(ds) -> Figure:
                             label="window of Figs. 11-13"))
     ax1.set_xlabel(r"captured $\omega_1$ [1/s]")
     ax1.set_ylabel(r"captured $\beta$ [rad]")
-    ax1.set_title("captured states, coloured by their rim outcome (the maps of Figs. 11-13 read there)",
-                  fontsize=9)
+    ax1.set_title("captured states, coloured by their rim outcome\n(the maps of Figs. 11-13 read there)", fontsize=9)
     ax1.legend(fontsize=7, loc="best")
     ax2.scatter(w2[ok], w3[ok], s=5, c=beta[ok], cmap="viridis")
     for om in SECTIONS["omega2"]:
@@ -205,8 +204,8 @@ def _plot(ds) -> Figure:
     ax3.scatter(w3[ok], beta[ok], s=5, c="k")
     ax3.set_xlabel(r"$\omega_3$ [1/s]")
     ax3.set_ylabel(r"$\beta$ [rad]")
-    ax3.set_title(f"captured (beta, omega3) over Fig. 8's realisable regions (v_throw = {v_throw:g} m/s, "
-                  f"mu = {p.mu:g})", fontsize=9)
+    ax3.set_title(r"captured $(\beta, \omega_3)$ over Fig. 8's realisable regions" "\n"  # two lines: one was cut off
+                  rf"($v_\mathrm{{throw}}$ = {v_throw:g} m/s, $\mu$ = {p.mu:g})", fontsize=9)
     n = int(ok.sum())
     fig.suptitle(f"rim states a shot reaches: {n} of {beta.size} shots captured "
                  f"({', '.join(extra) or 'one release set'} pooled)", fontsize=10)

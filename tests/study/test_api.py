@@ -25,11 +25,6 @@ from tests.helpers.paths import HELPERS
 PROBE = str(HELPERS / "fanout_probe.py")
 
 
-@pytest.fixture
-def probe(probe_study):
-    return probe_study
-
-
 def _python(code: str, **env) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
                           env={**os.environ, **env})
@@ -47,6 +42,23 @@ def test_studies_lists_every_study_with_its_title():
     found = rimroll.studies()
     assert list(found)[:3] == ["fig3", "fig5", "fig6"] and "outcome-cube" in found
     assert found["fig8"] == registry.get("fig8").title
+
+
+def test_studies_imports_no_studies_module_and_says_what_the_modules_say():
+    """Listing the studies reads the catalogue (2.8-4 s of imports before, 0.8-1.5 s after, measured on a loaded
+    2-core machine); the titles, names and order are those of the studies' modules."""
+    code = ("import sys, rimroll; found = rimroll.studies(); "
+            "print(sorted(m for m in sys.modules if m.startswith('rimroll.workflows')) or 'none', list(found))")
+    run = _python(code)
+    assert run.returncode == 0 and run.stdout.startswith("none "), run.stdout + run.stderr
+    modules = {name: registry.get(name).title for name in registry.names()}  # every studies module imported
+    assert run.stdout.strip() == f"none {registry.natural_order(modules)!r}"
+    assert rimroll.studies() == modules
+
+
+def test_studies_lists_a_plugins_study_from_its_module(probe):
+    found = rimroll.studies()
+    assert found["fanout-probe"] == probe.title and list(found)[:3] == ["fig3", "fig5", "fig6"]
 
 
 def test_run_in_memory_equals_study_run(tmp_path):

@@ -460,6 +460,15 @@ def test_figures_label_their_axes_with_units_and_no_text_covers_another(tmp_path
     assert all(C.axis_label(ds, d) in xlabels for d in C.swept(ds)), (name, C.swept(ds), xlabels)
 
 
+def test_rim_states_keeps_its_three_titles_inside_the_figure(tmp_path):
+    """The third panel's title ran past the figure's right edge; no text is cut off or covers another (its
+    swept axes are pooled into the panels, so the cube test above does not apply)."""
+    ds = _run(tmp_path, "rim-states", "n_dv=5", "n_angle=5", "n_azimuth=3")
+    fig = _rendered(get("rim-states").plot(ds))
+    assert not _cut_off(fig) and not _overlaps(fig) and not _labels_without_units(fig)
+    assert all(ax.get_title() for ax in _axes_of(fig)[:3])
+
+
 def test_fig12_texts_and_labels(fig12):
     fig = _rendered(get("fig12").plot(fig12))
     assert not _labels_without_units(fig) and not _overlaps(fig)

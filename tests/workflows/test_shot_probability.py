@@ -1,7 +1,7 @@
 """The ``shot-probability`` study against computations of its own: an independent Monte Carlo draw of
 the same noisy shots (another seed, numpy's own normal sampler, scipy's Wilson interval), and, in
 vacuum with every rim or board contact counted as a miss, the probability of the closed-form swish
-window (the geometry of ``test_shot_checks``) under the same Gaussian noise, by quadrature."""
+window (the geometry of ``tests/helpers/swish_geometry.py``) under the same Gaussian noise, by quadrature."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ from scipy.integrate import simpson
 from rimroll import solver
 from rimroll.solver import shots
 from rimroll.workflows import shot_probability as sp
-from tests.solver.test_shot_checks import FREE_THROW, PAPER_RING, is_swish, speed_through_centre, swish_window
+from tests.helpers.swish_geometry import FREE_THROW, PAPER_RING, is_swish, speed_through_centre, swish_window
 
 MAKE_CODES = [list(shots.OUTCOME_MEANINGS).index(n) for n in ("swish", "make_rim", "make_board", "make_roll")]
 

@@ -16,7 +16,7 @@ from rimroll import solver
 from rimroll.solver.analysis.scipy_reference import reference
 from rimroll.solver.engine import outcomes, scenes
 from rimroll.solver.physics import air, flight, kinematics, loads, resistance, rolling, slipping
-from tests.solver.physics.test_equations import gradient
+from tests.helpers.finite_differences import gradient
 
 RNG = np.random.default_rng(20261125)
 TERMS = {  # term name: (its load function, Params that switch it on at a strength of note)

@@ -8,6 +8,7 @@ from scipy.optimize import brentq
 from rimroll import solver
 from rimroll.solver.analysis import steady
 from rimroll.solver.physics import kinematics, rolling, slipping
+from tests.helpers.finite_differences import gradient
 
 RNG = np.random.default_rng(20261122)
 
@@ -16,18 +17,6 @@ def random_rolling_states(n):
     return np.column_stack(
         [RNG.uniform(0.2, 2.0, n), RNG.uniform(-15, 15, n), RNG.uniform(-80, 80, n), RNG.uniform(-20, 20, n)]
     )
-
-
-def gradient(f, x):
-    """Central finite-difference gradient of a scalar function of a state vector."""
-    grad = np.empty(len(x))
-    for k in range(len(x)):
-        h = 1e-6 * max(1, abs(x[k]))
-        xp, xm = x.copy(), x.copy()
-        xp[k] += h
-        xm[k] -= h
-        grad[k] = (f(xp) - f(xm)) / (2 * h)
-    return grad
 
 
 def rolling_ode(p):
