@@ -58,7 +58,7 @@ PAGES = {
     "how-to/benchmark.md": Page(slow=True),
     "explanation/dissipation-models.md": Page(slow=True),
     "explanation/predictability.md": Page(slow=True),
-    "explanation/exact-rolling.md": Page(),  # compiles the reduced solver's kernels (~11 s CPU)
+    "explanation/exact-rolling.md": Page(),  # compiles the reduced solver's kernel (~6.5 s CPU)
     "shot-api.md": Page(),
     "shots.md": Page(slow=True),  # shot maps and traces; a capture compiles the rim engine's hybrid scene
     "explanation/shot-questions.md": Page(slow=True),  # three --quick shot studies: about 30 s warm
