@@ -29,7 +29,7 @@ from rimroll.solver.analysis import adaptive_map, boundary_curves
 from rimroll.solver.analysis import exact_boundaries as eb
 from rimroll.solver.engine import outcomes, scenes
 from rimroll.solver.physics.params import TERM_KEYS
-from rimroll.study.outcome_sections import FIGURES, QUICK, SETTINGS, section_axes
+from rimroll.study.outcome_sections import FIGURES, QUICK, SETTINGS, adaptive_axes, section_axes
 from rimroll.study.registry import Axis, ReferenceSpec, Study, Var, output_var, register
 
 NAME = "exact-boundaries"
@@ -260,7 +260,7 @@ register(Study(
     title="Exact boundary polylines of the rolling-only sections (paper Figs. 11-13)",
     settings=STUDY_SETTINGS,
     quick=QUICK,
-    axes=_axes,
+    axes=adaptive_axes(_axes),
     variables=VARIABLES,
     compute=_compute,
     plot=_plot,

@@ -89,3 +89,14 @@ def test_the_polylines_pass_through_the_crossings(fig11_section):
     crossing_points = set(zip(np.where(on_beta, x.at, beta[x.i]).tolist(),
                               np.where(on_beta, omega1[x.j], x.at).tolist()))
     assert crossing_points <= points
+
+
+@pytest.mark.parametrize("setting,allowed", [("adaptive_coarse=3", "power of 2"), ("f2_rel=2", "0 < f2_rel < 1"),
+                                             ("mu=2", "does not use 'mu'")])
+def test_bad_settings_are_one_line_errors(tmp_path, capsys, setting, allowed):
+    from rimroll.study.cli import main
+
+    assert main(["run", bp.NAME, "--quick", "--set", setting, "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and allowed in err and "Traceback" not in err
+    assert not list(tmp_path.iterdir())  # nothing computed, nothing written
