@@ -245,6 +245,14 @@ def _plot(ds) -> Figure:
     return fig
 
 
+def _cost_factor(s: dict) -> float:
+    """The cost model's multiplier: the bisection's work grows with the boundary links, about the square root
+    of the grid's points, so the cost per point falls as 1 / sqrt(points / the --quick grid's): measured 35 s
+    at --quick, about 7 min of one core at the default 240 x 360 (2026-11-28, load 1-2)."""
+    quick = QUICK["n_beta"] * QUICK["n_omega1"]
+    return min(1.0, float(np.sqrt(quick / (int(s["n_beta"]) * int(s["n_omega1"])))))
+
+
 DERIVED_DOCS = (
     (("polyline_node_count", "polyline_beta", "polyline_omega1", "polyline_section"), "1, rad, 1/s, 1",
      "the boundary polylines through the exact crossings, a contiguous ragged array"),
@@ -270,7 +278,7 @@ register(Study(
     ignores={k: "the sections are the conservative rolling-only scene (mu = inf, no dissipation term)"
              for k in ("mu", *TERM_KEYS)},
     # cost: seconds per grid point on one core, warm (--quick on 2 shared cores, load 4, 2026-11-28)
-    cost=1.3e-2, compiles=True,
+    cost=1.3e-2, cost_factor=_cost_factor, compiles=True,
     reference=ReferenceSpec({"beta": 24, "omega1": 36}, method="reduced solver (exact rolling), bisection of every "
                             "boundary link to adjacent doubles"),
 ))
