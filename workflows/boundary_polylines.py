@@ -227,7 +227,8 @@ def _plot(ds) -> Figure:
         curves, r, c = eb.exact_curves(x, rows, cols, codes)
         ends = np.cumsum(curves.sizes)
         for m, (size, end) in enumerate(zip(curves.sizes, ends)):
-            ax.plot(c[end - size:end], r[end - size:end], "k-", lw=0.8, label="exact boundary" if m == 0 else None)
+            ax.plot(c[end - size:end], r[end - size:end], "k-", lw=0.6, zorder=3,
+                    label="exact boundary" if m == 0 else None)
         adaptive = ds["adaptive_outcome"].transpose("omega2", "beta", "omega1").values[k]
         a = boundary_curves.trace(adaptive)
         ab, aw = boundary_curves.on_axes(a.points, rows, cols)
@@ -236,7 +237,7 @@ def _plot(ds) -> Figure:
             sel = x.kind == kind
             bb = np.where(x.axis == 0, x.at, rows[x.i])[sel]
             ww = np.where(x.axis == 0, cols[x.j], x.at)[sel]
-            ax.plot(ww, bb, ".", color=colour, ms=2.5, label=f"crossing: {eb.KINDS[kind]}")
+            ax.plot(ww, bb, ".", color=colour, ms=2.5 if x.at.size < 400 else 1.0, label=f"crossing: {eb.KINDS[kind]}")
         ax.set_title(rf"$\omega_2$ = {float(ds['omega2'][k]):g} 1/s, rolling only (Fig. {11 + k})", fontsize=10)
         ax.set_xlabel(r"$\omega_1$ [1/s]")
         ax.set_ylabel(r"$\beta$ [rad]")
