@@ -37,6 +37,8 @@ SETTINGS = {
     "slip_method": "rodas4",  # solver.simulate's slip_method (docs/outcome-engine.md, "Stiff slips")
 }
 QUICK = {"n_beta": 24, "n_omega1": 36}
+FIGURES = (("fig11", 35.0, 11), ("fig12", 65.0, 12), ("fig13", 105.0, 13))
+"""The sections of the paper's Figs. 11-13: (study name, omega2 [1/s], figure number)."""
 
 
 def engine_options(s) -> dict:

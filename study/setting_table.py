@@ -182,6 +182,8 @@ _ENTRIES = (
       "grid, fill uniform blocks from their corners (docs/outcome-studies.md#adaptive-maps)"),
     S("adaptive_coarse", "", "adaptive map: grid cells between the points of the coarse lattice (a power of 2)",
       COUNT),
+    S("f2_rel", "1", "exact boundaries: a crossing is a grazing of F2 where a rim side ends with f2_min below "
+      "f2_rel m g", FRACTION),
     S("rtol_max", "1", "loosest rtol of the sweep", TOLERANCE),
     S("rtol_min", "1", "tightest rtol of the sweep", TOLERANCE),
     S("n_rtol", "", "number of tolerances", COUNT),

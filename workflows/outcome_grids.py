@@ -36,6 +36,7 @@ from rimroll.study import plotting as P
 from rimroll.study.dataset import params_of, setting_of
 from rimroll.study.outcome_sections import (
     ADAPTIVE_SETTINGS,
+    FIGURES,
     LEVEL_ATTRS,
     QUICK,
     SCENE_IGNORES,
@@ -430,7 +431,7 @@ REFERENCE = ReferenceSpec({"beta": 24, "omega1": 36}, precise={"rtol": 1e-12, "a
 """The reference slices: a 24 x 36 sub-grid of each section in all four scenes, at the engine's
 tightest setting (DOP853, rtol 1e-12)."""
 
-for _name, _omega2, _fig in (("fig11", 35.0, 11), ("fig12", 65.0, 12), ("fig13", 105.0, 13)):
+for _name, _omega2, _fig in FIGURES:
     register(Study(
         name=_name,
         title=f"Outcome of a ball on the rim (paper Fig. {_fig})",
