@@ -77,7 +77,7 @@ VARIABLES = [
 def _axes(s: dict) -> list[Axis]:
     """omega2 [1/s] of the three sections, beta [rad], omega1 [1/s] (the grid of fig11-13)."""
     _, beta, omega1 = section_axes({**s, "mu_slip": 1.0, "k_dissipation": 0.0, "t_max_dissipative": s["t_max"]})
-    omega2 = Axis("omega2", np.array(SECTIONS), "s-1", "initial omega2 of the section",
+    omega2 = Axis("omega2", np.array(SECTIONS), "s-1", "omega2 of the section",
                   comment="the sections of the paper's Figs. 11, 12, 13")
     return [omega2, beta, omega1]
 
