@@ -6,13 +6,15 @@ from beta0 the other way to b2. Everything after is known: the ball swings betwe
 half period T = t1 + t2 (or falls at b2), so the outcome follows by the rules of
 docs/outcome-engine.md, for whole arrays of states at once:
 
-* a fall on the first leg (F2 = 0 at b1): fall in or out (``flight.lands_inside``) at t1;
+* a fall on the first leg (F2 = 0 at b1): fall in or out (the parabola of ``flight.landing_distance``,
+  :func:`fall_outcomes`) at t1;
 * a turning point at b1 and a fall at b2: the fall at t1 + T;
 * turning points at both ends: ``periodic_rolling`` at the second *transversal* omega1 zero
   (``rules.transversal_omega1_zero`` at the simulation's rtol; a start with omega1 = 0 is the
-  first when transversal), half_period the time between the two;
+  first when transversal, and so is a start the tables cannot tell from a turning point:
+  :func:`turning_starts`), half_period the time between the two;
 * any of these after t_max: ``on_rim_at_t_max``, the state there found by Newton on the time of
-  the leg it falls in (``at_time``); an oscillation whose turning points never count is followed
+  the leg it falls in (``_at_time``); an oscillation whose turning points never count is followed
   in closed form (k half swings of T), so no cap on the number of swings applies.
 """
 
