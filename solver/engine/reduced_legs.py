@@ -27,7 +27,7 @@ from typing import NamedTuple
 import numpy as np
 
 from rimroll.solver._jit import python_version
-from rimroll.solver.engine import compiling, reduced_tables, rules
+from rimroll.solver.engine import compiling, reduced_compiled, reduced_tables, rules
 from rimroll.solver.engine import reduced_rolling as rr
 from rimroll.solver.engine.outcomes import FALL_IN, FALL_OUT, MAX_STEPS, NON_FINITE, ON_RIM_AT_T_MAX, PERIODIC_ROLLING
 from rimroll.solver.physics import kinematics, rolling
@@ -96,7 +96,7 @@ class Level(NamedTuple):
     def spins(self, rows, beta):
         """(omega2, omega3) [1/s] = Phi(beta) P of the states ``rows`` at beta [rad]."""
         t = reduced_tables
-        f11, f12, f21, f22 = t.evaluate_many(self.table, beta, (t.PHI11, t.PHI12, t.PHI21, t.PHI22))
+        f11, f12, f21, f22 = reduced_compiled.evaluate_many(self.table, beta, (t.PHI11, t.PHI12, t.PHI21, t.PHI22))
         p1, p2 = self.p1[rows], self.p2[rows]
         return f11 * p1 + f12 * p2, f21 * p1 + f22 * p2
 
@@ -108,7 +108,7 @@ class Level(NamedTuple):
 def omega1_squared(table, a, beta, c0, p1, p2):
     """omega1^2 [1/s^2] = C0 - a sin beta - P^T Q(beta) P on the level (C0, P1, P2) at beta [rad] (numpy)."""
     t = reduced_tables
-    sin, q11, q12, q22 = t.evaluate_many(table, beta, (t.SIN, t.Q11, t.Q12, t.Q22))
+    sin, q11, q12, q22 = reduced_compiled.evaluate_many(table, beta, (t.SIN, t.Q11, t.Q12, t.Q22))
     return c0 - a * sin - (p1 * p1 * q11 + 2.0 * p1 * p2 * q12 + p2 * p2 * q22)
 
 
@@ -138,16 +138,25 @@ def _scratch():
     return np.zeros((rr.N_WORK, reduced_tables.N_COEF)), np.zeros((rr.MAX_STACK, 2))
 
 
+def _numba_legs(jobs, tab, nod, spread, c, rule, out):
+    """``reduced_rolling.legs`` with scratch arrays of its own (the compiled library's call)."""
+    rr.legs(jobs, tab, nod, spread, c, rule, *_scratch(), out)
+
+
 def _threads(jobs, level, out, workers):
-    """``reduced_rolling.legs`` over interleaved chunks of the jobs on ``workers`` threads."""
+    """The legs (``reduced_compiled.legs``, else ``reduced_rolling.legs``) over interleaved chunks of the jobs on
+    ``workers`` threads."""
     t = level.table
     args = (t.values, t.nodes, t.spread, level.constants(), RULE)
-    compiling.compile_here_announced(rr.legs, (jobs[:0], *args, *_scratch(), out[:0]), COMPILE_NAME)
+    legs = reduced_compiled.legs()  # compiled at install; without it, the numba kernel (compiled here, announced)
+    if legs is None:
+        compiling.compile_here_announced(rr.legs, (jobs[:0], *args, *_scratch(), out[:0]), COMPILE_NAME)
+        legs = _numba_legs
     workers = min(os.cpu_count() or 1, 1024) if workers is None else int(workers)
     m = jobs.shape[0]
     n_chunks = min(m, workers * _CHUNKS_PER_WORKER) if workers > 1 and m > 64 else 1
     if n_chunks <= 1:
-        rr.legs(jobs, *args, *_scratch(), out)
+        legs(jobs, *args, out)
         return
     order = np.argsort(np.arange(m) % n_chunks, kind="stable")
     bounds = np.searchsorted(order % n_chunks, np.arange(n_chunks + 1))
@@ -155,7 +164,7 @@ def _threads(jobs, level, out, workers):
     got = np.empty_like(out)
 
     def run(lo, hi):
-        rr.legs(dealt[lo:hi], *args, *_scratch(), got[lo:hi])
+        legs(dealt[lo:hi], *args, got[lo:hi])
 
     with ThreadPoolExecutor(max_workers=workers) as pool:
         for fut in [pool.submit(run, lo, hi) for lo, hi in zip(bounds[:-1], bounds[1:])]:

@@ -340,10 +340,11 @@ def test_a_second_install_beside_the_first_announces_its_own_compile(tmp_path):
 def test_a_compile_in_this_process_is_announced_with_progress_and_its_time(monkeypatch, caplog, tmp_path):
     """``compiling.compile_here_announced`` (the exact rolling solver's compile, in the process that needs it):
     a notice before, a progress line every PROGRESS_EVERY s, the time after; nothing once compiled; and
-    ``simulate(method="reduced")`` goes through it with the solver's kernel."""
+    ``simulate(method="reduced")`` goes through it with the solver's numba kernel where the legs compiled at install
+    are missing, and compiles nothing where they are there."""
     import logging
 
-    from rimroll.solver.engine import compiling, reduced_legs, reduced_rolling
+    from rimroll.solver.engine import compiling, reduced_compiled, reduced_legs, reduced_rolling
 
     monkeypatch.setenv("RIMROLL_CACHE_DIR", str(tmp_path))  # where the measured times are kept
     monkeypatch.setattr(compiling, "PROGRESS_EVERY", 0.02)
@@ -373,7 +374,11 @@ def test_a_compile_in_this_process_is_announced_with_progress_and_its_time(monke
 
     calls = []
     monkeypatch.setattr(compiling, "compile_here_announced", lambda d, args, name: calls.append((d, name)))
-    solver.simulate([[1.1, 1.17, 35.0, 10.0]], solver.Params(mu=float("inf")), method="reduced", workers=1)
+    state, scene = [[1.1, 1.17, 35.0, 10.0]], solver.Params(mu=float("inf"))
+    solver.simulate(state, scene, method="reduced", workers=1)
+    assert calls == []  # the legs compiled at install (solver/engine/_exact_legs.c): nothing to compile here
+    monkeypatch.setattr(reduced_compiled, "legs", lambda: None)  # an install without a C compiler
+    solver.simulate(state, scene, method="reduced", workers=1)
     assert calls and set(calls) == {(reduced_rolling.legs, reduced_legs.COMPILE_NAME)}  # one call a leg run
 
 
