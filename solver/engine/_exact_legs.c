@@ -12,9 +12,12 @@
    nod (n_panels, N_NODE_ROWS, N_NODES), spread (n_panels, N_SPREAD), c (N_C), rule (N_RULE, N_NODES).
    Units as in reduced_rolling.py: beta [rad], W = omega1^2 [1/s^2], F = F2/m [m/s^2], t [s].
 
-   Differences from the numba kernel: a segment with no turning point at its ends (mode 0) evaluates
-   its series at the nodes by one forward recurrence of T_n (the numba kernel forms T_n(u0 + du) as
-   T_n(u0) plus a difference, twice the work); values agree to rounding. */
+   Differences from the numba kernel, none in what is computed: a piece with no turning point at its
+   ends (modes 0, 4, 5) evaluates its series at the nodes by one forward recurrence of T_n (the numba
+   kernel forms T_n(u0 + du) as T_n(u0) plus a difference, twice the work); the Gauss-Kronrod nodes of a
+   piece are evaluated together (loops the compiler vectorises); F at a whole panel's nodes is skipped
+   where the panel's lower bound of F shows it cannot lower the smallest F seen. Values agree to
+   rounding. rimroll_exact_evaluate is reduced_tables.evaluate_many. */
 
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -61,6 +64,7 @@ enum { R_NODES = 0, R_KRONROD = 1, R_GAUSS = 2, R_SIN_QUARTER = 3, R_SIN_HALF = 
 typedef struct {
     double wc[N_COEF], wd[N_COEF], fc[N_COEF], fd[N_COEF], gc[N_COEF];
     long panel;
+    int have_fd; /* fd is computed only when a value of dF/dbeta is needed (the march, a root of F, F's minimum) */
     double mw, mf, lw, lf;
 } Work;
 
@@ -135,7 +139,7 @@ static void combine(Leg *L, long i) {
         }
     }
     derivative(w->wc, w->wd);
-    derivative(w->fc, w->fd);
+    w->have_fd = 0;
     w->panel = i;
     w->mw = mw * (1.0 + 1e-12);
     w->mf = mf * (1.0 + 1e-12);
@@ -143,7 +147,27 @@ static void combine(Leg *L, long i) {
     w->lf = w->fc[0] - lf * (1.0 + 1e-12);
 }
 
-/* (W, dW/dbeta, F, dF/dbeta) at u of the combined panel (scale = 2/width). */
+/* The combined panel's series of dF/du, computed once it is needed. */
+static void need_fd(Work *w) {
+    if (!w->have_fd) {
+        derivative(w->fc, w->fd);
+        w->have_fd = 1;
+    }
+}
+
+/* Value at u of one combined series cs. */
+static double value_at(const double *cs, double u) {
+    double t0 = 1.0, t1 = u, v = cs[0] + cs[1] * u;
+    for (int n = 2; n < N_COEF; n++) {
+        double t2 = 2.0 * u * t1 - t0;
+        v += cs[n] * t2;
+        t0 = t1;
+        t1 = t2;
+    }
+    return v;
+}
+
+/* (W, dW/dbeta, F, dF/dbeta) at u of the combined panel (scale = 2/width); needs fd (need_fd). */
 static Values values_at(const Work *w, double u, double scale) {
     double t0 = 1.0, t1 = u;
     double W = w->wc[0] + w->wc[1] * u, dW = w->wd[0] + w->wd[1] * u;
@@ -161,6 +185,21 @@ static Values values_at(const Work *w, double u, double scale) {
     return v;
 }
 
+/* (value, d/dbeta) at u of one combined series c and its derivative series dc (scale = 2/width). */
+static void series_at(const double *cs, const double *dcs, double u, double scale, double *v_out, double *d_out) {
+    double t0 = 1.0, t1 = u;
+    double v = cs[0] + cs[1] * u, dv = dcs[0] + dcs[1] * u;
+    for (int n = 2; n < N_COEF; n++) {
+        double t2 = 2.0 * u * t1 - t0;
+        v += cs[n] * t2;
+        dv += dcs[n] * t2;
+        t0 = t1;
+        t1 = t2;
+    }
+    *v_out = v;
+    *d_out = dv * scale;
+}
+
 /* 0: f > 0 on the interval; 1: exactly one zero; 2: undecided. */
 static int classify(double fa, double ga, double fb, double gb, double m2, double h) {
     double q = m2 * h * h / 8.0;
@@ -170,16 +209,18 @@ static int classify(double fa, double ga, double fb, double gb, double m2, doubl
 }
 
 /* Zero of W (which = 0) or F (1) at distance s in [0, h] from beta_a in direction d on panel i. */
-static double root(Leg *L, double beta_a, double d, double h, int which, long i, long *n_ev) {
+static double root(Leg *L, double beta_a, double d, double h, int which, long i, double fa, double fb, long *n_ev) {
     const double *c = L->c;
     double scale = 2.0 / c[C_W];
     double tol = 4e-16 * (fabs(beta_a) + h + c[C_W]);
-    double lo = 0.0, hi = h, s = 0.5 * h;
+    double lo = 0.0, hi = h, s = h * (fa / (fa - fb)); /* the secant's zero first (the numba kernel: the middle) */
+    if (!(0.0 < s && s < h)) s = 0.5 * h;
     for (int it = 0; it < MAX_NEWTON; it++) {
-        Values v = values_at(&L->work, local_u(beta_a + d * s, i, c), scale);
+        double f, g;
+        if (which == 0) series_at(L->work.wc, L->work.wd, local_u(beta_a + d * s, i, c), scale, &f, &g);
+        else series_at(L->work.fc, L->work.fd, local_u(beta_a + d * s, i, c), scale, &f, &g);
         (*n_ev)++;
-        double f = which == 0 ? v.w : v.f;
-        double g = d * (which == 0 ? v.dw : v.df);
+        g *= d;
         if (f > 0.0) lo = s;
         else hi = s;
         if (hi - lo <= 2.0 * tol) break;
@@ -197,6 +238,7 @@ static int isolate(Leg *L, double beta_a, double beta_end, double d, long i, int
     double *out = L->out;
     double scale = 2.0 / c[C_W];
     double mw = L->work.mw * scale * scale, mf = L->work.mf * scale * scale;
+    need_fd(&L->work);
     Values a = values_at(&L->work, local_u(beta_a, i, c), scale);
     double Wa = sing ? 0.0 : a.w, Fa = a.f;
     double ga_w = d * a.dw, ga_f = d * a.df;
@@ -219,8 +261,8 @@ static int isolate(Leg *L, double beta_a, double beta_end, double d, long i, int
         int passed = kw == 0 && kf == 0;
         if (!passed && ((kw != 2 && kf != 2) || hh <= H_MIN)) {
             double bw = INFINITY, bf = INFINITY;
-            if (kw == 1 || (kw == 2 && b.w <= 0.0 && 0.0 < Wa)) bw = d * (root(L, beta_a, d, hh, 0, i, n_ev) - beta_a);
-            if (kf == 1 || (kf == 2 && b.f <= 0.0 && 0.0 < Fa)) bf = d * (root(L, beta_a, d, hh, 1, i, n_ev) - beta_a);
+            if (kw == 1 || (kw == 2 && b.w <= 0.0 && 0.0 < Wa)) bw = d * (root(L, beta_a, d, hh, 0, i, Wa, b.w, n_ev) - beta_a);
+            if (kf == 1 || (kf == 2 && b.f <= 0.0 && 0.0 < Fa)) bf = d * (root(L, beta_a, d, hh, 1, i, Fa, b.f, n_ev) - beta_a);
             if (bf < INFINITY && bf <= bw) {
                 see_f(0.0, beta_a + d * bf, out);
                 *b_event = beta_a + d * bf;
@@ -460,7 +502,9 @@ static int segment(Leg *L, double beta_s, double beta_e, int sing_s, int sing_e,
     double scale = 2.0 / c[C_W];
     double ws = 0.0, we = 0.0, near = 0.0, bottom = 0.0;
     if (mode == 3 || mode == 0) {
-        Values vs = values_at(&L->work, local_u(beta_s, i, c), scale), ve = values_at(&L->work, local_u(beta_e, i, c), scale);
+        Values vs, ve;
+        series_at(L->work.wc, L->work.wd, local_u(beta_s, i, c), scale, &vs.w, &vs.dw);
+        series_at(L->work.wc, L->work.wd, local_u(beta_e, i, c), scale, &ve.w, &ve.dw);
         *n_ev += 2;
         ws = vs.w;
         we = ve.w;
@@ -532,6 +576,7 @@ static int segment(Leg *L, double beta_s, double beta_e, int sing_s, int sing_e,
 static Values slope_f(Leg *L, double beta) {
     long i = panel_of(beta, 1.0, L->c);
     combine(L, i);
+    need_fd(&L->work);
     return values_at(&L->work, local_u(beta, i, L->c), 2.0 / L->c[C_W]);
 }
 
@@ -570,7 +615,6 @@ static void leg(Leg *L) {
     double *out = L->out;
     double beta = job[J_BETA], d = job[J_DIR], stop = job[J_STOP];
     int sing = job[J_SING] > 0.0;
-    double scale = 2.0 / c[C_W];
     L->work.panel = -1;
     out[O_FMIN] = INFINITY;
     out[O_BMIN] = beta;
@@ -601,7 +645,7 @@ static void leg(Leg *L) {
         combine(L, i);
         double end = at_stop ? stop : edge;
         if (first) {
-            see_f(values_at(&L->work, local_u(beta, i, c), scale).f, beta, out);
+            see_f(value_at(L->work.fc, local_u(beta, i, c)), beta, out);
             n_ev++;
         }
         int ev = EV_NONE;
@@ -627,7 +671,7 @@ static void leg(Leg *L) {
         if (ev != EV_NONE || at_stop) {
             kind = ev != EV_NONE ? ev : EV_STOP;
             beta = b_e;
-            if (ev != EV_FALL) see_f(values_at(&L->work, local_u(beta, i, c), scale).f, beta, out);
+            if (ev != EV_FALL) see_f(value_at(L->work.fc, local_u(beta, i, c)), beta, out);
             break;
         }
         beta = edge;
@@ -670,22 +714,32 @@ int rimroll_exact_legs(long m, const double *jobs, const double *tab, const doub
     return 0;
 }
 
-/* Values out (nf, n) of the tabled functions funcs (nf) at the points beta (n) [rad]: reduced_tables.evaluate_many. */
+/* Values out (nf, n) of the tabled functions funcs (nf) at the points beta (n) [rad]: reduced_tables.evaluate_many.
+   Points go in blocks of EVAL_BLOCK, so that the recurrences of T_n of a block run side by side. */
+#define EVAL_BLOCK 8
 int rimroll_exact_evaluate(long n, const double *beta, const double *tab, long n_pan, double beta_lo, double width,
                            const long *funcs, int nf, double *out) {
-    for (long p = 0; p < n; p++) {
-        double y = floor((beta[p] - beta_lo) / width);
-        long i = isfinite(y) ? (long)fmin(fmax(y, 0.0), (double)(n_pan - 1)) : 0;
-        double u = 2.0 * (beta[p] - beta_lo - i * width) / width - 1.0;
-        double t[N_COEF];
-        t[0] = 1.0;
-        t[1] = u;
-        for (int k = 2; k < N_COEF; k++) t[k] = 2.0 * u * t[k - 1] - t[k - 2];
+    for (long p0 = 0; p0 < n; p0 += EVAL_BLOCK) {
+        int nb = n - p0 < EVAL_BLOCK ? (int)(n - p0) : EVAL_BLOCK;
+        long idx[EVAL_BLOCK];
+        double t[N_COEF][EVAL_BLOCK];
+        for (int b = 0; b < EVAL_BLOCK; b++) {
+            double x = beta[p0 + (b < nb ? b : 0)];
+            double y = floor((x - beta_lo) / width);
+            long i = isfinite(y) ? (long)fmin(fmax(y, 0.0), (double)(n_pan - 1)) : 0;
+            idx[b] = i;
+            t[0][b] = 1.0;
+            t[1][b] = 2.0 * (x - beta_lo - i * width) / width - 1.0;
+        }
+        for (int k = 2; k < N_COEF; k++)
+            for (int b = 0; b < EVAL_BLOCK; b++) t[k][b] = 2.0 * t[1][b] * t[k - 1][b] - t[k - 2][b];
         for (int f = 0; f < nf; f++) {
-            const double *cf = tab + ((size_t)i * N_FUNCTIONS + funcs[f]) * N_COEF;
-            double v = 0.0;
-            for (int k = 0; k < N_COEF; k++) v += cf[k] * t[k];
-            out[(size_t)f * n + p] = v;
+            for (int b = 0; b < nb; b++) {
+                const double *cf = tab + ((size_t)idx[b] * N_FUNCTIONS + funcs[f]) * N_COEF;
+                double v = 0.0;
+                for (int k = 0; k < N_COEF; k++) v += cf[k] * t[k][b];
+                out[(size_t)f * n + p0 + b] = v;
+            }
         }
     }
     return 0;

@@ -41,12 +41,13 @@ def library() -> ctypes.CDLL | None:
         return None
     try:
         lib = ctypes.CDLL(spec.origin)
-    except OSError:
+        dims = (ctypes.c_long * 64)()
+        n = lib.rimroll_exact_layout(dims, 64)
+        tols = (ctypes.c_double * 8)()
+        lib.rimroll_exact_tolerances.argtypes = [ctypes.POINTER(ctypes.c_double), ctypes.c_int]
+        k = lib.rimroll_exact_tolerances(tols, 8)
+    except (OSError, AttributeError):  # not loadable, or built from an older source without these functions
         return None
-    dims = (ctypes.c_long * 64)()
-    n = lib.rimroll_exact_layout(dims, 64)
-    tols = (ctypes.c_double * 8)()
-    k = lib.rimroll_exact_tolerances(tols, 8)
     if tuple(dims[:n]) != LAYOUT or tuple(tols[:k]) != TOLERANCES:
         return None
     lib.rimroll_exact_legs.restype = ctypes.c_int

@@ -100,6 +100,15 @@ class Level(NamedTuple):
         p1, p2 = self.p1[rows], self.p2[rows]
         return f11 * p1 + f12 * p2, f21 * p1 + f22 * p2
 
+    def end_state(self, rows, beta):
+        """(omega1^2 [1/s^2], omega2, omega3 [1/s]) of the states ``rows`` at beta [rad], from one table evaluation."""
+        t = reduced_tables
+        f11, f12, f21, f22, sin, q11, q12, q22 = reduced_compiled.evaluate_many(
+            self.table, beta, (t.PHI11, t.PHI12, t.PHI21, t.PHI22, t.SIN, t.Q11, t.Q12, t.Q22))
+        c0, p1, p2 = self.c0[rows], self.p1[rows], self.p2[rows]
+        w = c0 - self.a * sin - (p1 * p1 * q11 + 2.0 * p1 * p2 * q12 + p2 * p2 * q22)
+        return w, f11 * p1 + f12 * p2, f21 * p1 + f22 * p2
+
     def w(self, rows, beta):
         """omega1^2 [1/s^2] of the states ``rows`` at beta [rad]."""
         return omega1_squared(self.table, self.a, beta, self.c0[rows], self.p1[rows], self.p2[rows])
@@ -113,7 +122,7 @@ def omega1_squared(table, a, beta, c0, p1, p2):
 
 
 def run_legs(level: Level, rows, beta, d, sing, stop, workers) -> np.ndarray:
-    """The legs (``reduced_rolling.legs``) of the states ``rows`` from beta [rad] in direction d (+-1), W = 0 at the
+    """The legs (``reduced_rolling``'s algorithm) of the states ``rows`` from beta [rad] in direction d (+-1), W = 0 at the
     start where sing, up to the first event or stop [rad]: (n, N_O) rows."""
     n = len(rows)
     jobs = np.empty((n, rr.N_J))
@@ -380,8 +389,8 @@ def _finish(res, level, p) -> dict:
     end = res.x0.copy()
     ok = ~res.failed
     beta = res.beta[ok]
-    w2, w3 = level.spins(rows[ok], beta)
-    w1 = res.sign[ok] * np.sqrt(np.maximum(level.w(rows[ok], beta), 0.0))
+    w, w2, w3 = level.end_state(rows[ok], beta)
+    w1 = res.sign[ok] * np.sqrt(np.maximum(w, 0.0))
     end[ok] = np.stack([beta, w1, w2, w3], axis=-1)
     fell = res.fell
     res.outcome[fell] = fall_outcomes(end[fell, 0], end[fell, 1], end[fell, 3], p)

@@ -42,7 +42,10 @@ the computed root is used (an energy change of ~1e-16). Adaptive Gauss-Kronrod (
 interval accepted when its 7-point Gauss sum agrees to ``QUAD_RTOL`` of the segment's first
 estimate) resolves near-saddle passages. Every loop has a hard cap (status ``max_steps``).
 
-Its first compile is measured in docs/explanation/exact-rolling.md.
+The same algorithm is written in C (``solver/engine/_exact_legs.c``), compiled when rimroll is installed and
+run by ``reduced_legs`` through ``reduced_compiled``; this numba kernel runs where that library is missing (an
+install without a C compiler), compiled on first use. tests/solver/engine/test_exact_legs_c.py keeps the two
+equal; docs/explanation/exact-rolling.md measures both.
 """
 
 from __future__ import annotations

@@ -10,6 +10,8 @@ cannot be solved so (None if it can).
 from __future__ import annotations
 
 import functools
+import os
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -23,6 +25,8 @@ from rimroll.solver.physics.steady_motion import stability
 
 _normal_force = python_version(rolling.normal_force)
 _energy = python_version(rolling.energy)
+SPLIT_MIN = 4096
+"""Fewest states ``solve`` splits among its threads from start to end (below: only the legs run in threads)."""
 _on_steady_motion = python_version(rules.on_steady_motion)
 _omega_scale = python_version(rules.omega_scale)
 
@@ -87,13 +91,35 @@ def solve(states, params: Params, t_max=20.0, rtol=1e-8, workers=None) -> dict:
     [1/s]) in the conservative rolling-only scene of ``params`` (ValueError naming the scene's
     non-conservative terms otherwise). rtol only sets what counts as a transversal omega1 zero
     (``rules.transversal_omega1_zero``); t_max [s] > 0. workers: threads (default: the cores).
-    Arguments are checked by ``simulate``; called directly, they must already be valid."""
+    Arguments are checked by ``simulate``; called directly, they must already be valid.
+
+    With several workers and at least ``SPLIT_MIN`` states, each thread solves every workers-th state from start
+    to end (numpy releases the GIL in its array operations, the legs run in the compiled library), so the
+    numpy side runs in parallel too; every state's answer is the same as on one thread."""
     why = unsupported(params)
     if why:
         raise ValueError(why)
     x = np.asarray(states, dtype=float)
     shape = x.shape[:-1]
     flat = np.ascontiguousarray(x.reshape(-1, 4))
+    m = flat.shape[0]
+    workers = min(os.cpu_count() or 1, 1024) if workers is None else int(workers)
+    _table(params.rho / params.R, params.j)  # built once, before the threads share it
+    if workers > 1 and m >= SPLIT_MIN:
+        parts = [np.arange(k, m, workers) for k in range(workers)]
+        with ThreadPoolExecutor(max_workers=workers) as pool:
+            got = list(pool.map(lambda rows: _solve_flat(flat[rows], params, t_max, rtol, 1), parts))
+        result = {name: np.empty((m,) + col.shape[1:], dtype=col.dtype) for name, col in got[0].items()}
+        for rows, part in zip(parts, got):
+            for name, col in part.items():
+                result[name][rows] = col
+    else:
+        result = _solve_flat(flat, params, t_max, rtol, workers)
+    return {name: col.reshape(shape + col.shape[1:]) for name, col in result.items()}
+
+
+def _solve_flat(flat, params, t_max, rtol, workers) -> dict:
+    """``solve`` for the state rows flat (m, 4): the result columns (m,), legs on ``workers`` threads."""
     m = flat.shape[0]
     p = params.as_array()
     b, w1, w2, w3 = flat.T
@@ -118,7 +144,7 @@ def solve(states, params: Params, t_max=20.0, rtol=1e-8, workers=None) -> dict:
         got["end"][:, 0] += turns
         for name, column in got.items():
             out[name][idx] = column
-    return _columns(out, flat, shape, params)
+    return _columns(out, flat, (m,), params)
 
 
 def _columns(out, flat, shape, params):
@@ -144,6 +170,6 @@ def _columns(out, flat, shape, params):
     result = {}
     for item in OUTPUTS:
         if item.name != "on_rim_reason":
-            result[item.name] = np.asarray(cols[item.name]).astype(item.dtype).reshape(shape)
+            result[item.name] = np.asarray(cols[item.name]).astype(item.dtype, copy=False).reshape(shape)
     result["on_rim_reason"] = on_rim_reason(result["outcome"], result["status"], result["slip_phases"])
     return result
