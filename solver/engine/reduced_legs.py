@@ -122,8 +122,8 @@ def omega1_squared(table, a, beta, c0, p1, p2):
 
 
 def run_legs(level: Level, rows, beta, d, sing, stop, workers) -> np.ndarray:
-    """The legs (``reduced_rolling``'s algorithm) of the states ``rows`` from beta [rad] in direction d (+-1), W = 0 at the
-    start where sing, up to the first event or stop [rad]: (n, N_O) rows."""
+    """The legs (``reduced_rolling``'s algorithm) of the states ``rows`` from beta [rad] in direction d (+-1), W = 0
+    at the start where sing, up to the first event or stop [rad]: (n, N_O) rows."""
     n = len(rows)
     jobs = np.empty((n, rr.N_J))
     jobs[:, rr.J_BETA] = beta
