@@ -65,6 +65,7 @@ typedef struct {
     double wc[N_COEF], wd[N_COEF], fc[N_COEF], fd[N_COEF], gc[N_COEF];
     long panel;
     int have_fd; /* fd is computed only when a value of dF/dbeta is needed (the march, a root of F, F's minimum) */
+    int have_gc; /* gc only when a quadrature on the series needs it */
     double mw, mf, lw, lf;
 } Work;
 
@@ -115,36 +116,49 @@ static void derivative(const double *src, double *dst) {
     dst[0] *= 0.5;
 }
 
-/* The level's series of W, F, G on panel i (and their d/du, bounds). */
+/* n^2 (n^2 - 1) / 3: Markov's bound of |T_n''| on [-1, 1]. */
+static const double MARKOV[N_COEF] = {0, 0, 4, 24, 80, 200, 420, 784, 1344, 2160, 3300, 4840, 6864, 9464, 12740, 16800};
+
+/* The level's series of W and F on panel i, W's d/du and the bounds (G and F's d/du when needed: need_gc, need_fd). */
 static void combine(Leg *L, long i) {
     Work *w = &L->work;
     if (w->panel == i) return;
     const double *job = L->job, *c = L->c;
     double q0 = job[J_Q0], q1 = job[J_Q1], q2 = job[J_Q2];
-    double mw = 0.0, mf = 0.0, lw = 0.0, lf = 0.0;
+    const double *sn = &TAB(L, i, SIN, 0), *t11 = &TAB(L, i, Q11, 0), *t12 = &TAB(L, i, Q12, 0), *t22 = &TAB(L, i, Q22, 0),
+                 *s11 = &TAB(L, i, S11, 0), *s12 = &TAB(L, i, S12, 0), *s22 = &TAB(L, i, S22, 0);
     for (int n = 0; n < N_COEF; n++) {
-        double wn = -c[C_A] * TAB(L, i, SIN, n) - (q0 * TAB(L, i, Q11, n) + q1 * TAB(L, i, Q12, n) + q2 * TAB(L, i, Q22, n));
-        if (n == 0) wn += job[J_C0];
-        double fn = c[C_R2R] * (q0 * TAB(L, i, S11, n) + q1 * TAB(L, i, S12, n) + q2 * TAB(L, i, S22, n))
-                    - c[C_R2RHO] * wn + c[C_G] * TAB(L, i, SIN, n);
+        double wn = -c[C_A] * sn[n] - (q0 * t11[n] + q1 * t12[n] + q2 * t22[n]);
         w->wc[n] = wn;
-        w->fc[n] = fn;
-        w->gc[n] = job[J_P1] * TAB(L, i, G21, n) + job[J_P2] * TAB(L, i, G22, n);
-        double markov = n * n * (n * n - 1.0) / 3.0;
-        mw += fabs(wn) * markov;
-        mf += fabs(fn) * markov;
-        if (n > 0) {
-            lw += fabs(wn);
-            lf += fabs(fn);
-        }
+        w->fc[n] = c[C_R2R] * (q0 * s11[n] + q1 * s12[n] + q2 * s22[n]) - c[C_R2RHO] * wn + c[C_G] * sn[n];
+    }
+    w->wc[0] += job[J_C0]; /* the level's constant, in c_0 only */
+    w->fc[0] = c[C_R2R] * (q0 * s11[0] + q1 * s12[0] + q2 * s22[0]) - c[C_R2RHO] * w->wc[0] + c[C_G] * sn[0];
+    double mw = 0.0, mf = 0.0, lw = 0.0, lf = 0.0;
+    for (int n = 1; n < N_COEF; n++) {
+        mw += fabs(w->wc[n]) * MARKOV[n];
+        mf += fabs(w->fc[n]) * MARKOV[n];
+        lw += fabs(w->wc[n]);
+        lf += fabs(w->fc[n]);
     }
     derivative(w->wc, w->wd);
     w->have_fd = 0;
+    w->have_gc = 0;
     w->panel = i;
     w->mw = mw * (1.0 + 1e-12);
     w->mf = mf * (1.0 + 1e-12);
     w->lw = w->wc[0] - lw * (1.0 + 1e-12);
     w->lf = w->fc[0] - lf * (1.0 + 1e-12);
+}
+
+/* The combined panel's series of G = omega3 / (1 - x cos beta), computed once a quadrature needs it. */
+static void need_gc(Leg *L) {
+    Work *w = &L->work;
+    if (!w->have_gc) {
+        const double *g21 = &TAB(L, w->panel, G21, 0), *g22 = &TAB(L, w->panel, G22, 0);
+        for (int n = 0; n < N_COEF; n++) w->gc[n] = L->job[J_P1] * g21[n] + L->job[J_P2] * g22[n];
+        w->have_gc = 1;
+    }
 }
 
 /* The combined panel's series of dF/du, computed once it is needed. */
@@ -498,6 +512,7 @@ static int segment(Leg *L, double beta_s, double beta_e, int sing_s, int sing_e,
     *tp = 0.0;
     *ap = 0.0;
     if (beta_e == beta_s) return 1;
+    need_gc(L);
     int mode = (sing_s ? 1 : 0) + (sing_e ? 2 : 0);
     double scale = 2.0 / c[C_W];
     double ws = 0.0, we = 0.0, near = 0.0, bottom = 0.0;

@@ -239,7 +239,9 @@ def motions(x0, level: Level, t_max: float, rtol: float, turn0, workers=None) ->
     p = level.params.as_array()
     rows = np.arange(n)
     b0, w10 = x0[:, 0], x0[:, 1]
-    w1dot = _rates(b0, np.where(turn0, 0.0, w10), x0[:, 2], x0[:, 3], p)[1]
+    w1dot = np.zeros(n)  # omega1_dot [1/s^2] at the turning point of a turning start (not needed elsewhere)
+    if turn0.any():
+        w1dot[turn0] = _rates(b0[turn0], np.zeros(int(turn0.sum())), x0[turn0, 2], x0[turn0, 3], p)[1]
     d = np.where(turn0, np.sign(w1dot), np.sign(w10))
     decelerating = w10 * w1dot < 0.0
     with np.errstate(divide="ignore", invalid="ignore"):
