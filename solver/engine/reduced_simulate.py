@@ -23,18 +23,19 @@ from rimroll.solver.physics import rolling
 from rimroll.solver.physics.params import Params
 from rimroll.solver.physics.steady_motion import stability
 
-_normal_force = python_version(rolling.normal_force)
-_energy = python_version(rolling.energy)
 SPLIT_MIN = 4096
 """Fewest states ``solve`` splits among its threads from start to end (below: only the legs run in threads)."""
+_normal_force = python_version(rolling.normal_force)
+_energy = python_version(rolling.energy)
 _on_steady_motion = python_version(rules.on_steady_motion)
 _omega_scale = python_version(rules.omega_scale)
 
 
 def _steady(b, w1, w2, w3, p):
     """``rules.on_steady_motion`` of the states (arrays), evaluated only where it can hold: its residual is at least
-    |omega1| / omega_scale, so a state with more than STEADY_TOL there is not steady (the same answer, less work)."""
-    maybe = np.abs(w1) <= rules.STEADY_TOL * _omega_scale(w1, w2, w3, p)
+    |omega1| / omega_scale, so a state with |omega1| over twice STEADY_TOL omega_scale (a margin far above the
+    rounding of either side) is not steady: the same answer, less work."""
+    maybe = np.abs(w1) <= 2.0 * rules.STEADY_TOL * _omega_scale(w1, w2, w3, p)
     steady = np.zeros(b.shape, dtype=bool)
     if maybe.any():
         steady[maybe] = np.asarray(_on_steady_motion(b[maybe], w1[maybe], w2[maybe], w3[maybe], p), dtype=bool)
