@@ -234,3 +234,25 @@ def test_whole_turns_of_beta_change_nothing():
         assert (got["outcome"][half] == got["outcome"][half][0]).all()
         np.testing.assert_allclose(got["t_end"][half], got["t_end"][half][0], rtol=1e-12)
         np.testing.assert_allclose(got["beta_end"][half] - 2 * np.pi * k, got["beta_end"][half][0], atol=1e-12)
+
+
+def test_the_steady_motion_prefilter_gives_the_rules_answer():
+    """``reduced_simulate._steady`` evaluates ``rules.on_steady_motion`` only where |omega1| allows a steady motion:
+    on random states, each section's steady motion, and states with omega1 at 0.5 to 3 times the rule's tolerance
+    there, it answers as the rule does on every state."""
+    from rimroll.solver.engine import rules
+
+    p = P.as_array()
+    rng = np.random.default_rng(3)
+    rows = [np.stack([rng.uniform(0.8, 1.8, 500), rng.uniform(-6, 6, 500), np.full(500, 35.0), np.full(500, 10.0)], -1)]
+    for omega2 in SECTIONS:
+        b0 = steady_beta0(omega2, 10.0, P, 0.8, 1.8)
+        if b0 is not None:
+            scale = reduced_simulate._omega_scale(0.0, omega2, 10.0, p)
+            for f in (0.0, 0.5, 0.999, 1.0, 1.001, 1.5, 2.0, 3.0):
+                rows.append(np.array([[b0, f * rules.STEADY_TOL * scale, omega2, 10.0]]))
+    x = np.concatenate(rows)
+    b, w1, w2, w3 = x.T
+    want = np.asarray(reduced_simulate._on_steady_motion(b, w1, w2, w3, p), dtype=bool)
+    assert want.any() and not want.all()
+    assert np.array_equal(reduced_simulate._steady(b, w1, w2, w3, p), want)
