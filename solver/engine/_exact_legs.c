@@ -223,12 +223,11 @@ static int classify(double fa, double ga, double fb, double gb, double m2, doubl
 }
 
 /* Zero of W (which = 0) or F (1) at distance s in [0, h] from beta_a in direction d on panel i. */
-static double root(Leg *L, double beta_a, double d, double h, int which, long i, double fa, double fb, long *n_ev) {
+static double root(Leg *L, double beta_a, double d, double h, int which, long i, long *n_ev) {
     const double *c = L->c;
     double scale = 2.0 / c[C_W];
     double tol = 4e-16 * (fabs(beta_a) + h + c[C_W]);
-    double lo = 0.0, hi = h, s = h * (fa / (fa - fb)); /* the secant's zero first (the numba kernel: the middle) */
-    if (!(0.0 < s && s < h)) s = 0.5 * h;
+    double lo = 0.0, hi = h, s = 0.5 * h;
     for (int it = 0; it < MAX_NEWTON; it++) {
         double f, g;
         if (which == 0) series_at(L->work.wc, L->work.wd, local_u(beta_a + d * s, i, c), scale, &f, &g);
@@ -275,8 +274,8 @@ static int isolate(Leg *L, double beta_a, double beta_end, double d, long i, int
         int passed = kw == 0 && kf == 0;
         if (!passed && ((kw != 2 && kf != 2) || hh <= H_MIN)) {
             double bw = INFINITY, bf = INFINITY;
-            if (kw == 1 || (kw == 2 && b.w <= 0.0 && 0.0 < Wa)) bw = d * (root(L, beta_a, d, hh, 0, i, Wa, b.w, n_ev) - beta_a);
-            if (kf == 1 || (kf == 2 && b.f <= 0.0 && 0.0 < Fa)) bf = d * (root(L, beta_a, d, hh, 1, i, Fa, b.f, n_ev) - beta_a);
+            if (kw == 1 || (kw == 2 && b.w <= 0.0 && 0.0 < Wa)) bw = d * (root(L, beta_a, d, hh, 0, i, n_ev) - beta_a);
+            if (kf == 1 || (kf == 2 && b.f <= 0.0 && 0.0 < Fa)) bf = d * (root(L, beta_a, d, hh, 1, i, n_ev) - beta_a);
             if (bf < INFINITY && bf <= bw) {
                 see_f(0.0, beta_a + d * bf, out);
                 *b_event = beta_a + d * bf;

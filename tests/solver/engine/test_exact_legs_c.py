@@ -57,14 +57,8 @@ def test_the_compiled_legs_equal_the_numba_kernels():
     assert np.all(got_nb[:, rr.O_OK] == 1.0)
     assert np.allclose(got_c[:, rr.O_BETA], got_nb[:, rr.O_BETA], rtol=0, atol=1e-14)
     t_nb = got_nb[:, rr.O_T]
-    # [s]: rounding of the sums (1e-13 relative, at least 1e-14 s), and where the two root searches (the compiled one
-    # starts from the secant, the numba one from the middle) end a double apart, what that moves: t ~ sqrt(distance)
-    # to a turning point, so t |d beta_end| / (2 distance) (a turning point 1.6e-8 rad from the start: 1.5e-13 s)
-    moved = np.abs(got_c[:, rr.O_BETA] - got_nb[:, rr.O_BETA]) / np.maximum(np.abs(got_nb[:, rr.O_BETA] - jobs[:, 0]),
-                                                                            1e-300)
-    assert np.all(np.abs(got_c[:, rr.O_T] - t_nb) <= 1e-13 * np.maximum(t_nb, 0.1) + t_nb * moved)
-    a_nb = got_nb[:, rr.O_ALPHA]  # [rad], likewise
-    assert np.all(np.abs(got_c[:, rr.O_ALPHA] - a_nb) <= 1e-12 * np.maximum(np.abs(a_nb), 0.1) + np.abs(a_nb) * moved)
+    assert np.all(np.abs(got_c[:, rr.O_T] - t_nb) <= 1e-13 * np.maximum(t_nb, 1e-3))  # [s]: rounding of the sums
+    assert np.allclose(got_c[:, rr.O_ALPHA], got_nb[:, rr.O_ALPHA], rtol=1e-12, atol=1e-15)
     assert np.allclose(got_c[:, rr.O_FMIN], got_nb[:, rr.O_FMIN], rtol=1e-12, atol=1e-12)  # F2/m [m/s^2]
 
 
