@@ -106,7 +106,7 @@ class Level(NamedTuple):
         f11, f12, f21, f22, sin, q11, q12, q22 = reduced_compiled.evaluate_many(
             self.table, beta, (t.PHI11, t.PHI12, t.PHI21, t.PHI22, t.SIN, t.Q11, t.Q12, t.Q22))
         c0, p1, p2 = self.c0[rows], self.p1[rows], self.p2[rows]
-        w = c0 - self.a * sin - (p1 * p1 * q11 + 2.0 * p1 * p2 * q12 + p2 * p2 * q22)
+        w = _level_w(self.a, c0, p1, p2, sin, q11, q12, q22)
         return w, f11 * p1 + f12 * p2, f21 * p1 + f22 * p2
 
     def w(self, rows, beta):
@@ -118,6 +118,11 @@ def omega1_squared(table, a, beta, c0, p1, p2):
     """omega1^2 [1/s^2] = C0 - a sin beta - P^T Q(beta) P on the level (C0, P1, P2) at beta [rad] (numpy)."""
     t = reduced_tables
     sin, q11, q12, q22 = reduced_compiled.evaluate_many(table, beta, (t.SIN, t.Q11, t.Q12, t.Q22))
+    return _level_w(a, c0, p1, p2, sin, q11, q12, q22)
+
+
+def _level_w(a, c0, p1, p2, sin, q11, q12, q22):
+    """omega1^2 [1/s^2] on the level (C0, P1, P2) from the tabled sin beta and Q at the points."""
     return c0 - a * sin - (p1 * p1 * q11 + 2.0 * p1 * p2 * q12 + p2 * p2 * q22)
 
 
